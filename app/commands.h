@@ -1,0 +1,16 @@
+#pragma once
+
+#include <CLI/CLI.hpp>
+
+namespace monoplane::app {
+
+// Exit codes of the monoplane program.
+inline constexpr int kExitOk = 0;
+inline constexpr int kExitError = 1;      // an internal failure
+inline constexpr int kExitBadInput = 2;   // the user's input (file, option, config) is unusable
+inline constexpr int kExitInterrupted = 130;
+
+// Each command registers its subcommand; the callback stores the exit code in *exit_code.
+void RegisterCheckCalibCommand(CLI::App* app, int* exit_code);
+
+}  // namespace monoplane::app

@@ -1,0 +1,57 @@
+#pragma once
+
+#include <cmath>
+#include <cstdint>
+#include <optional>
+#include <vector>
+
+#include <Eigen/Core>
+
+namespace monoplane {
+
+// Cell values follow ROS nav_msgs/OccupancyGrid: -1 unknown, 0 free ... 100 occupied.
+inline constexpr std::int8_t kCellUnknown = -1;
+inline constexpr std::int8_t kCellFree = 0;
+inline constexpr std::int8_t kCellOccupied = 100;
+
+// Where a grid lies in its frame. Cell (col, row) covers
+// [origin_x + col * resolution, origin_x + (col + 1) * resolution) in x and likewise in y; row 0 is
+// the row of lowest y (as nav_msgs/OccupancyGrid; exports to images flip it).
+struct GridGeometry {
+  double resolution_m = 0.05;
+  double origin_x_m = 0.0;  // x of the lower-left corner of cell (0, 0), metres
+  double origin_y_m = 0.0;  // y of the lower-left corner of cell (0, 0), metres
+  int width = 0;            // cells along x
+  int height = 0;           // cells along y
+
+  std::size_t NumCells() const { return static_cast<std::size_t>(width) * height; }
+
+  // The cell holding a point, or nullopt outside the grid.
+  std::optional<Eigen::Vector2i> CellOf(const Eigen::Vector2d& point_m) const {
+    const int col = static_cast<int>(std::floor((point_m.x() - origin_x_m) / resolution_m));
+    const int row = static_cast<int>(std::floor((point_m.y() - origin_y_m) / resolution_m));
+    if (col < 0 || row < 0 || col >= width || row >= height) return std::nullopt;
+    return Eigen::Vector2i(col, row);
+  }
+  Eigen::Vector2d CellCenter(int col, int row) const {
+    return {origin_x_m + (col + 0.5) * resolution_m, origin_y_m + (row + 0.5) * resolution_m};
+  }
+  std::size_t Index(int col, int row) const {
+    return static_cast<std::size_t>(row) * width + col;
+  }
+};
+
+// A 2-D occupancy grid value: geometry plus one int8 per cell (see kCell*).
+struct OccupancyGrid {
+  GridGeometry geometry;
+  std::vector<std::int8_t> cells;
+
+  OccupancyGrid() = default;
+  explicit OccupancyGrid(const GridGeometry& g, std::int8_t fill = kCellUnknown)
+      : geometry(g), cells(g.NumCells(), fill) {}
+
+  std::int8_t At(int col, int row) const { return cells[geometry.Index(col, row)]; }
+  std::int8_t& At(int col, int row) { return cells[geometry.Index(col, row)]; }
+};
+
+}  // namespace monoplane

@@ -1,0 +1,3 @@
+#pragma once
+// Fixture for tests/module_graph: perception must not include mapping.
+#include "mapping/anything.h"
