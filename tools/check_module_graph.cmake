@@ -1,7 +1,8 @@
 # Fails when an #include crosses the one-way module graph
 #   perception <- mapping <- {storage, interfaces} <- app
 # (storage and interfaces never include each other; nothing includes app; tools include anything
-# but app, and app may include the simulator in tools/sim), or when a public header (.h) of a
+# but app, and app may include the simulator and evaluator libraries in tools/sim and tools/eval
+# for its built-in demo), or when a public header (.h) of a
 # module includes a third-party header that must stay private (Ceres, OctoMap, sqlite3, dds).
 #
 # Usage: cmake -DROOT=<source tree> -P tools/check_module_graph.cmake
@@ -32,8 +33,8 @@ foreach(module IN LISTS modules)
       if(first IN_LIST modules AND target MATCHES "/")
         if(NOT first IN_LIST allowed_${module})
           string(APPEND violations "  ${rel}: includes \"${target}\" (${module} may include: ${allowed_${module}})\n")
-        elseif(module STREQUAL "app" AND first STREQUAL "tools" AND NOT target MATCHES "^tools/sim/")
-          string(APPEND violations "  ${rel}: includes \"${target}\" (app may include only tools/sim/ from tools)\n")
+        elseif(module STREQUAL "app" AND first STREQUAL "tools" AND NOT target MATCHES "^tools/(sim|eval)/")
+          string(APPEND violations "  ${rel}: includes \"${target}\" (app may include only the simulator and evaluator libraries, tools/sim/ and tools/eval/)\n")
         endif()
       endif()
       if(file MATCHES "\\.h$" AND NOT module STREQUAL "tools")
