@@ -1,0 +1,46 @@
+#include "perception/geometry/tiled_grid.h"
+
+#include <gtest/gtest.h>
+
+namespace monoplane {
+namespace {
+
+TEST(TiledGrid, CellsAndTilesIncludingNegativeCoordinates) {
+  TiledGrid grid(0.05);
+  EXPECT_EQ(grid.CellOf({0.01, 0.01}), Eigen::Vector2i(0, 0));
+  EXPECT_EQ(grid.CellOf({-0.01, 0.06}), Eigen::Vector2i(-1, 1));
+  EXPECT_EQ(TiledGrid::TileOf({-1, 255}), TiledGrid::TileKey(-1, 0));
+  EXPECT_EQ(TiledGrid::TileOf({-256, 256}), TiledGrid::TileKey(-1, 1));
+  EXPECT_EQ(TiledGrid::TileOf({-257, 0}), TiledGrid::TileKey(-2, 0));
+  EXPECT_EQ(TiledGrid::IndexInTile({-1, 0}), 255);
+  EXPECT_EQ(TiledGrid::IndexInTile({3, -1}), 255 * 256 + 3);
+}
+
+TEST(TiledGrid, ToOccupancyGridKeepsUnknownDistinct) {
+  TiledGrid grid(0.1);
+  const Eigen::Vector2i occupied = grid.CellOf({-0.25, 0.35});
+  const Eigen::Vector2i free_cell = grid.CellOf({0.15, 0.05});
+  auto mark = [&](const Eigen::Vector2i& c, float l) {
+    TiledGrid::Tile& t = grid.TileAt(c);
+    t.log_odds[TiledGrid::IndexInTile(c)] = l;
+    t.last_seen_ns[TiledGrid::IndexInTile(c)] = 1;
+  };
+  mark(occupied, 2.0f);
+  mark(free_cell, -2.0f);
+  const OccupancyGrid out = ToOccupancyGrid(grid);
+  EXPECT_NEAR(out.geometry.origin_x_m, -0.3, 1e-9);
+  EXPECT_NEAR(out.geometry.origin_y_m, 0.0, 1e-9);
+  EXPECT_EQ(out.geometry.width, 5);
+  EXPECT_EQ(out.geometry.height, 4);
+  const auto oc = out.geometry.CellOf({-0.25, 0.35});
+  const auto fc = out.geometry.CellOf({0.15, 0.05});
+  ASSERT_TRUE(oc && fc);
+  EXPECT_EQ(out.At(oc->x(), oc->y()), kCellOccupied);
+  EXPECT_EQ(out.At(fc->x(), fc->y()), kCellFree);
+  int unknown = 0;
+  for (auto v : out.cells) unknown += v == kCellUnknown;
+  EXPECT_EQ(unknown, 5 * 4 - 2);
+}
+
+}  // namespace
+}  // namespace monoplane
