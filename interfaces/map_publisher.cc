@@ -1,0 +1,289 @@
+#include "interfaces/map_publisher.h"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <utility>
+
+#include <dds/dds.h>
+
+#include "idl/map_msgs.h"
+#include "idl/nav_msgs.h"
+#include "idl/tf2_msgs.h"
+
+namespace monoplane::interfaces {
+
+std::optional<CellRect> ChangedRegion(const OccupancyGrid& previous, const OccupancyGrid& current) {
+  const GridGeometry& a = previous.geometry;
+  const GridGeometry& b = current.geometry;
+  if (a.width != b.width || a.height != b.height || a.resolution_m != b.resolution_m ||
+      a.origin_x_m != b.origin_x_m || a.origin_y_m != b.origin_y_m ||
+      previous.cells.size() != current.cells.size()) {
+    return CellRect{0, 0, b.width, b.height};
+  }
+  int min_col = b.width, min_row = b.height, max_col = -1, max_row = -1;
+  for (int row = 0; row < b.height; ++row) {
+    for (int col = 0; col < b.width; ++col) {
+      if (previous.At(col, row) == current.At(col, row)) continue;
+      min_col = std::min(min_col, col);
+      max_col = std::max(max_col, col);
+      min_row = std::min(min_row, row);
+      max_row = std::max(max_row, row);
+    }
+  }
+  if (max_col < 0) return std::nullopt;
+  return CellRect{min_col, min_row, max_col - min_col + 1, max_row - min_row + 1};
+}
+
+bool MapPublisher::Options::IsValid(std::string* error) const {
+  auto fail = [&](const std::string& message) {
+    if (error) *error = "MapPublisher::Options::" + message;
+    return false;
+  };
+  if (domain_id < 0 || domain_id > 232) {
+    return fail("domain_id = " + std::to_string(domain_id) + ". Violated constraint: in [0, 232]");
+  }
+  if (map_frame.empty() || odom_frame.empty() || base_frame.empty()) {
+    return fail("map_frame/odom_frame/base_frame: must not be empty");
+  }
+  if (!(max_blocking_time_s >= 0.0 && max_blocking_time_s <= 1.0)) {
+    return fail("max_blocking_time_s = " + std::to_string(max_blocking_time_s) +
+                ". Violated constraint: in [0, 1]");
+  }
+  if (local_map_history_depth < 1 || local_map_history_depth > 100) {
+    return fail("local_map_history_depth = " + std::to_string(local_map_history_depth) +
+                ". Violated constraint: in [1, 100]");
+  }
+  for (char c : topic_prefix) {
+    if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '/')) {
+      return fail("topic_prefix = \"" + topic_prefix +
+                  "\". Violated constraint: only letters, digits, '_' and '/'");
+    }
+  }
+  return true;
+}
+
+namespace {
+
+enum Endpoint { kMap = 0, kMapUpdates, kOdom, kTf, kLocalMap, kNumEndpoints };
+
+
+std_msgs_msg_dds__Header_ MakeHeader(TimestampNs stamp_ns, const std::string& frame) {
+  std_msgs_msg_dds__Header_ header{};
+  const RosTime t = ToRosTime(stamp_ns);
+  header.stamp.sec = t.sec;
+  header.stamp.nanosec = t.nanosec;
+  // The writer only reads the message; the string outlives the write.
+  header.frame_id = const_cast<char*>(frame.c_str());
+  return header;
+}
+
+geometry_msgs_msg_dds__Quaternion_ YawQuaternion(double yaw_rad) {
+  return {0.0, 0.0, std::sin(0.5 * yaw_rad), std::cos(0.5 * yaw_rad)};
+}
+
+geometry_msgs_msg_dds__TransformStamped_ MakeTransform(const Pose2& parent_from_child,
+                                                       TimestampNs stamp_ns,
+                                                       const std::string& parent,
+                                                       const std::string& child) {
+  geometry_msgs_msg_dds__TransformStamped_ t{};
+  t.header = MakeHeader(stamp_ns, parent);
+  t.child_frame_id = const_cast<char*>(child.c_str());
+  t.transform.translation = {parent_from_child.x, parent_from_child.y, 0.0};
+  t.transform.rotation = YawQuaternion(parent_from_child.yaw);
+  return t;
+}
+
+PublishStatus Worse(PublishStatus a, PublishStatus b) {
+  return static_cast<int>(a) > static_cast<int>(b) ? a : b;
+}
+
+}  // namespace
+
+struct MapPublisher::Impl {
+  Options options;
+  dds_entity_t participant = 0;
+  dds_entity_t writers[kNumEndpoints] = {};
+  PublishStats stats[kNumEndpoints];
+
+  ~Impl() { DeleteEntity(participant); }
+
+  PublishStatus Write(Endpoint endpoint, const void* sample, std::string* error) {
+    const dds_return_t rc = dds_write(writers[endpoint], sample);
+    if (rc == DDS_RETCODE_OK) {
+      ++stats[endpoint].sent;
+      return PublishStatus::kSent;
+    }
+    if (rc == DDS_RETCODE_TIMEOUT) {
+      ++stats[endpoint].dropped;
+      if (error) *error = ReadEndpointInfo(writers[endpoint]).topic_name +
+                          ": sample dropped, a reliable reader's backlog is full";
+      return PublishStatus::kDropped;
+    }
+    ++stats[endpoint].errors;
+    if (error) *error = DdsError(rc, "writing " + ReadEndpointInfo(writers[endpoint]).topic_name);
+    return PublishStatus::kError;
+  }
+
+  PublishStatus WriteGrid(Endpoint endpoint, const OccupancyGrid& grid, TimestampNs stamp_ns,
+                          const std::string& frame, std::string* error) {
+    if (grid.cells.size() != grid.geometry.NumCells()) {
+      ++stats[endpoint].errors;
+      if (error) *error = "grid has " + std::to_string(grid.cells.size()) + " cells, geometry says " +
+                          std::to_string(grid.geometry.NumCells());
+      return PublishStatus::kError;
+    }
+    nav_msgs_msg_dds__OccupancyGrid_ msg{};
+    msg.header = MakeHeader(stamp_ns, frame);
+    msg.info.map_load_time = msg.header.stamp;
+    msg.info.resolution = static_cast<float>(grid.geometry.resolution_m);
+    msg.info.width = static_cast<uint32_t>(grid.geometry.width);
+    msg.info.height = static_cast<uint32_t>(grid.geometry.height);
+    msg.info.origin.position = {grid.geometry.origin_x_m, grid.geometry.origin_y_m, 0.0};
+    msg.info.origin.orientation = YawQuaternion(0.0);
+    // Borrow the cells: dds_write serialises and never frees or changes the sample.
+    msg.data._length = msg.data._maximum = static_cast<uint32_t>(grid.cells.size());
+    msg.data._buffer = const_cast<int8_t*>(grid.cells.data());
+    msg.data._release = false;
+    return Write(endpoint, &msg, error);
+  }
+};
+
+MapPublisher::MapPublisher(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+MapPublisher::~MapPublisher() = default;
+
+std::unique_ptr<MapPublisher> MapPublisher::Create(const Options& options, std::string* error) {
+  if (!options.IsValid(error)) return nullptr;
+  auto impl = std::make_unique<Impl>();
+  impl->options = options;
+  impl->participant = CreateParticipant(options.domain_id, error);
+  if (impl->participant <= 0) return nullptr;
+
+  const auto max_blocking_ns = static_cast<std::int64_t>(options.max_blocking_time_s * 1e9);
+  struct Spec {
+    const dds_topic_descriptor_t* descriptor;
+    const char* name;
+    EndpointQos qos;
+  };
+  const Spec specs[kNumEndpoints] = {
+      {&nav_msgs_msg_dds__OccupancyGrid__desc, "map",
+       {true, Durability::kTransientLocal, false, 1, max_blocking_ns, -1}},
+      {&map_msgs_msg_dds__OccupancyGridUpdate__desc, "map_updates",
+       {true, Durability::kVolatile, false, 10, max_blocking_ns, -1}},
+      {&nav_msgs_msg_dds__Odometry__desc, "odom",
+       {true, Durability::kVolatile, false, 10, max_blocking_ns, -1}},
+      {&tf2_msgs_msg_dds__TFMessage__desc, "tf",
+       {true, Durability::kVolatile, false, 100, max_blocking_ns, -1}},
+      {&nav_msgs_msg_dds__OccupancyGrid__desc, "monoplane/local_map",
+       {true, Durability::kVolatile, false, options.local_map_history_depth, max_blocking_ns, -1}},
+  };
+  for (int i = 0; i < kNumEndpoints; ++i) {
+    const std::string name = RosTopicName(options.topic_prefix, specs[i].name);
+    const dds_entity_t topic = CreateTopic(impl->participant, specs[i].descriptor, name, error);
+    if (topic <= 0) return nullptr;
+    impl->writers[i] = CreateWriter(impl->participant, topic, specs[i].qos, error);
+    if (impl->writers[i] <= 0) {
+      if (error) *error += " for " + name;
+      return nullptr;
+    }
+  }
+  return std::unique_ptr<MapPublisher>(new MapPublisher(std::move(impl)));
+}
+
+PublishStatus MapPublisher::PublishMap(const OccupancyGrid& grid_in_map, TimestampNs stamp_ns,
+                                       std::string* error) {
+  return impl_->WriteGrid(kMap, grid_in_map, stamp_ns, impl_->options.map_frame, error);
+}
+
+PublishStatus MapPublisher::PublishMap(const TiledGrid& grid, TimestampNs stamp_ns,
+                                       const TrinaryThresholds& thresholds, std::string* error) {
+  return PublishMap(ToOccupancyGrid(grid, thresholds), stamp_ns, error);
+}
+
+PublishStatus MapPublisher::PublishMapUpdate(const OccupancyGrid& grid_in_map,
+                                             const CellRect& region, TimestampNs stamp_ns,
+                                             std::string* error) {
+  const GridGeometry& g = grid_in_map.geometry;
+  if (region.col < 0 || region.row < 0 || region.width < 0 || region.height < 0 ||
+      region.col + region.width > g.width || region.row + region.height > g.height ||
+      grid_in_map.cells.size() != g.NumCells()) {
+    ++impl_->stats[kMapUpdates].errors;
+    if (error) *error = "map update region lies outside the map";
+    return PublishStatus::kError;
+  }
+  std::vector<int8_t> cells;
+  cells.reserve(static_cast<std::size_t>(region.width) * region.height);
+  for (int row = region.row; row < region.row + region.height; ++row) {
+    const auto begin = grid_in_map.cells.begin() + static_cast<std::ptrdiff_t>(g.Index(region.col, row));
+    cells.insert(cells.end(), begin, begin + region.width);
+  }
+  map_msgs_msg_dds__OccupancyGridUpdate_ msg{};
+  msg.header = MakeHeader(stamp_ns, impl_->options.map_frame);
+  msg.x = region.col;
+  msg.y = region.row;
+  msg.width = static_cast<uint32_t>(region.width);
+  msg.height = static_cast<uint32_t>(region.height);
+  msg.data._length = msg.data._maximum = static_cast<uint32_t>(cells.size());
+  msg.data._buffer = cells.data();
+  msg.data._release = false;
+  return impl_->Write(kMapUpdates, &msg, error);
+}
+
+PublishStatus MapPublisher::PublishPose(const Pose2& map_from_odom, const Pose2& odom_from_base,
+                                        TimestampNs stamp_ns, const Velocity2& velocity_in_base,
+                                        std::string* error) {
+  const Options& o = impl_->options;
+  nav_msgs_msg_dds__Odometry_ odom{};
+  odom.header = MakeHeader(stamp_ns, o.odom_frame);
+  odom.child_frame_id = const_cast<char*>(o.base_frame.c_str());
+  odom.pose.pose.position = {odom_from_base.x, odom_from_base.y, 0.0};
+  odom.pose.pose.orientation = YawQuaternion(odom_from_base.yaw);
+  odom.twist.twist.linear = {velocity_in_base.vx_mps, velocity_in_base.vy_mps, 0.0};
+  odom.twist.twist.angular = {0.0, 0.0, velocity_in_base.wz_radps};
+  // Covariances stay 0 (unknown), as many ROS 2 odometry sources publish.
+  const PublishStatus odom_status = impl_->Write(kOdom, &odom, error);
+
+  geometry_msgs_msg_dds__TransformStamped_ transforms[2] = {
+      MakeTransform(map_from_odom, stamp_ns, o.map_frame, o.odom_frame),
+      MakeTransform(odom_from_base, stamp_ns, o.odom_frame, o.base_frame)};
+  tf2_msgs_msg_dds__TFMessage_ tf{};
+  tf.transforms._length = tf.transforms._maximum = 2;
+  tf.transforms._buffer = transforms;
+  tf.transforms._release = false;
+  std::string tf_error;
+  const PublishStatus tf_status = impl_->Write(kTf, &tf, &tf_error);
+  if (tf_status != PublishStatus::kSent && odom_status == PublishStatus::kSent && error) {
+    *error = tf_error;
+  }
+  return Worse(odom_status, tf_status);
+}
+
+PublishStatus MapPublisher::PublishLocalMap(const OccupancyGrid& grid_in_base,
+                                            TimestampNs stamp_ns, std::string* error) {
+  return impl_->WriteGrid(kLocalMap, grid_in_base, stamp_ns, impl_->options.base_frame, error);
+}
+
+std::vector<EndpointInfo> MapPublisher::Endpoints() const {
+  std::vector<EndpointInfo> out;
+  for (dds_entity_t writer : impl_->writers) out.push_back(ReadEndpointInfo(writer));
+  return out;
+}
+
+PublishStats MapPublisher::map_stats() const { return impl_->stats[kMap]; }
+PublishStats MapPublisher::map_update_stats() const { return impl_->stats[kMapUpdates]; }
+PublishStats MapPublisher::odom_stats() const { return impl_->stats[kOdom]; }
+PublishStats MapPublisher::tf_stats() const { return impl_->stats[kTf]; }
+PublishStats MapPublisher::local_map_stats() const { return impl_->stats[kLocalMap]; }
+
+namespace {
+int MatchedReaders(dds_entity_t writer) {
+  dds_publication_matched_status_t status;
+  if (dds_get_publication_matched_status(writer, &status) < 0) return 0;
+  return static_cast<int>(status.current_count);
+}
+}  // namespace
+
+int MapPublisher::MatchedLocalMapReaders() const { return MatchedReaders(impl_->writers[kLocalMap]); }
+int MapPublisher::MatchedMapReaders() const { return MatchedReaders(impl_->writers[kMap]); }
+
+}  // namespace monoplane::interfaces

@@ -1,0 +1,124 @@
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "interfaces/dds_entities.h"
+#include "perception/geometry/occupancy_grid.h"
+#include "perception/geometry/pose2.h"
+#include "perception/geometry/tiled_grid.h"
+#include "perception/geometry/timestamp.h"
+
+namespace monoplane::interfaces {
+
+// Outcome of one publish call. Publishing never blocks mapping for longer than
+// Options::max_blocking_time_s: when a reliable reader's backlog is full the sample is dropped
+// (counted in PublishStats) and kDropped is returned; mapping should carry on.
+enum class PublishStatus { kSent, kDropped, kError };
+
+// A rectangle of cells (col, row, width, height) in a grid.
+struct CellRect {
+  int col = 0;
+  int row = 0;
+  int width = 0;
+  int height = 0;
+};
+
+// The bounding rectangle of the cells that differ between two grids of the same geometry; nullopt
+// when nothing changed. When the geometries differ the whole of `current` is returned (a full map
+// must be published then, since map_msgs/OccupancyGridUpdate cannot change the map's extent).
+std::optional<CellRect> ChangedRegion(const OccupancyGrid& previous, const OccupancyGrid& current);
+
+// Planar velocity of base_link in base_link (REP-103): m/s and rad/s.
+struct Velocity2 {
+  double vx_mps = 0.0;
+  double vy_mps = 0.0;
+  double wz_radps = 0.0;
+};
+
+// Counters per topic, since creation.
+struct PublishStats {
+  std::int64_t sent = 0;
+  std::int64_t dropped = 0;  // writes that timed out on a full reliable reader backlog
+  std::int64_t errors = 0;
+};
+
+// Publishes what monoplane sees and knows with Cyclone DDS so that ROS 2 nodes using
+// rmw_cyclonedds (nav2, rviz2) subscribe with no glue. Topics (with prefix P: rt/P/<name>):
+//   rt/map                   nav_msgs/OccupancyGrid, frame map; reliable, transient-local,
+//                            keep-last 1 (as the ROS 2 map_server: late joiners get the last map)
+//   rt/map_updates           map_msgs/OccupancyGridUpdate, frame map; reliable, volatile, keep-last 10
+//   rt/odom                  nav_msgs/Odometry odom -> base_link; reliable, volatile, keep-last 10
+//   rt/tf                    tf2_msgs/TFMessage map -> odom and odom -> base_link; reliable,
+//                            volatile, keep-last 100 (tf2's broadcaster QoS)
+//   rt/monoplane/local_map   nav_msgs/OccupancyGrid in base_link, one per frame; reliable,
+//                            volatile, keep-last `local_map_history_depth` (default 1: a reader
+//                            that falls behind gets the newest local map, not a backlog)
+// All types are final, XCDR1, named "<pkg>::msg::dds_::<Name>_".
+// Not thread-safe: call from one thread (Cyclone's own calls are thread-safe).
+class MapPublisher {
+ public:
+  struct Options {
+    int domain_id = 0;          // DDS domain id, [0, 232]
+    std::string topic_prefix;   // "" -> rt/map; "robot1" -> rt/robot1/map
+    std::string map_frame = "map";
+    std::string odom_frame = "odom";
+    std::string base_frame = "base_link";
+    // Longest one write may wait for room in a reliable reader's backlog (Cyclone's reliability
+    // max_blocking_time), seconds, [0, 1]. After it the sample is dropped and counted.
+    double max_blocking_time_s = 0.005;
+    int local_map_history_depth = 1;  // keep-last depth of rt/monoplane/local_map, [1, 100]
+
+    bool IsValid(std::string* error) const;
+  };
+
+  // Creates the participant, topics and writers; nullptr with `error` set on failure.
+  static std::unique_ptr<MapPublisher> Create(const Options& options, std::string* error);
+  ~MapPublisher();
+  MapPublisher(const MapPublisher&) = delete;
+  MapPublisher& operator=(const MapPublisher&) = delete;
+
+  // The global map on rt/map, frame map; `grid_in_map` follows nav_msgs layout (row 0 = lowest y).
+  // map_load_time = stamp. The previous map is replaced for late joiners.
+  PublishStatus PublishMap(const OccupancyGrid& grid_in_map, TimestampNs stamp_ns,
+                           std::string* error = nullptr);
+  // The same for the tiled global map (converted with ToOccupancyGrid(grid, thresholds)).
+  PublishStatus PublishMap(const TiledGrid& grid, TimestampNs stamp_ns,
+                           const TrinaryThresholds& thresholds = {}, std::string* error = nullptr);
+  // The cells of `region` of the map last published on rt/map (same geometry as `grid_in_map`)
+  // on rt/map_updates; x = region.col, y = region.row as map_msgs/OccupancyGridUpdate.
+  PublishStatus PublishMapUpdate(const OccupancyGrid& grid_in_map, const CellRect& region,
+                                 TimestampNs stamp_ns, std::string* error = nullptr);
+  // rt/odom (pose odom_from_base, twist in base_link) and rt/tf (map -> odom, odom -> base_link).
+  // Returns the worse status of the two writes.
+  PublishStatus PublishPose(const Pose2& map_from_odom, const Pose2& odom_from_base,
+                            TimestampNs stamp_ns, const Velocity2& velocity_in_base = {},
+                            std::string* error = nullptr);
+  // The per-frame local grid in base_link on rt/monoplane/local_map.
+  PublishStatus PublishLocalMap(const OccupancyGrid& grid_in_base, TimestampNs stamp_ns,
+                                std::string* error = nullptr);
+
+  // Topic names, type names and QoS as DDS reports them for the writers, in the order
+  // map, map_updates, odom, tf, local_map.
+  std::vector<EndpointInfo> Endpoints() const;
+  // Counters of rt/map, rt/map_updates, rt/odom, rt/tf, rt/monoplane/local_map.
+  PublishStats map_stats() const;
+  PublishStats map_update_stats() const;
+  PublishStats odom_stats() const;
+  PublishStats tf_stats() const;
+  PublishStats local_map_stats() const;
+
+  // How many readers are currently matched to the writer of rt/monoplane/local_map (and rt/map).
+  int MatchedLocalMapReaders() const;
+  int MatchedMapReaders() const;
+
+ private:
+  struct Impl;
+  explicit MapPublisher(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace monoplane::interfaces

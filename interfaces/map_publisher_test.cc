@@ -1,0 +1,307 @@
+// MapPublisher on loopback with real participants: ROS 2 naming and QoS as DDS reports them (on
+// the writers and as discovered), round trips of every topic through MapSubscriber, and a reader
+// that never takes does not stall publishing.
+#include "interfaces/map_publisher.h"
+
+#include "interfaces/test/loopback.h"
+
+#include <cmath>
+#include <cstring>
+#include <map>
+#include <string>
+
+#include <dds/dds.h>
+#include <gtest/gtest.h>
+
+#include "idl/nav_msgs.h"
+#include "interfaces/map_subscriber.h"
+#include "interfaces/test/random_grid.h"
+
+namespace monoplane::interfaces {
+namespace {
+
+constexpr int kDomain = 172;
+
+OccupancyGrid TestGrid(int width, int height, double origin_x, double origin_y, unsigned seed) {
+  return testing::RandomGrid(width, height, 0.1, origin_x, origin_y, seed);
+}
+
+std::unique_ptr<MapPublisher> MakePublisher(const std::string& prefix, double max_blocking_s = 0.005) {
+  MapPublisher::Options options;
+  options.domain_id = kDomain;
+  options.topic_prefix = prefix;
+  options.max_blocking_time_s = max_blocking_s;
+  std::string error;
+  auto publisher = MapPublisher::Create(options, &error);
+  EXPECT_NE(publisher, nullptr) << error;
+  return publisher;
+}
+
+std::unique_ptr<MapSubscriber> MakeSubscriber(const std::string& topic, const std::string& prefix = "") {
+  MapSubscriber::Options options;
+  options.domain_id = kDomain;
+  options.topic_prefix = prefix;
+  std::string error;
+  auto subscriber = MapSubscriber::Create(options, topic, &error);
+  EXPECT_NE(subscriber, nullptr) << error;
+  return subscriber;
+}
+
+TEST(MapPublisherTest, OptionsAreChecked) {
+  MapPublisher::Options options;
+  std::string error;
+  EXPECT_TRUE(options.IsValid(&error)) << error;
+  options.domain_id = 233;
+  EXPECT_FALSE(options.IsValid(&error));
+  EXPECT_NE(error.find("domain_id = 233"), std::string::npos) << error;
+  options = {};
+  options.max_blocking_time_s = -1.0;
+  EXPECT_FALSE(options.IsValid(&error));
+  options = {};
+  options.topic_prefix = "robot 1";
+  EXPECT_FALSE(options.IsValid(&error));
+  EXPECT_EQ(MapPublisher::Create(options, &error), nullptr);
+}
+
+TEST(MapPublisherTest, TopicNames) {
+  EXPECT_EQ(RosTopicName("", "map"), "rt/map");
+  EXPECT_EQ(RosTopicName("robot1", "map"), "rt/robot1/map");
+  EXPECT_EQ(RosTopicName("/robot1/", "/monoplane/local_map"), "rt/robot1/monoplane/local_map");
+}
+
+TEST(MapPublisherTest, WritersUseRos2NamesTypesAndQos) {
+  auto publisher = MakePublisher("");
+  ASSERT_NE(publisher, nullptr);
+  const std::vector<EndpointInfo> endpoints = publisher->Endpoints();
+  ASSERT_EQ(endpoints.size(), 5u);
+  const EndpointInfo& map = endpoints[0];
+  EXPECT_EQ(map.topic_name, "rt/map");
+  EXPECT_EQ(map.type_name, "nav_msgs::msg::dds_::OccupancyGrid_");
+  EXPECT_EQ(map.reliability, "reliable");
+  EXPECT_EQ(map.durability, "transient_local");
+  EXPECT_EQ(map.history, "keep_last");
+  EXPECT_EQ(map.history_depth, 1);
+  EXPECT_EQ(map.data_representation, "XCDR1");
+  EXPECT_EQ(map.max_blocking_ns, 5000000);
+
+  EXPECT_EQ(endpoints[1].topic_name, "rt/map_updates");
+  EXPECT_EQ(endpoints[1].type_name, "map_msgs::msg::dds_::OccupancyGridUpdate_");
+  EXPECT_EQ(endpoints[1].durability, "volatile");
+  EXPECT_EQ(endpoints[2].topic_name, "rt/odom");
+  EXPECT_EQ(endpoints[2].type_name, "nav_msgs::msg::dds_::Odometry_");
+  const EndpointInfo& tf = endpoints[3];
+  EXPECT_EQ(tf.topic_name, "rt/tf");
+  EXPECT_EQ(tf.type_name, "tf2_msgs::msg::dds_::TFMessage_");
+  EXPECT_EQ(tf.reliability, "reliable");
+  EXPECT_EQ(tf.durability, "volatile");
+  EXPECT_EQ(tf.history, "keep_last");
+  EXPECT_EQ(tf.history_depth, 100);
+  const EndpointInfo& local = endpoints[4];
+  EXPECT_EQ(local.topic_name, "rt/monoplane/local_map");
+  EXPECT_EQ(local.type_name, "nav_msgs::msg::dds_::OccupancyGrid_");
+  EXPECT_EQ(local.reliability, "reliable");
+  EXPECT_EQ(local.durability, "volatile");
+  EXPECT_EQ(local.history_depth, 1);
+  for (const EndpointInfo& e : endpoints) EXPECT_EQ(e.data_representation, "XCDR1") << e.topic_name;
+
+  auto prefixed = MakePublisher("robot1");
+  ASSERT_NE(prefixed, nullptr);
+  EXPECT_EQ(prefixed->Endpoints()[0].topic_name, "rt/robot1/map");
+  EXPECT_EQ(prefixed->Endpoints()[4].topic_name, "rt/robot1/monoplane/local_map");
+}
+
+// What another participant discovers (DCPSPublication), i.e. what a ROS 2 node sees.
+TEST(MapPublisherTest, DiscoveredMapWriterMatchesRos2MapServer) {
+  auto publisher = MakePublisher("discovery");
+  ASSERT_NE(publisher, nullptr);
+  const dds_entity_t participant = dds_create_participant(kDomain, nullptr, nullptr);
+  ASSERT_GT(participant, 0);
+  const dds_entity_t reader =
+      dds_create_reader(participant, DDS_BUILTIN_TOPIC_DCPSPUBLICATION, nullptr, nullptr);
+  ASSERT_GT(reader, 0);
+  const dds_entity_t waitset = dds_create_waitset(participant);
+  const dds_entity_t condition = dds_create_readcondition(reader, DDS_ANY_STATE);
+  ASSERT_EQ(dds_waitset_attach(waitset, condition, 0), DDS_RETCODE_OK);
+  std::map<std::string, std::string> type_of;
+  bool map_checked = false;
+  while (!map_checked) {
+    ASSERT_GT(dds_waitset_wait(waitset, nullptr, 0, DDS_SECS(10)), 0) << "rt/discovery/map not discovered";
+    void* samples[16] = {};
+    dds_sample_info_t infos[16];
+    const dds_return_t n = dds_take(reader, samples, infos, 16, 16);
+    ASSERT_GE(n, 0);
+    for (int i = 0; i < n; ++i) {
+      if (!infos[i].valid_data) continue;
+      const auto* e = static_cast<const dds_builtintopic_endpoint_t*>(samples[i]);
+      type_of[e->topic_name] = e->type_name;
+      if (std::strcmp(e->topic_name, "rt/discovery/map") != 0) continue;
+      EXPECT_STREQ(e->type_name, "nav_msgs::msg::dds_::OccupancyGrid_");
+      dds_reliability_kind_t reliability;
+      dds_duration_t blocking;
+      ASSERT_TRUE(dds_qget_reliability(e->qos, &reliability, &blocking));
+      EXPECT_EQ(reliability, DDS_RELIABILITY_RELIABLE);
+      dds_durability_kind_t durability;
+      ASSERT_TRUE(dds_qget_durability(e->qos, &durability));
+      EXPECT_EQ(durability, DDS_DURABILITY_TRANSIENT_LOCAL);
+      dds_history_kind_t history;
+      int32_t depth;
+      ASSERT_TRUE(dds_qget_history(e->qos, &history, &depth));
+      EXPECT_EQ(history, DDS_HISTORY_KEEP_LAST);
+      EXPECT_EQ(depth, 1);
+      map_checked = true;
+    }
+    dds_return_loan(reader, samples, n);
+  }
+  dds_delete(participant);
+}
+
+TEST(MapPublisherTest, MapLocalMapUpdateOdomAndTfRoundTrip) {
+  auto publisher = MakePublisher("roundtrip");
+  ASSERT_NE(publisher, nullptr);
+  auto map_sub = MakeSubscriber("map", "roundtrip");
+  auto local_sub = MakeSubscriber("rt/roundtrip/monoplane/local_map");
+  auto update_sub = MakeSubscriber("map_updates", "roundtrip");
+  auto odom_sub = MakeSubscriber("/odom", "roundtrip");
+  auto tf_sub = MakeSubscriber("tf", "roundtrip");
+  ASSERT_TRUE(map_sub && local_sub && update_sub && odom_sub && tf_sub);
+  EXPECT_EQ(map_sub->Endpoint().durability, "transient_local");
+  EXPECT_EQ(local_sub->Endpoint().durability, "volatile");
+
+  const OccupancyGrid map = TestGrid(40, 30, -2.0, -1.5, 1);
+  OccupancyGrid changed = map;
+  changed.At(5, 7) = kCellOccupied == map.At(5, 7) ? kCellFree : kCellOccupied;
+  changed.At(9, 3) = map.At(9, 3) == kCellUnknown ? kCellFree : kCellUnknown;
+  const OccupancyGrid local = TestGrid(16, 16, -0.8, -0.8, 2);
+  const TimestampNs stamp = 5 * 1000000000LL + 250;
+  std::string error;
+  ASSERT_EQ(publisher->PublishMap(map, stamp, &error), PublishStatus::kSent) << error;
+  ASSERT_EQ(publisher->PublishLocalMap(local, stamp + 1, &error), PublishStatus::kSent) << error;
+  const std::optional<CellRect> region = ChangedRegion(map, changed);
+  ASSERT_TRUE(region.has_value());
+  EXPECT_EQ(region->col, 5);
+  EXPECT_EQ(region->row, 3);
+  EXPECT_EQ(region->width, 5);
+  EXPECT_EQ(region->height, 5);
+  EXPECT_FALSE(ChangedRegion(map, map).has_value());
+  ASSERT_EQ(publisher->PublishMapUpdate(changed, *region, stamp + 2, &error), PublishStatus::kSent);
+  const Pose2 map_from_odom{1.0, -2.0, 0.3};
+  const Pose2 odom_from_base{0.5, 0.25, -1.2};
+  ASSERT_EQ(publisher->PublishPose(map_from_odom, odom_from_base, stamp + 3, {0.2, 0.0, 0.1}, &error),
+            PublishStatus::kSent)
+      << error;
+
+  auto got_map = map_sub->Take(10.0, &error);
+  ASSERT_TRUE(got_map) << error;
+  EXPECT_EQ(got_map->frame_id, "map");
+  EXPECT_EQ(got_map->stamp_ns, stamp);
+  EXPECT_EQ(got_map->grid.geometry.width, 40);
+  EXPECT_EQ(got_map->grid.geometry.height, 30);
+  EXPECT_DOUBLE_EQ(got_map->grid.geometry.origin_x_m, -2.0);
+  EXPECT_FLOAT_EQ(static_cast<float>(got_map->grid.geometry.resolution_m), 0.1f);
+  EXPECT_EQ(got_map->grid.cells, map.cells);
+  const std::string summary = Summarize(*got_map);
+  EXPECT_NE(summary.find("rt/roundtrip/map stamp=5.000000250 frame=map 40x30 res=0.100 "
+                         "origin=(-2.000,-1.500,0.000)"),
+            std::string::npos)
+      << summary;
+
+  auto got_local = local_sub->Take(10.0, &error);
+  ASSERT_TRUE(got_local) << error;
+  EXPECT_EQ(got_local->frame_id, "base_link");
+  EXPECT_EQ(got_local->grid.cells, local.cells);
+
+  auto got_update = update_sub->Take(10.0, &error);
+  ASSERT_TRUE(got_update) << error;
+  EXPECT_EQ(got_update->update_x, 5);
+  EXPECT_EQ(got_update->update_y, 3);
+  ASSERT_EQ(got_update->grid.cells.size(), 25u);
+  for (int r = 0; r < 5; ++r) {
+    for (int c = 0; c < 5; ++c) {
+      EXPECT_EQ(got_update->grid.cells[r * 5 + c], changed.At(5 + c, 3 + r));
+    }
+  }
+
+  auto got_odom = odom_sub->Take(10.0, &error);
+  ASSERT_TRUE(got_odom) << error;
+  EXPECT_EQ(got_odom->frame_id, "odom");
+  EXPECT_EQ(got_odom->child_frame_id, "base_link");
+  EXPECT_NEAR(got_odom->pose.x, 0.5, 1e-12);
+  EXPECT_NEAR(got_odom->pose.yaw, -1.2, 1e-12);
+
+  auto got_tf = tf_sub->Take(10.0, &error);
+  ASSERT_TRUE(got_tf) << error;
+  ASSERT_EQ(got_tf->transforms.size(), 2u);
+  EXPECT_EQ(got_tf->transforms[0].parent_frame, "map");
+  EXPECT_EQ(got_tf->transforms[0].child_frame, "odom");
+  EXPECT_NEAR(got_tf->transforms[0].parent_from_child.y, -2.0, 1e-12);
+  EXPECT_NEAR(got_tf->transforms[0].parent_from_child.yaw, 0.3, 1e-12);
+  EXPECT_EQ(got_tf->transforms[1].parent_frame, "odom");
+  EXPECT_EQ(got_tf->transforms[1].child_frame, "base_link");
+  EXPECT_EQ(got_tf->transforms[1].stamp_ns, stamp + 3);
+  EXPECT_EQ(publisher->tf_stats().sent, 1);
+  EXPECT_EQ(publisher->map_stats().dropped, 0);
+  // Nothing more arrives.
+  EXPECT_FALSE(tf_sub->Take(0.0).has_value());
+}
+
+TEST(MapPublisherTest, RejectsInconsistentGrids) {
+  auto publisher = MakePublisher("bad");
+  ASSERT_NE(publisher, nullptr);
+  OccupancyGrid grid = TestGrid(4, 4, 0, 0, 3);
+  grid.cells.pop_back();
+  std::string error;
+  EXPECT_EQ(publisher->PublishMap(grid, 1, &error), PublishStatus::kError);
+  EXPECT_NE(error.find("15 cells"), std::string::npos) << error;
+  const OccupancyGrid ok = TestGrid(4, 4, 0, 0, 3);
+  EXPECT_EQ(publisher->PublishMapUpdate(ok, CellRect{2, 2, 3, 1}, 1, &error), PublishStatus::kError);
+  EXPECT_EQ(publisher->map_stats().errors, 1);
+}
+
+// A reliable reader that never takes, with room for 2 samples, stands for a stalled subscriber:
+// every write must come back (sent or dropped after max_blocking_time), and a healthy reader on the
+// same topic keeps receiving.
+TEST(MapPublisherTest, StalledReaderDoesNotStallPublishing) {
+  auto publisher = MakePublisher("stall", 0.002);
+  ASSERT_NE(publisher, nullptr);
+  const dds_entity_t participant = dds_create_participant(kDomain, nullptr, nullptr);
+  ASSERT_GT(participant, 0);
+  const dds_entity_t topic = dds_create_topic(participant, &nav_msgs_msg_dds__OccupancyGrid__desc,
+                                              "rt/stall/monoplane/local_map", nullptr, nullptr);
+  ASSERT_GT(topic, 0);
+  dds_qos_t* qos = dds_create_qos();
+  dds_qset_reliability(qos, DDS_RELIABILITY_RELIABLE, DDS_SECS(1));
+  dds_qset_history(qos, DDS_HISTORY_KEEP_ALL, 0);
+  dds_qset_resource_limits(qos, 2, DDS_LENGTH_UNLIMITED, DDS_LENGTH_UNLIMITED);
+  const dds_entity_t stalled = dds_create_reader(participant, topic, qos, nullptr);
+  dds_delete_qos(qos);
+  ASSERT_GT(stalled, 0);
+  MapSubscriber::Options options;
+  options.domain_id = kDomain;
+  options.history_depth = 100;
+  std::string error;
+  auto healthy = MapSubscriber::Create(options, "rt/stall/monoplane/local_map", &error);
+  ASSERT_NE(healthy, nullptr) << error;
+  ASSERT_EQ(publisher->MatchedLocalMapReaders(), 2);
+
+  constexpr int kMessages = 40;
+  const OccupancyGrid local = TestGrid(160, 160, -4.0, -4.0, 4);
+  int returned = 0;
+  for (int i = 0; i < kMessages; ++i) {
+    const PublishStatus status = publisher->PublishLocalMap(local, i + 1);
+    EXPECT_NE(status, PublishStatus::kError);
+    ++returned;
+  }
+  EXPECT_EQ(returned, kMessages);
+  const PublishStats stats = publisher->local_map_stats();
+  EXPECT_EQ(stats.sent + stats.dropped, kMessages);
+  EXPECT_EQ(stats.errors, 0);
+  EXPECT_GE(stats.dropped, kMessages - 2) << "the stalled reader holds only 2 samples";
+  int received = 0;
+  while (healthy->Take(0.0)) ++received;
+  EXPECT_GE(received, stats.sent);
+  EXPECT_LE(received, kMessages);
+  dds_delete(participant);
+}
+
+}  // namespace
+}  // namespace monoplane::interfaces

@@ -1,0 +1,443 @@
+#include "interfaces/map_query_server.h"
+
+#include <chrono>
+#include <cmath>
+#include <random>
+#include <utility>
+
+#include <dds/dds.h>
+
+#include "idl/monoplane_msgs.h"
+
+namespace monoplane::interfaces {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+EndpointQos QueryQos(double max_blocking_time_s) {
+  EndpointQos qos;
+  qos.history_depth = 64;
+  qos.max_blocking_ns = static_cast<std::int64_t>(max_blocking_time_s * 1e9);
+  return qos;
+}
+
+bool ValidDomain(int domain_id, const char* owner, std::string* error) {
+  if (domain_id >= 0 && domain_id <= 232) return true;
+  if (error) *error = std::string(owner) + "::Options::domain_id = " + std::to_string(domain_id) +
+                      ". Violated constraint: in [0, 232]";
+  return false;
+}
+
+std::int64_t RemainingNs(Clock::time_point deadline) {
+  const auto remaining = deadline - Clock::now();
+  return std::max<std::int64_t>(
+      0, std::chrono::duration_cast<std::chrono::nanoseconds>(remaining).count());
+}
+
+Clock::time_point DeadlineIn(double seconds) {
+  return Clock::now() +
+         std::chrono::nanoseconds(static_cast<std::int64_t>(std::max(0.0, seconds) * 1e9));
+}
+
+// Request <-> IDL.
+MapQueryRequest FromIdl(const monoplane_msg_dds__MapQueryRequest_& msg) {
+  MapQueryRequest r;
+  r.kind = static_cast<MapQueryRequest::Kind>(msg.kind);
+  r.point_m = {msg.x_m, msg.y_m};
+  r.corner_b_m = {msg.x2_m, msg.y2_m};
+  r.want_raster = msg.want_raster;
+  r.max_radius_m = msg.max_radius_m;
+  for (uint32_t i = 0; i < msg.path._length; ++i) {
+    r.path_m.emplace_back(msg.path._buffer[i].x, msg.path._buffer[i].y);
+  }
+  r.robot_radius_m = msg.robot_radius_m;
+  return r;
+}
+
+// Why a request cannot be answered, or "" when it can.
+std::string RequestProblem(const MapQueryRequest& r) {
+  const int kind = static_cast<int>(r.kind);
+  if (kind < 1 || kind > 4) return "unknown query kind " + std::to_string(kind);
+  if (!r.point_m.allFinite() || !r.corner_b_m.allFinite()) return "coordinates must be finite";
+  if (r.kind == MapQueryRequest::Kind::kNearestObstacle &&
+      !(r.max_radius_m > 0.0 && std::isfinite(r.max_radius_m))) {
+    return "max_radius_m must be > 0";
+  }
+  if (r.kind == MapQueryRequest::Kind::kPathClearance) {
+    if (r.path_m.empty()) return "path needs at least one point";
+    for (const auto& p : r.path_m) {
+      if (!p.allFinite()) return "path points must be finite";
+    }
+    if (!(r.robot_radius_m >= 0.0 && std::isfinite(r.robot_radius_m))) {
+      return "robot_radius_m must be >= 0";
+    }
+  }
+  return "";
+}
+
+// Fills `msg` from `reply`; strings and the raster are borrowed from `reply`/`client_id`.
+void ToIdl(const MapQueryReply& reply, const std::string& client_id, uint64_t request_id,
+           int32_t kind, monoplane_msg_dds__MapQueryReply_* msg) {
+  *msg = monoplane_msg_dds__MapQueryReply_{};
+  msg->client_id = const_cast<char*>(client_id.c_str());
+  msg->request_id = request_id;
+  msg->kind = kind;
+  msg->ok = reply.ok;
+  msg->error = const_cast<char*>(reply.error.c_str());
+  msg->cell_x = reply.cell.x();
+  msg->cell_y = reply.cell.y();
+  msg->state = reply.state;
+  msg->observed = reply.observed;
+  msg->probability = reply.probability;
+  msg->has_height = reply.height_m.has_value();
+  msg->height_m = reply.height_m.value_or(0.0);
+  msg->last_seen_ns = reply.last_seen_ns;
+  msg->min_cell_x = reply.min_cell.x();
+  msg->min_cell_y = reply.min_cell.y();
+  msg->max_cell_x = reply.max_cell.x();
+  msg->max_cell_y = reply.max_cell.y();
+  msg->free_cells = reply.free_cells;
+  msg->occupied_cells = reply.occupied_cells;
+  msg->unknown_cells = reply.unknown_cells;
+  if (reply.raster) {
+    msg->raster_width = static_cast<uint32_t>(reply.raster->geometry.width);
+    msg->raster_height = static_cast<uint32_t>(reply.raster->geometry.height);
+    msg->raster._length = msg->raster._maximum = static_cast<uint32_t>(reply.raster->cells.size());
+    msg->raster._buffer = const_cast<int8_t*>(reply.raster->cells.data());
+    msg->raster._release = false;
+  }
+  msg->has_nearest = reply.nearest.has_value();
+  if (reply.nearest) {
+    msg->nearest_cell_x = reply.nearest->cell.x();
+    msg->nearest_cell_y = reply.nearest->cell.y();
+    msg->nearest_x_m = reply.nearest->center_m.x();
+    msg->nearest_y_m = reply.nearest->center_m.y();
+    msg->nearest_distance_m = reply.nearest->distance_m;
+  }
+  msg->path_state = static_cast<int8_t>(reply.path_state);
+  msg->has_first_blocking = reply.first_blocking_cell.has_value();
+  if (reply.first_blocking_cell) {
+    msg->first_blocking_cell_x = reply.first_blocking_cell->x();
+    msg->first_blocking_cell_y = reply.first_blocking_cell->y();
+  }
+  msg->first_blocking_x_m = reply.first_blocking_center_m.x();
+  msg->first_blocking_y_m = reply.first_blocking_center_m.y();
+  msg->blocking_distance_along_m = reply.blocking_distance_along_m;
+  msg->path_unknown_cells = reply.path_unknown_cells;
+  msg->has_first_unknown = reply.first_unknown_cell.has_value();
+  if (reply.first_unknown_cell) {
+    msg->first_unknown_cell_x = reply.first_unknown_cell->x();
+    msg->first_unknown_cell_y = reply.first_unknown_cell->y();
+  }
+  msg->unknown_distance_along_m = reply.unknown_distance_along_m;
+  msg->cells_checked = reply.cells_checked;
+}
+
+MapQueryReply FromIdl(const monoplane_msg_dds__MapQueryReply_& msg) {
+  MapQueryReply r;
+  r.ok = msg.ok;
+  r.error = msg.error ? msg.error : "";
+  r.cell = {msg.cell_x, msg.cell_y};
+  r.state = msg.state;
+  r.observed = msg.observed;
+  r.probability = msg.probability;
+  if (msg.has_height) r.height_m = msg.height_m;
+  r.last_seen_ns = msg.last_seen_ns;
+  r.min_cell = {msg.min_cell_x, msg.min_cell_y};
+  r.max_cell = {msg.max_cell_x, msg.max_cell_y};
+  r.free_cells = msg.free_cells;
+  r.occupied_cells = msg.occupied_cells;
+  r.unknown_cells = msg.unknown_cells;
+  if (msg.raster_width > 0 || msg.raster._length > 0) {
+    GridGeometry g;
+    g.width = static_cast<int>(msg.raster_width);
+    g.height = static_cast<int>(msg.raster_height);
+    OccupancyGrid raster;
+    raster.geometry = g;
+    raster.cells.assign(msg.raster._buffer, msg.raster._buffer + msg.raster._length);
+    r.raster = std::move(raster);
+  }
+  if (msg.has_nearest) {
+    r.nearest = MapQueryReply::Nearest{{msg.nearest_cell_x, msg.nearest_cell_y},
+                                       {msg.nearest_x_m, msg.nearest_y_m},
+                                       msg.nearest_distance_m};
+  }
+  r.path_state = static_cast<MapQueryReply::PathState>(msg.path_state);
+  if (msg.has_first_blocking) {
+    r.first_blocking_cell = Eigen::Vector2i(msg.first_blocking_cell_x, msg.first_blocking_cell_y);
+  }
+  r.first_blocking_center_m = {msg.first_blocking_x_m, msg.first_blocking_y_m};
+  r.blocking_distance_along_m = msg.blocking_distance_along_m;
+  r.path_unknown_cells = msg.path_unknown_cells;
+  if (msg.has_first_unknown) {
+    r.first_unknown_cell = Eigen::Vector2i(msg.first_unknown_cell_x, msg.first_unknown_cell_y);
+  }
+  r.unknown_distance_along_m = msg.unknown_distance_along_m;
+  r.cells_checked = msg.cells_checked;
+  return r;
+}
+
+// Participant, request and reply topics, and a waitset on `reader`'s data.
+struct QueryEndpoints {
+  dds_entity_t participant = 0;
+  dds_entity_t request_topic = 0;
+  dds_entity_t reply_topic = 0;
+  dds_entity_t waitset = 0;
+  ~QueryEndpoints() { DeleteEntity(participant); }
+
+  bool Open(int domain_id, const std::string& prefix, std::string* error) {
+    participant = CreateParticipant(domain_id, error);
+    if (participant <= 0) return false;
+    request_topic = CreateTopic(participant, &monoplane_msg_dds__MapQueryRequest__desc,
+                                MapQueryRequestTopic(prefix), error);
+    if (request_topic <= 0) return false;
+    reply_topic = CreateTopic(participant, &monoplane_msg_dds__MapQueryReply__desc,
+                              MapQueryReplyTopic(prefix), error);
+    if (reply_topic <= 0) return false;
+    waitset = dds_create_waitset(participant);
+    if (waitset < 0) {
+      if (error) *error = DdsError(waitset, "creating a waitset");
+      return false;
+    }
+    return true;
+  }
+  bool WatchData(dds_entity_t reader, std::string* error) {
+    const dds_entity_t condition = dds_create_readcondition(reader, DDS_ANY_STATE);
+    const dds_return_t rc = condition < 0 ? condition : dds_waitset_attach(waitset, condition, 0);
+    if (rc < 0) {
+      if (error) *error = DdsError(rc, "watching a reader");
+      return false;
+    }
+    return true;
+  }
+};
+
+}  // namespace
+
+std::string MapQueryRequestTopic(const std::string& prefix) {
+  return RosTopicName(prefix, "monoplane/map_query/request");
+}
+std::string MapQueryReplyTopic(const std::string& prefix) {
+  return RosTopicName(prefix, "monoplane/map_query/reply");
+}
+
+bool MapQueryServer::Options::IsValid(std::string* error) const {
+  if (!ValidDomain(domain_id, "MapQueryServer", error)) return false;
+  if (!(max_blocking_time_s >= 0.0 && max_blocking_time_s <= 1.0)) {
+    if (error) *error = "MapQueryServer::Options::max_blocking_time_s = " +
+                        std::to_string(max_blocking_time_s) + ". Violated constraint: in [0, 1]";
+    return false;
+  }
+  return true;
+}
+
+struct MapQueryServer::Impl {
+  MapQueryHandler handler;
+  QueryEndpoints endpoints;
+  dds_entity_t reader = 0;
+  dds_entity_t writer = 0;
+  std::int64_t answered = 0;
+};
+
+MapQueryServer::MapQueryServer(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+MapQueryServer::~MapQueryServer() = default;
+
+std::unique_ptr<MapQueryServer> MapQueryServer::Create(const Options& options,
+                                                       MapQueryHandler handler,
+                                                       std::string* error) {
+  if (!options.IsValid(error)) return nullptr;
+  if (!handler) {
+    if (error) *error = "MapQueryServer needs a handler";
+    return nullptr;
+  }
+  auto impl = std::make_unique<Impl>();
+  impl->handler = std::move(handler);
+  QueryEndpoints& e = impl->endpoints;
+  if (!e.Open(options.domain_id, options.topic_prefix, error)) return nullptr;
+  const EndpointQos qos = QueryQos(options.max_blocking_time_s);
+  impl->reader = CreateReader(e.participant, e.request_topic, qos, error);
+  if (impl->reader <= 0) return nullptr;
+  impl->writer = CreateWriter(e.participant, e.reply_topic, qos, error);
+  if (impl->writer <= 0) return nullptr;
+  if (!e.WatchData(impl->reader, error)) return nullptr;
+  return std::unique_ptr<MapQueryServer>(new MapQueryServer(std::move(impl)));
+}
+
+int MapQueryServer::Serve(double timeout_s, std::string* error) {
+  const dds_return_t woke =
+      dds_waitset_wait(impl_->endpoints.waitset, nullptr, 0,
+                       static_cast<dds_duration_t>(std::max(0.0, timeout_s) * 1e9));
+  if (woke < 0) {
+    if (error) *error = DdsError(woke, "waiting for map queries");
+    return -1;
+  }
+  int answered = 0;
+  while (true) {
+    void* samples[1] = {nullptr};
+    dds_sample_info_t info;
+    const dds_return_t n = dds_take(impl_->reader, samples, &info, 1, 1);
+    if (n < 0) {
+      if (error) *error = DdsError(n, "taking map queries");
+      return -1;
+    }
+    if (n == 0) break;
+    if (info.valid_data) {
+      const auto& msg = *static_cast<const monoplane_msg_dds__MapQueryRequest_*>(samples[0]);
+      const std::string client_id = msg.client_id ? msg.client_id : "";
+      const uint64_t request_id = msg.request_id;
+      const int32_t kind = msg.kind;
+      const MapQueryRequest request = FromIdl(msg);
+      dds_return_loan(impl_->reader, samples, n);
+      MapQueryReply reply;
+      const std::string problem = RequestProblem(request);
+      if (problem.empty()) {
+        reply = impl_->handler(request);
+      } else {
+        reply.ok = false;
+        reply.error = problem;
+      }
+      monoplane_msg_dds__MapQueryReply_ out;
+      ToIdl(reply, client_id, request_id, kind, &out);
+      const dds_return_t rc = dds_write(impl_->writer, &out);
+      if (rc < 0 && rc != DDS_RETCODE_TIMEOUT) {
+        if (error) *error = DdsError(rc, "writing a map query reply");
+        return -1;
+      }
+      ++answered;
+      ++impl_->answered;
+    } else {
+      dds_return_loan(impl_->reader, samples, n);
+    }
+  }
+  return answered;
+}
+
+std::int64_t MapQueryServer::answered() const { return impl_->answered; }
+
+std::vector<EndpointInfo> MapQueryServer::Endpoints() const {
+  return {ReadEndpointInfo(impl_->reader), ReadEndpointInfo(impl_->writer)};
+}
+
+bool MapQueryClient::Options::IsValid(std::string* error) const {
+  return ValidDomain(domain_id, "MapQueryClient", error);
+}
+
+struct MapQueryClient::Impl {
+  std::string client_id;
+  QueryEndpoints endpoints;
+  dds_entity_t reader = 0;
+  dds_entity_t writer = 0;
+  dds_entity_t match_waitset = 0;
+  uint64_t next_request_id = 1;
+};
+
+MapQueryClient::MapQueryClient(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+MapQueryClient::~MapQueryClient() = default;
+
+std::unique_ptr<MapQueryClient> MapQueryClient::Create(const Options& options,
+                                                       std::string* error) {
+  if (!options.IsValid(error)) return nullptr;
+  auto impl = std::make_unique<Impl>();
+  impl->client_id = options.client_id;
+  if (impl->client_id.empty()) {
+    std::random_device device;
+    impl->client_id = "client-" + std::to_string(device()) + "-" + std::to_string(device());
+  }
+  QueryEndpoints& e = impl->endpoints;
+  if (!e.Open(options.domain_id, options.topic_prefix, error)) return nullptr;
+  const EndpointQos qos = QueryQos(0.05);
+  impl->writer = CreateWriter(e.participant, e.request_topic, qos, error);
+  if (impl->writer <= 0) return nullptr;
+  impl->reader = CreateReader(e.participant, e.reply_topic, qos, error);
+  if (impl->reader <= 0) return nullptr;
+  if (!e.WatchData(impl->reader, error)) return nullptr;
+  impl->match_waitset = dds_create_waitset(e.participant);
+  dds_set_status_mask(impl->writer, DDS_PUBLICATION_MATCHED_STATUS);
+  dds_set_status_mask(impl->reader, DDS_SUBSCRIPTION_MATCHED_STATUS);
+  if (impl->match_waitset < 0 || dds_waitset_attach(impl->match_waitset, impl->writer, 0) < 0 ||
+      dds_waitset_attach(impl->match_waitset, impl->reader, 0) < 0) {
+    if (error) *error = "MapQueryClient: cannot watch matches";
+    return nullptr;
+  }
+  return std::unique_ptr<MapQueryClient>(new MapQueryClient(std::move(impl)));
+}
+
+bool MapQueryClient::WaitForServer(double match_timeout_s) {
+  const auto deadline = DeadlineIn(match_timeout_s);
+  while (true) {
+    dds_publication_matched_status_t pub;
+    dds_subscription_matched_status_t sub;
+    // Reading a status resets its trigger, so the waitset below only wakes on a new change.
+    if (dds_get_publication_matched_status(impl_->writer, &pub) < 0 ||
+        dds_get_subscription_matched_status(impl_->reader, &sub) < 0) {
+      return false;
+    }
+    if (pub.current_count > 0 && sub.current_count > 0) return true;
+    const std::int64_t remaining = RemainingNs(deadline);
+    if (remaining == 0) return false;
+    if (dds_waitset_wait(impl_->match_waitset, nullptr, 0, remaining) < 0) return false;
+  }
+}
+
+std::optional<MapQueryReply> MapQueryClient::Query(const MapQueryRequest& request,
+                                                   double timeout_s, std::string* error) {
+  const uint64_t request_id = impl_->next_request_id++;
+  std::vector<geometry_msgs_msg_dds__Point_> path;
+  for (const auto& p : request.path_m) path.push_back({p.x(), p.y(), 0.0});
+  monoplane_msg_dds__MapQueryRequest_ msg{};
+  msg.client_id = const_cast<char*>(impl_->client_id.c_str());
+  msg.request_id = request_id;
+  msg.kind = static_cast<int32_t>(request.kind);
+  msg.x_m = request.point_m.x();
+  msg.y_m = request.point_m.y();
+  msg.x2_m = request.corner_b_m.x();
+  msg.y2_m = request.corner_b_m.y();
+  msg.want_raster = request.want_raster;
+  msg.max_radius_m = request.max_radius_m;
+  msg.path._length = msg.path._maximum = static_cast<uint32_t>(path.size());
+  msg.path._buffer = path.data();
+  msg.path._release = false;
+  msg.robot_radius_m = request.robot_radius_m;
+  const dds_return_t rc = dds_write(impl_->writer, &msg);
+  if (rc < 0) {
+    if (error) *error = DdsError(rc, "sending a map query");
+    return std::nullopt;
+  }
+  const auto deadline = DeadlineIn(timeout_s);
+  while (true) {
+    void* samples[1] = {nullptr};
+    dds_sample_info_t info;
+    const dds_return_t n = dds_take(impl_->reader, samples, &info, 1, 1);
+    if (n < 0) {
+      if (error) *error = DdsError(n, "taking map query replies");
+      return std::nullopt;
+    }
+    if (n > 0) {
+      std::optional<MapQueryReply> reply;
+      if (info.valid_data) {
+        const auto& r = *static_cast<const monoplane_msg_dds__MapQueryReply_*>(samples[0]);
+        // Replies to other clients, or to requests this client gave up on, are skipped.
+        if (r.request_id == request_id && r.client_id && impl_->client_id == r.client_id) {
+          reply = FromIdl(r);
+        }
+      }
+      dds_return_loan(impl_->reader, samples, n);
+      if (reply) return reply;
+      continue;
+    }
+    const std::int64_t remaining = RemainingNs(deadline);
+    if (remaining == 0) {
+      if (error) *error = "no reply to map query " + std::to_string(request_id) + " within " +
+                          std::to_string(timeout_s) + " s";
+      return std::nullopt;
+    }
+    const dds_return_t woke = dds_waitset_wait(impl_->endpoints.waitset, nullptr, 0, remaining);
+    if (woke < 0) {
+      if (error) *error = DdsError(woke, "waiting for a map query reply");
+      return std::nullopt;
+    }
+  }
+}
+
+}  // namespace monoplane::interfaces

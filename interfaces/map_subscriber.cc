@@ -1,0 +1,273 @@
+#include "interfaces/map_subscriber.h"
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <utility>
+
+#include <dds/dds.h>
+
+#include "idl/map_msgs.h"
+#include "idl/nav_msgs.h"
+#include "idl/tf2_msgs.h"
+
+namespace monoplane::interfaces {
+
+namespace {
+
+double YawOf(const geometry_msgs_msg_dds__Quaternion_& q) {
+  return std::atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z));
+}
+
+std::string LastPart(const std::string& topic) {
+  const auto slash = topic.find_last_of('/');
+  return slash == std::string::npos ? topic : topic.substr(slash + 1);
+}
+
+void FillHeader(const std_msgs_msg_dds__Header_& header, ReceivedMessage* out) {
+  out->stamp_ns = FromRosTime(header.stamp.sec, header.stamp.nanosec);
+  out->frame_id = header.frame_id ? header.frame_id : "";
+}
+
+void Convert(const nav_msgs_msg_dds__OccupancyGrid_& msg, ReceivedMessage* out) {
+  FillHeader(msg.header, out);
+  GridGeometry& g = out->grid.geometry;
+  g.resolution_m = msg.info.resolution;
+  g.origin_x_m = msg.info.origin.position.x;
+  g.origin_y_m = msg.info.origin.position.y;
+  g.width = static_cast<int>(msg.info.width);
+  g.height = static_cast<int>(msg.info.height);
+  out->origin_yaw_rad = YawOf(msg.info.origin.orientation);
+  out->grid.cells.assign(msg.data._buffer, msg.data._buffer + msg.data._length);
+}
+
+void Convert(const map_msgs_msg_dds__OccupancyGridUpdate_& msg, ReceivedMessage* out) {
+  FillHeader(msg.header, out);
+  out->update_x = msg.x;
+  out->update_y = msg.y;
+  out->grid.geometry.width = static_cast<int>(msg.width);
+  out->grid.geometry.height = static_cast<int>(msg.height);
+  out->grid.cells.assign(msg.data._buffer, msg.data._buffer + msg.data._length);
+}
+
+void Convert(const nav_msgs_msg_dds__Odometry_& msg, ReceivedMessage* out) {
+  FillHeader(msg.header, out);
+  out->child_frame_id = msg.child_frame_id ? msg.child_frame_id : "";
+  out->pose = {msg.pose.pose.position.x, msg.pose.pose.position.y,
+               YawOf(msg.pose.pose.orientation)};
+}
+
+void Convert(const tf2_msgs_msg_dds__TFMessage_& msg, ReceivedMessage* out) {
+  for (uint32_t i = 0; i < msg.transforms._length; ++i) {
+    const geometry_msgs_msg_dds__TransformStamped_& t = msg.transforms._buffer[i];
+    StampedTransform st;
+    st.stamp_ns = FromRosTime(t.header.stamp.sec, t.header.stamp.nanosec);
+    st.parent_frame = t.header.frame_id ? t.header.frame_id : "";
+    st.child_frame = t.child_frame_id ? t.child_frame_id : "";
+    st.parent_from_child = {t.transform.translation.x, t.transform.translation.y,
+                            YawOf(t.transform.rotation)};
+    out->transforms.push_back(std::move(st));
+  }
+  if (!out->transforms.empty()) {
+    out->stamp_ns = out->transforms.front().stamp_ns;
+    out->frame_id = out->transforms.front().parent_frame;
+  }
+}
+
+std::string Format(const char* format, double a, double b, double c) {
+  char buffer[128];
+  std::snprintf(buffer, sizeof(buffer), format, a, b, c);
+  return buffer;
+}
+
+std::string StampText(TimestampNs stamp_ns) {
+  const RosTime t = ToRosTime(stamp_ns);
+  char buffer[48];
+  std::snprintf(buffer, sizeof(buffer), "%d.%09u", t.sec, t.nanosec);
+  return buffer;
+}
+
+std::string CellCounts(const std::vector<int8_t>& cells) {
+  std::size_t free = 0, occupied = 0, unknown = 0;
+  for (int8_t c : cells) {
+    if (c < 0) {
+      ++unknown;
+    } else if (c >= kCellOccupied) {
+      ++occupied;
+    } else if (c == kCellFree) {
+      ++free;
+    }
+  }
+  const std::size_t other = cells.size() - free - occupied - unknown;
+  std::string s = " free=" + std::to_string(free) + " occupied=" + std::to_string(occupied) +
+                  " unknown=" + std::to_string(unknown);
+  if (other > 0) s += " other=" + std::to_string(other);
+  return s;
+}
+
+}  // namespace
+
+std::string Summarize(const ReceivedMessage& m) {
+  std::string s = m.topic_name + " stamp=" + StampText(m.stamp_ns) + " frame=" + m.frame_id;
+  const GridGeometry& g = m.grid.geometry;
+  switch (m.kind) {
+    case MessageKind::kOccupancyGrid:
+      s += " " + std::to_string(g.width) + "x" + std::to_string(g.height) +
+           Format(" res=%.3f origin=(%.3f,%.3f,", g.resolution_m, g.origin_x_m, g.origin_y_m) +
+           Format("%.3f)", m.origin_yaw_rad, 0, 0) + CellCounts(m.grid.cells);
+      break;
+    case MessageKind::kOccupancyGridUpdate:
+      s += " " + std::to_string(g.width) + "x" + std::to_string(g.height) + " at (" +
+           std::to_string(m.update_x) + "," + std::to_string(m.update_y) + ")" +
+           CellCounts(m.grid.cells);
+      break;
+    case MessageKind::kOdometry:
+      s += " child=" + m.child_frame_id +
+           Format(" pose=(%.3f,%.3f,%.3f)", m.pose.x, m.pose.y, m.pose.yaw);
+      break;
+    case MessageKind::kTf:
+      s += " transforms=" + std::to_string(m.transforms.size());
+      for (const StampedTransform& t : m.transforms) {
+        s += " " + t.parent_frame + "->" + t.child_frame +
+             Format("=(%.3f,%.3f,%.3f)", t.parent_from_child.x, t.parent_from_child.y,
+                    t.parent_from_child.yaw);
+      }
+      break;
+  }
+  return s;
+}
+
+bool MapSubscriber::Options::IsValid(std::string* error) const {
+  if (domain_id < 0 || domain_id > 232) {
+    if (error) *error = "MapSubscriber::Options::domain_id = " + std::to_string(domain_id) +
+                        ". Violated constraint: in [0, 232]";
+    return false;
+  }
+  if (history_depth < 1 || history_depth > 10000) {
+    if (error) *error = "MapSubscriber::Options::history_depth = " + std::to_string(history_depth) +
+                        ". Violated constraint: in [1, 10000]";
+    return false;
+  }
+  return true;
+}
+
+struct MapSubscriber::Impl {
+  MessageKind kind = MessageKind::kOccupancyGrid;
+  std::string topic_name;
+  dds_entity_t participant = 0;
+  dds_entity_t reader = 0;
+  dds_entity_t waitset = 0;
+  ~Impl() { DeleteEntity(participant); }
+};
+
+MapSubscriber::MapSubscriber(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+MapSubscriber::~MapSubscriber() = default;
+
+std::unique_ptr<MapSubscriber> MapSubscriber::Create(const Options& options,
+                                                     const std::string& topic,
+                                                     std::string* error) {
+  if (!options.IsValid(error)) return nullptr;
+  auto impl = std::make_unique<Impl>();
+  impl->topic_name = topic.rfind("rt/", 0) == 0 ? topic : RosTopicName(options.topic_prefix, topic);
+  const std::string last = LastPart(impl->topic_name);
+  const dds_topic_descriptor_t* descriptor = nullptr;
+  EndpointQos qos;
+  qos.history_depth = options.history_depth;
+  if (last == "map" || last == "local_map") {
+    impl->kind = MessageKind::kOccupancyGrid;
+    descriptor = &nav_msgs_msg_dds__OccupancyGrid__desc;
+    if (last == "map") qos.durability = Durability::kTransientLocal;
+  } else if (last == "map_updates") {
+    impl->kind = MessageKind::kOccupancyGridUpdate;
+    descriptor = &map_msgs_msg_dds__OccupancyGridUpdate__desc;
+  } else if (last == "odom") {
+    impl->kind = MessageKind::kOdometry;
+    descriptor = &nav_msgs_msg_dds__Odometry__desc;
+  } else if (last == "tf") {
+    impl->kind = MessageKind::kTf;
+    descriptor = &tf2_msgs_msg_dds__TFMessage__desc;
+  } else {
+    if (error) *error = "unknown topic \"" + topic +
+                        "\" (known: map, map_updates, odom, tf, monoplane/local_map)";
+    return nullptr;
+  }
+  impl->participant = CreateParticipant(options.domain_id, error);
+  if (impl->participant <= 0) return nullptr;
+  const dds_entity_t t = CreateTopic(impl->participant, descriptor, impl->topic_name, error);
+  if (t <= 0) return nullptr;
+  impl->reader = CreateReader(impl->participant, t, qos, error);
+  if (impl->reader <= 0) return nullptr;
+  impl->waitset = dds_create_waitset(impl->participant);
+  const dds_entity_t condition = dds_create_readcondition(impl->reader, DDS_ANY_STATE);
+  if (impl->waitset < 0 || condition < 0) {
+    if (error) *error = DdsError(impl->waitset < 0 ? impl->waitset : condition, "creating a waitset");
+    return nullptr;
+  }
+  const dds_return_t rc = dds_waitset_attach(impl->waitset, condition, condition);
+  if (rc < 0) {
+    if (error) *error = DdsError(rc, "attaching a read condition");
+    return nullptr;
+  }
+  return std::unique_ptr<MapSubscriber>(new MapSubscriber(std::move(impl)));
+}
+
+std::optional<ReceivedMessage> MapSubscriber::Take(double timeout_s, std::string* error) {
+  using Clock = std::chrono::steady_clock;
+  const auto deadline = Clock::now() + std::chrono::nanoseconds(static_cast<std::int64_t>(
+                                           std::max(0.0, timeout_s) * 1e9));
+  while (true) {
+    void* samples[1] = {nullptr};
+    dds_sample_info_t info;
+    const dds_return_t n = dds_take(impl_->reader, samples, &info, 1, 1);
+    if (n < 0) {
+      if (error) *error = DdsError(n, "taking from " + impl_->topic_name);
+      return std::nullopt;
+    }
+    if (n > 0) {
+      std::optional<ReceivedMessage> out;
+      if (info.valid_data) {
+        out.emplace();
+        out->kind = impl_->kind;
+        out->topic_name = impl_->topic_name;
+        switch (impl_->kind) {
+          case MessageKind::kOccupancyGrid:
+            Convert(*static_cast<const nav_msgs_msg_dds__OccupancyGrid_*>(samples[0]), &*out);
+            break;
+          case MessageKind::kOccupancyGridUpdate:
+            Convert(*static_cast<const map_msgs_msg_dds__OccupancyGridUpdate_*>(samples[0]), &*out);
+            break;
+          case MessageKind::kOdometry:
+            Convert(*static_cast<const nav_msgs_msg_dds__Odometry_*>(samples[0]), &*out);
+            break;
+          case MessageKind::kTf:
+            Convert(*static_cast<const tf2_msgs_msg_dds__TFMessage_*>(samples[0]), &*out);
+            break;
+        }
+      }
+      dds_return_loan(impl_->reader, samples, n);
+      if (out) return out;
+      continue;  // an invalid sample (instance state change): look again
+    }
+    const auto remaining = deadline - Clock::now();
+    if (remaining <= Clock::duration::zero()) return std::nullopt;
+    const dds_return_t rc = dds_waitset_wait(
+        impl_->waitset, nullptr, 0,
+        std::chrono::duration_cast<std::chrono::nanoseconds>(remaining).count());
+    if (rc < 0) {
+      if (error) *error = DdsError(rc, "waiting on " + impl_->topic_name);
+      return std::nullopt;
+    }
+  }
+}
+
+const std::string& MapSubscriber::topic_name() const { return impl_->topic_name; }
+MessageKind MapSubscriber::kind() const { return impl_->kind; }
+EndpointInfo MapSubscriber::Endpoint() const { return ReadEndpointInfo(impl_->reader); }
+
+int MapSubscriber::MatchedWriters() const {
+  dds_subscription_matched_status_t status;
+  if (dds_get_subscription_matched_status(impl_->reader, &status) < 0) return 0;
+  return static_cast<int>(status.current_count);
+}
+
+}  // namespace monoplane::interfaces
