@@ -1,0 +1,164 @@
+#include "storage/map_codec.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+namespace monoplane {
+namespace {
+
+constexpr int kTileCells = TiledGrid::kTileSize * TiledGrid::kTileSize;
+constexpr std::int64_t kNsPerMs = 1000000;
+
+std::uint16_t QuantiseSigned(double value, double scale) {
+  const double q = std::clamp(std::round(value * scale), -32767.0, 32767.0);
+  return static_cast<std::uint16_t>(static_cast<int>(q) + 32768);
+}
+
+bool EncodePng(const cv::Mat& image, int png_compression, std::vector<std::uint8_t>* png,
+               std::string* error) {
+  const std::vector<int> params = {cv::IMWRITE_PNG_COMPRESSION, png_compression};
+  try {
+    if (!cv::imencode(".png", image, *png, params)) {
+      *error = "PNG encoding failed";
+      return false;
+    }
+  } catch (const cv::Exception& e) {
+    *error = std::string("PNG encoding failed: ") + e.what();
+    return false;
+  }
+  return true;
+}
+
+bool DecodePng(const std::uint8_t* data, std::size_t size, cv::Mat* image, std::string* error) {
+  try {
+    const cv::Mat buffer(1, static_cast<int>(size), CV_8UC1, const_cast<std::uint8_t*>(data));
+    *image = cv::imdecode(buffer, cv::IMREAD_UNCHANGED);
+  } catch (const cv::Exception& e) {
+    *error = std::string("PNG decoding failed: ") + e.what();
+    return false;
+  }
+  if (image->empty()) {
+    *error = "blob is not a readable PNG";
+    return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+bool EncodeLocalMapCells(const OccupancyGrid& grid, int png_compression,
+                         std::vector<std::uint8_t>* png, std::string* error) {
+  const GridGeometry& g = grid.geometry;
+  if (g.width <= 0 || g.height <= 0 || grid.cells.size() != g.NumCells()) {
+    *error = "local map has no cells or a cell count that does not match its size";
+    return false;
+  }
+  cv::Mat image(g.height, g.width, CV_8UC1);
+  for (int row = 0; row < g.height; ++row) {
+    auto* out = image.ptr<std::uint8_t>(row);
+    const std::int8_t* in = grid.cells.data() + static_cast<std::size_t>(row) * g.width;
+    for (int col = 0; col < g.width; ++col) {
+      out[col] = in[col] < 0 ? 255 : static_cast<std::uint8_t>(std::min<int>(in[col], 100));
+    }
+  }
+  return EncodePng(image, png_compression, png, error);
+}
+
+bool DecodeLocalMapCells(const std::uint8_t* data, std::size_t size, OccupancyGrid* grid,
+                         std::string* error) {
+  cv::Mat image;
+  if (!DecodePng(data, size, &image, error)) return false;
+  const GridGeometry& g = grid->geometry;
+  if (image.type() != CV_8UC1 || image.cols != g.width || image.rows != g.height) {
+    *error = "local map blob does not match its stored size";
+    return false;
+  }
+  grid->cells.assign(g.NumCells(), kCellUnknown);
+  for (int row = 0; row < g.height; ++row) {
+    const auto* in = image.ptr<std::uint8_t>(row);
+    std::int8_t* out = grid->cells.data() + static_cast<std::size_t>(row) * g.width;
+    for (int col = 0; col < g.width; ++col) {
+      if (in[col] == 255) continue;
+      if (in[col] > 100) {
+        *error = "local map blob holds a cell value above 100";
+        return false;
+      }
+      out[col] = static_cast<std::int8_t>(in[col]);
+    }
+  }
+  return true;
+}
+
+bool EncodeTile(const TiledGrid::Tile& tile, int png_compression, EncodedTile* encoded,
+                std::string* error) {
+  if (tile.log_odds.size() != kTileCells || tile.height_m.size() != kTileCells ||
+      tile.last_seen_ns.size() != kTileCells) {
+    *error = "tile does not hold kTileSize^2 cells";
+    return false;
+  }
+  *encoded = EncodedTile();
+  TimestampNs base = std::numeric_limits<TimestampNs>::max();
+  for (int k = 0; k < kTileCells; ++k) {
+    if (!CellObserved(tile, k)) continue;
+    encoded->has_data = true;
+    const int col = k % TiledGrid::kTileSize, row = k / TiledGrid::kTileSize;
+    if (encoded->max_col < 0) {
+      encoded->min_col = encoded->max_col = col;
+      encoded->min_row = encoded->max_row = row;
+    }
+    encoded->min_col = std::min(encoded->min_col, col);
+    encoded->max_col = std::max(encoded->max_col, col);
+    encoded->min_row = std::min(encoded->min_row, row);
+    encoded->max_row = std::max(encoded->max_row, row);
+    if (tile.last_seen_ns[k] != 0) {
+      base = std::min(base, tile.last_seen_ns[k]);
+      encoded->last_seen_ns = std::max(encoded->last_seen_ns, tile.last_seen_ns[k]);
+    }
+  }
+  if (!encoded->has_data) return true;
+  encoded->base_ns = base == std::numeric_limits<TimestampNs>::max() ? 0 : base;
+  cv::Mat image(TiledGrid::kTileSize, TiledGrid::kTileSize, CV_16UC4);
+  auto* px = image.ptr<std::uint16_t>(0);
+  for (int k = 0; k < kTileCells; ++k, px += 4) {
+    px[0] = QuantiseSigned(tile.log_odds[k], 1.0 / kLogOddsQuantum);
+    px[1] = std::isnan(tile.height_m[k]) ? 0 : QuantiseSigned(tile.height_m[k], 1000.0);
+    std::uint32_t seen = 0;
+    if (tile.last_seen_ns[k] != 0) {
+      const std::int64_t ms = (tile.last_seen_ns[k] - encoded->base_ns) / kNsPerMs;
+      seen = static_cast<std::uint32_t>(std::min<std::int64_t>(ms, 0xFFFFFFFEll) + 1);
+    }
+    px[2] = static_cast<std::uint16_t>(seen & 0xFFFF);
+    px[3] = static_cast<std::uint16_t>(seen >> 16);
+  }
+  return EncodePng(image, png_compression, &encoded->png, error);
+}
+
+bool DecodeTile(const std::uint8_t* data, std::size_t size, TimestampNs base_ns,
+                TiledGrid::Tile* tile, std::string* error) {
+  cv::Mat image;
+  if (!DecodePng(data, size, &image, error)) return false;
+  if (image.type() != CV_16UC4 || image.cols != TiledGrid::kTileSize ||
+      image.rows != TiledGrid::kTileSize || !image.isContinuous()) {
+    *error = "tile blob is not a 256x256 16-bit 4-channel PNG";
+    return false;
+  }
+  tile->log_odds.resize(kTileCells);
+  tile->height_m.resize(kTileCells);
+  tile->last_seen_ns.resize(kTileCells);
+  const auto* px = image.ptr<std::uint16_t>(0);
+  for (int k = 0; k < kTileCells; ++k, px += 4) {
+    tile->log_odds[k] = static_cast<float>((static_cast<int>(px[0]) - 32768) * kLogOddsQuantum);
+    tile->height_m[k] = px[1] == 0 ? std::numeric_limits<float>::quiet_NaN()
+                                   : static_cast<float>((static_cast<int>(px[1]) - 32768) * 1e-3);
+    const std::uint32_t seen = static_cast<std::uint32_t>(px[2]) |
+                               (static_cast<std::uint32_t>(px[3]) << 16);
+    tile->last_seen_ns[k] = seen == 0 ? 0 : base_ns + static_cast<std::int64_t>(seen - 1) * kNsPerMs;
+  }
+  return true;
+}
+
+}  // namespace monoplane

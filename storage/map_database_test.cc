@@ -1,0 +1,474 @@
+#include "storage/map_database.h"
+
+#include <sqlite3.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <filesystem>
+
+#include <gtest/gtest.h>
+
+#include "storage/test_util.h"
+
+namespace monoplane {
+namespace {
+
+using testing::MarkCell;
+using testing::TempDir;
+using testing::TestCalibration;
+using testing::TestLocalMap;
+
+// Runs SQL directly on a file, bypassing MapDatabase (to forge files the program must refuse).
+void RawExec(const std::string& path, const std::string& sql) {
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
+  char* msg = nullptr;
+  const int rc = sqlite3_exec(db, sql.c_str(), nullptr, nullptr, &msg);
+  EXPECT_EQ(rc, SQLITE_OK) << (msg ? msg : "");
+  sqlite3_free(msg);
+  sqlite3_close(db);
+}
+
+std::unique_ptr<MapDatabase> MustOpen(const std::string& path, OpenMode mode,
+                                      const MapDatabase::Options& options = {}) {
+  std::unique_ptr<MapDatabase> db;
+  const StorageStatus st = MapDatabase::Open(path, mode, &db, options);
+  EXPECT_TRUE(st.ok()) << st.message();
+  return db;
+}
+
+std::int64_t MustBeginRun(MapDatabase* db, TimestampNs start = 1000) {
+  std::int64_t run = 0;
+  const StorageStatus st = db->BeginRun(TestCalibration(), "detector: {min_height_m: 0.05}\n",
+                                        "0.1.0-test", start, &run);
+  EXPECT_TRUE(st.ok()) << st.message();
+  return run;
+}
+
+// A map file with one finished run, three keyframes and two tiles, closed cleanly.
+void MakeSmallMap(const std::string& path) {
+  auto db = MustOpen(path, OpenMode::kCreate);
+  ASSERT_TRUE(db);
+  const std::int64_t run = MustBeginRun(db.get());
+  for (int k = 0; k < 3; ++k) {
+    FrameRecord f;
+    f.index = k;
+    f.stamp_ns = 1000000000ll * k;
+    f.map_from_base_raw = {0.1 * k, 0.0, 0.0};
+    ASSERT_TRUE(db->WriteKeyframe(run, f, TestLocalMap(160, k)).ok());
+  }
+  TiledGrid grid(0.05);
+  MarkCell(&grid, {3, 4}, 2.0f, 0.3f, 5000000);
+  MarkCell(&grid, {-300, 10}, -2.0f);
+  ASSERT_TRUE(db->WriteGridTiles(run, grid, {}).ok());
+  ASSERT_TRUE(db->EndRun(run, 99).ok());
+}
+
+class MapDatabaseRoundTrip : public ::testing::TestWithParam<bool> {
+ protected:
+  std::string Path() { return GetParam() ? dir_.File("map.db") : ":memory:"; }
+  TempDir dir_;
+};
+
+TEST_P(MapDatabaseRoundTrip, EveryRecordTypeComesBack) {
+  auto db = MustOpen(Path(), OpenMode::kCreate);
+  ASSERT_TRUE(db);
+  EXPECT_EQ(db->schema_version(), MapDatabase::kSchemaVersion);
+  const std::int64_t run = MustBeginRun(db.get(), 1234);
+
+  // Frames: a keyframe with its local map, plain frames, one with an optimised pose.
+  FrameRecord key;
+  key.index = 7;
+  key.stamp_ns = 1700000000123456789ll;
+  key.map_from_base_raw = {1.25, -0.5, 0.3};
+  const OccupancyGrid local = TestLocalMap(160, 3);
+  ASSERT_TRUE(db->WriteKeyframe(run, key, local).ok());
+  std::vector<FrameRecord> frames(3);
+  for (int k = 0; k < 3; ++k) {
+    frames[k].index = 8 + k;
+    frames[k].stamp_ns = key.stamp_ns + (k + 1) * 66666666ll;
+    frames[k].map_from_base_raw = {1.3 + 0.05 * k, -0.5, 0.31};
+  }
+  frames[1].map_from_base_optimised = Pose2{1.36, -0.49, 0.305};
+  ASSERT_TRUE(db->WriteFrames(run, frames).ok());
+  // Updating a keyframe's pose through WriteFrames keeps it a keyframe.
+  FrameRecord key_update = key;
+  key_update.is_keyframe = false;
+  key_update.map_from_base_optimised = Pose2{1.2, -0.45, 0.29};
+  ASSERT_TRUE(db->WriteFrames(run, {key_update}).ok());
+
+  std::vector<TrajectoryPoint> raw, opt;
+  ASSERT_TRUE(db->ReadTrajectory(run, PoseSource::kRaw, &raw).ok());
+  ASSERT_TRUE(db->ReadTrajectory(std::nullopt, PoseSource::kOptimised, &opt).ok());
+  ASSERT_EQ(raw.size(), 4u);
+  ASSERT_EQ(opt.size(), 4u);
+  EXPECT_EQ(raw[0].index, 7);
+  EXPECT_TRUE(raw[0].is_keyframe);
+  EXPECT_FALSE(raw[1].is_keyframe);
+  EXPECT_EQ(raw[0].stamp_ns, 1700000000123456789ll);
+  EXPECT_DOUBLE_EQ(raw[0].map_from_base.x, 1.25);
+  EXPECT_DOUBLE_EQ(raw[0].map_from_base.yaw, 0.3);
+  EXPECT_DOUBLE_EQ(opt[0].map_from_base.x, 1.2);       // optimised
+  EXPECT_DOUBLE_EQ(opt[2].map_from_base.x, 1.36);      // optimised
+  EXPECT_DOUBLE_EQ(opt[1].map_from_base.x, 1.3);       // raw stands in
+  EXPECT_EQ(opt[3].run_id, run);
+
+  OccupancyGrid back;
+  ASSERT_TRUE(db->ReadLocalMap(run, 7, &back).ok());
+  EXPECT_EQ(back.geometry.width, 160);
+  EXPECT_EQ(back.geometry.height, 160);
+  EXPECT_DOUBLE_EQ(back.geometry.origin_y_m, local.geometry.origin_y_m);
+  EXPECT_DOUBLE_EQ(back.geometry.resolution_m, 0.02);
+  EXPECT_EQ(back.cells, local.cells);
+  EXPECT_EQ(db->ReadLocalMap(run, 8, &back).kind(), StorageErrorKind::kNotFound);
+
+  // Tiles, including negative coordinates, heights and stamps.
+  TiledGrid grid(0.05);
+  MarkCell(&grid, {3, 4}, 2.5f, 0.31f, key.stamp_ns);
+  MarkCell(&grid, {-1, -1}, -1.75f, std::nanf(""), key.stamp_ns + 5000000);
+  MarkCell(&grid, {600, -700}, 0.4f, -0.12f, key.stamp_ns + 3000000000ll);
+  grid.TileAt({1000, 1000});  // a tile without data is not stored
+  ASSERT_TRUE(db->WriteGridTiles(run, grid, {}).ok());
+  TiledGrid loaded;
+  ASSERT_TRUE(db->LoadTiledGrid(&loaded).ok());
+  EXPECT_DOUBLE_EQ(loaded.resolution_m(), 0.05);
+  EXPECT_EQ(loaded.tiles().size(), 3u);
+  for (const auto& [cell, l, h, seen] :
+       {std::tuple<Eigen::Vector2i, float, float, TimestampNs>{{3, 4}, 2.5f, 0.31f, key.stamp_ns},
+        std::tuple<Eigen::Vector2i, float, float, TimestampNs>{
+            {600, -700}, 0.4f, -0.12f, key.stamp_ns + 3000000000ll}}) {
+    const TiledGrid::Tile* t = loaded.FindTile(cell);
+    ASSERT_NE(t, nullptr);
+    const int k = TiledGrid::IndexInTile(cell);
+    EXPECT_NEAR(t->log_odds[k], l, 0.0006);
+    EXPECT_NEAR(t->height_m[k], h, 0.0006);
+    EXPECT_EQ(t->last_seen_ns[k], seen);  // the earliest stamp of the tile is exact
+  }
+  {
+    const TiledGrid::Tile* t = loaded.FindTile({-1, -1});
+    ASSERT_NE(t, nullptr);
+    const int k = TiledGrid::IndexInTile({-1, -1});
+    EXPECT_NEAR(t->log_odds[k], -1.75f, 0.0006);
+    EXPECT_TRUE(std::isnan(t->height_m[k]));
+    EXPECT_EQ(t->last_seen_ns[k], key.stamp_ns + 5000000);
+    EXPECT_EQ(t->last_seen_ns[k + 1], 0);
+    EXPECT_EQ(t->log_odds[k - 1], 0.0f);
+  }
+  // Rewriting a tile that lost its data deletes it.
+  grid.mutable_tiles().at(TiledGrid::TileOf({600, -700})) = TiledGrid::Tile();
+  ASSERT_TRUE(db->WriteGridTiles(run, grid, {TiledGrid::TileOf({600, -700})}).ok());
+  ASSERT_TRUE(db->LoadTiledGrid(&loaded).ok());
+  EXPECT_EQ(loaded.tiles().size(), 2u);
+  // Another resolution is refused.
+  EXPECT_EQ(db->WriteGridTiles(run, TiledGrid(0.1), {}).kind(), StorageErrorKind::kInvalidArgument);
+
+  // Lazy loading of a box loads only the tiles it touches.
+  TiledGrid cache(0.1);
+  ASSERT_TRUE(db->LoadTilesInBox({0.0, 0.0}, {1.0, 1.0}, &cache).ok());
+  EXPECT_DOUBLE_EQ(cache.resolution_m(), 0.05);
+  EXPECT_EQ(cache.tiles().size(), 1u);
+  ASSERT_TRUE(db->LoadTilesInBox({-1.0, -1.0}, {1.0, 1.0}, &cache).ok());
+  EXPECT_EQ(cache.tiles().size(), 2u);
+
+  // Landmarks, statistics, OctoMap bytes (with a NUL inside).
+  ASSERT_TRUE(db->WriteLandmarks(run, {{5, run, {1.0, 2.0, 0.25}, 3}, {9, run, {-1, 0, 0}, 1}}).ok());
+  std::vector<Landmark> landmarks;
+  ASSERT_TRUE(db->ReadLandmarks(&landmarks).ok());
+  ASSERT_EQ(landmarks.size(), 2u);
+  EXPECT_EQ(landmarks[0].id, 5);
+  EXPECT_EQ(landmarks[0].kind, 3);
+  EXPECT_DOUBLE_EQ(landmarks[0].position_m.z(), 0.25);
+  ASSERT_TRUE(db->WriteStatistics(run, {{"frames_per_s", 14.5}, {"keyframes", 1}}).ok());
+  std::map<std::string, double> stats;
+  ASSERT_TRUE(db->ReadStatistics(run, &stats).ok());
+  EXPECT_EQ(stats.size(), 2u);
+  EXPECT_DOUBLE_EQ(stats["frames_per_s"], 14.5);
+  StoredOctomap octomap;
+  EXPECT_EQ(db->ReadOctomap(&octomap).kind(), StorageErrorKind::kNotFound);
+  const std::string bytes("# Octomap OcTree binary file\n\0\1\2", 33);
+  ASSERT_TRUE(db->WriteOctomap(run, 0.05, bytes).ok());
+  ASSERT_TRUE(db->ReadOctomap(&octomap).ok());
+  EXPECT_EQ(octomap.bytes, bytes);
+  EXPECT_DOUBLE_EQ(octomap.resolution_m, 0.05);
+
+  ASSERT_TRUE(db->EndRun(run, 5555).ok());
+  std::vector<RunInfo> runs;
+  ASSERT_TRUE(db->ListRuns(&runs).ok());
+  ASSERT_EQ(runs.size(), 1u);
+  EXPECT_EQ(runs[0].status, RunStatus::kFinished);
+  EXPECT_EQ(runs[0].started_ns, 1234);
+  EXPECT_EQ(runs[0].ended_ns, 5555);
+  EXPECT_EQ(runs[0].program_version, "0.1.0-test");
+  CameraCalibration calibration;
+  std::string error;
+  ASSERT_TRUE(ParseCalibrationYaml(runs[0].calibration_yaml, &calibration, &error)) << error;
+  EXPECT_DOUBLE_EQ(calibration.mount.pitch_deg, 22.0);
+
+  MapInfo info;
+  ASSERT_TRUE(db->Info(&info).ok());
+  EXPECT_EQ(info.runs, 1);
+  EXPECT_EQ(info.frames, 4);
+  EXPECT_EQ(info.keyframes, 1);
+  EXPECT_EQ(info.local_maps, 1);
+  EXPECT_EQ(info.tiles, 2);
+  EXPECT_EQ(info.landmarks, 2);
+  EXPECT_EQ(info.octomap_bytes, 33);
+  EXPECT_DOUBLE_EQ(info.resolution_m, 0.05);
+  ASSERT_TRUE(info.extent_min_m && info.extent_max_m);
+  EXPECT_NEAR(info.extent_min_m->x(), -0.05, 1e-12);
+  EXPECT_NEAR(info.extent_min_m->y(), -0.05, 1e-12);
+  EXPECT_NEAR(info.extent_max_m->x(), 0.20, 1e-12);
+  EXPECT_NEAR(info.extent_max_m->y(), 0.25, 1e-12);
+  EXPECT_GT(info.file_size_bytes, 0);
+  std::string integrity;
+  ASSERT_TRUE(db->CheckIntegrity(&integrity).ok());
+  EXPECT_EQ(integrity, "ok");
+
+  // Writes to a run that does not exist are refused.
+  EXPECT_EQ(db->WriteFrames(run + 100, frames).kind(), StorageErrorKind::kInvalidArgument);
+}
+
+INSTANTIATE_TEST_SUITE_P(FileAndMemory, MapDatabaseRoundTrip, ::testing::Values(true, false),
+                         [](const auto& param_info) { return param_info.param ? "File" : "Memory"; });
+
+TEST(MapDatabase, SecondRunExtendsTheMapAndUsesWal) {
+  TempDir dir;
+  const std::string path = dir.File("map.db");
+  MakeSmallMap(path);
+  auto db = MustOpen(path, OpenMode::kReadWrite);
+  ASSERT_TRUE(db);
+  const std::int64_t run2 = MustBeginRun(db.get(), 5000);
+  FrameRecord f;
+  f.index = 0;
+  f.map_from_base_raw = {5.0, 5.0, 1.0};
+  ASSERT_TRUE(db->WriteKeyframe(run2, f, TestLocalMap(160, 9)).ok());
+  std::vector<RunInfo> runs;
+  ASSERT_TRUE(db->ListRuns(&runs).ok());
+  ASSERT_EQ(runs.size(), 2u);
+  EXPECT_EQ(runs[1].status, RunStatus::kRunning);
+  std::vector<TrajectoryPoint> all;
+  ASSERT_TRUE(db->ReadTrajectory(std::nullopt, PoseSource::kRaw, &all).ok());
+  EXPECT_EQ(all.size(), 4u);
+  EXPECT_EQ(all.back().run_id, run2);
+  // WAL mode is set in the file (read back by SQLite itself).
+  sqlite3* raw = nullptr;
+  ASSERT_EQ(sqlite3_open_v2(path.c_str(), &raw, SQLITE_OPEN_READONLY, nullptr), SQLITE_OK);
+  sqlite3_stmt* s = nullptr;
+  ASSERT_EQ(sqlite3_prepare_v2(raw, "PRAGMA journal_mode", -1, &s, nullptr), SQLITE_OK);
+  ASSERT_EQ(sqlite3_step(s), SQLITE_ROW);
+  EXPECT_STREQ(reinterpret_cast<const char*>(sqlite3_column_text(s, 0)), "wal");
+  sqlite3_finalize(s);
+  sqlite3_close(raw);
+}
+
+TEST(MapDatabase, ReaderSeesCommitsWhileWriterWrites) {
+  TempDir dir;
+  const std::string path = dir.File("map.db");
+  auto writer = MustOpen(path, OpenMode::kCreate);
+  ASSERT_TRUE(writer);
+  const std::int64_t run = MustBeginRun(writer.get());
+  auto reader = MustOpen(path, OpenMode::kReadOnly);
+  ASSERT_TRUE(reader);
+  for (int k = 0; k < 5; ++k) {
+    FrameRecord f;
+    f.index = k;
+    ASSERT_TRUE(writer->WriteKeyframe(run, f, TestLocalMap(64, k)).ok());
+    std::vector<TrajectoryPoint> seen;
+    ASSERT_TRUE(reader->ReadTrajectory(run, PoseSource::kRaw, &seen).ok());
+    EXPECT_EQ(seen.size(), static_cast<std::size_t>(k + 1));
+  }
+  // The reader cannot write.
+  std::int64_t other = 0;
+  const StorageStatus st = reader->BeginRun(TestCalibration(), "", "x", 0, &other);
+  EXPECT_EQ(st.kind(), StorageErrorKind::kReadOnly) << st.message();
+}
+
+void ExpectRefused(const std::string& path, OpenMode mode, StorageErrorKind kind,
+                   const std::string& words) {
+  std::unique_ptr<MapDatabase> db;
+  const StorageStatus st = MapDatabase::Open(path, mode, &db);
+  EXPECT_FALSE(st.ok());
+  EXPECT_EQ(st.kind(), kind) << st.message();
+  EXPECT_FALSE(db);
+  EXPECT_EQ(st.message().rfind(path + ": ", 0), 0u) << st.message();
+  EXPECT_NE(st.message().find(words), std::string::npos) << st.message();
+  EXPECT_EQ(st.message().find('\n'), std::string::npos);
+}
+
+TEST(MapDatabase, RefusesFilesThatAreNotMapsAndLeavesThemAlone) {
+  TempDir dir;
+  const std::string text = dir.File("notes.txt");
+  testing::WriteFileBytes(text, "these are not the maps you are looking for\n");
+  for (OpenMode mode : {OpenMode::kReadOnly, OpenMode::kReadWrite, OpenMode::kCreate}) {
+    ExpectRefused(text, mode, StorageErrorKind::kNotADatabase, "not an SQLite database");
+  }
+  EXPECT_EQ(testing::ReadFileBytes(text), "these are not the maps you are looking for\n");
+  EXPECT_FALSE(std::filesystem::exists(text + "-wal"));
+
+  ExpectRefused(dir.File("missing.db"), OpenMode::kReadOnly, StorageErrorKind::kNotFound,
+                "no such file");
+  EXPECT_FALSE(std::filesystem::exists(dir.File("missing.db")));
+
+  const std::string empty = dir.File("empty.db");
+  testing::WriteFileBytes(empty, "");
+  ExpectRefused(empty, OpenMode::kReadOnly, StorageErrorKind::kNotAMap, "empty");
+
+  const std::string other = dir.File("other.db");
+  RawExec(other, "CREATE TABLE recipes (name TEXT); INSERT INTO recipes VALUES ('soup');");
+  const std::string other_bytes = testing::ReadFileBytes(other);
+  ExpectRefused(other, OpenMode::kCreate, StorageErrorKind::kNotAMap, "not a monoplane map");
+  ExpectRefused(other, OpenMode::kReadOnly, StorageErrorKind::kNotAMap, "not a monoplane map");
+  EXPECT_EQ(testing::ReadFileBytes(other), other_bytes);
+}
+
+TEST(MapDatabase, RefusesTruncatedAndCorruptFiles) {
+  TempDir dir;
+  const std::string path = dir.File("map.db");
+  MakeSmallMap(path);
+  ASSERT_FALSE(std::filesystem::exists(path + "-wal"));  // checkpointed at close
+  const std::string good = testing::ReadFileBytes(path);
+  ASSERT_GT(good.size(), 8192u);
+
+  const std::string truncated = dir.File("truncated.db");
+  testing::WriteFileBytes(truncated, good.substr(0, good.size() / 2));
+  ExpectRefused(truncated, OpenMode::kReadOnly, StorageErrorKind::kCorrupt, "truncated");
+  ExpectRefused(truncated, OpenMode::kReadWrite, StorageErrorKind::kCorrupt, "truncated");
+  EXPECT_EQ(testing::ReadFileBytes(truncated), good.substr(0, good.size() / 2));
+
+  const std::string header_only = dir.File("header_only.db");
+  testing::WriteFileBytes(header_only, good.substr(0, 50));
+  ExpectRefused(header_only, OpenMode::kReadOnly, StorageErrorKind::kCorrupt, "truncated");
+
+  // Garbage over the schema page (page 1 after the 100-byte file header).
+  std::string damaged = good;
+  for (std::size_t i = 100; i < 4096 && i < damaged.size(); ++i) {
+    damaged[i] = static_cast<char>((i * 7919) & 0xFF);
+  }
+  const std::string corrupt = dir.File("corrupt.db");
+  testing::WriteFileBytes(corrupt, damaged);
+  ExpectRefused(corrupt, OpenMode::kReadOnly, StorageErrorKind::kCorrupt, "corrupt");
+  EXPECT_EQ(testing::ReadFileBytes(corrupt), damaged);
+}
+
+TEST(MapDatabase, RefusesANewerSchemaWithItsVersion) {
+  TempDir dir;
+  const std::string path = dir.File("map.db");
+  MakeSmallMap(path);
+  RawExec(path, "INSERT INTO schema_migrations (version, description) VALUES (2, 'from the future')");
+  const std::string before = testing::ReadFileBytes(path);
+  for (OpenMode mode : {OpenMode::kReadOnly, OpenMode::kReadWrite, OpenMode::kCreate}) {
+    ExpectRefused(path, mode, StorageErrorKind::kNewerSchema,
+                  "map schema version 2 is newer than this program supports (1)");
+  }
+  EXPECT_EQ(testing::ReadFileBytes(path), before);
+}
+
+// Checks, as the user running it, that a read-only map is refused for writing and readable.
+// Returns a process exit code: 0 when all holds.
+int CheckReadOnlyFile(const std::string& path) {
+  std::unique_ptr<MapDatabase> db;
+  StorageStatus st = MapDatabase::Open(path, OpenMode::kReadWrite, &db);
+  if (st.kind() != StorageErrorKind::kReadOnly ||
+      st.message() != path + ": file is read-only (no write permission)") {
+    std::fprintf(stderr, "read-write open: %s\n", st.message().c_str());
+    return 3;
+  }
+  st = MapDatabase::Open(path, OpenMode::kReadOnly, &db);
+  if (!st.ok()) {
+    std::fprintf(stderr, "read-only open: %s\n", st.message().c_str());
+    return 4;
+  }
+  std::vector<TrajectoryPoint> trajectory;
+  st = db->ReadTrajectory(std::nullopt, PoseSource::kRaw, &trajectory);
+  if (!st.ok() || trajectory.size() != 3) {
+    std::fprintf(stderr, "read: %s\n", st.message().c_str());
+    return 5;
+  }
+  return 0;
+}
+
+TEST(MapDatabase, ReadOnlyFileIsRefusedForWritingButReadable) {
+  TempDir dir;
+  const std::string path = dir.File("map.db");
+  MakeSmallMap(path);
+  const std::string before = testing::ReadFileBytes(path);
+  ASSERT_EQ(::chmod(path.c_str(), 0444), 0);
+  ASSERT_EQ(::chmod(dir.path().c_str(), 0777), 0);  // the reader may create its -shm file
+  if (::geteuid() != 0) {
+    EXPECT_EQ(CheckReadOnlyFile(path), 0);
+  } else {
+    // root may write any file: check as the unprivileged user 'nobody' in a child process.
+    const pid_t pid = ::fork();
+    ASSERT_GE(pid, 0);
+    if (pid == 0) {
+      if (::setgid(65534) != 0 || ::setuid(65534) != 0) ::_exit(2);
+      ::_exit(CheckReadOnlyFile(path));
+    }
+    int status = 0;
+    ASSERT_EQ(::waitpid(pid, &status, 0), pid);
+    ASSERT_TRUE(WIFEXITED(status));
+    EXPECT_EQ(WEXITSTATUS(status), 0);
+  }
+  EXPECT_EQ(testing::ReadFileBytes(path), before);
+}
+
+TEST(MapDatabase, DiskFullIsReportedAndKeepsWhatWasCommitted) {
+  TempDir dir;
+  const std::string path = dir.File("map.db");
+  MakeSmallMap(path);
+  MapDatabase::Options options;
+  options.max_page_count = 0;
+  std::int64_t pages = 0;
+  {
+    auto db = MustOpen(path, OpenMode::kReadWrite);
+    MapInfo info;
+    ASSERT_TRUE(db->Info(&info).ok());
+    pages = info.file_size_bytes / 4096;
+  }
+  options.max_page_count = pages + 4;
+  auto db = MustOpen(path, OpenMode::kReadWrite, options);
+  ASSERT_TRUE(db);
+  const std::int64_t run = MustBeginRun(db.get());
+  int committed = 0;
+  StorageStatus st;
+  for (int k = 0; k < 200; ++k) {
+    // Noise does not compress: each keyframe takes several pages.
+    OccupancyGrid noise(TestLocalMap(160, k).geometry, kCellFree);
+    std::mt19937 rng(k);
+    for (auto& c : noise.cells) c = static_cast<std::int8_t>(rng() % 101);
+    FrameRecord f;
+    f.index = k;
+    st = db->WriteKeyframe(run, f, noise);
+    if (!st.ok()) break;
+    ++committed;
+  }
+  ASSERT_FALSE(st.ok());
+  EXPECT_EQ(st.kind(), StorageErrorKind::kDiskFull) << st.message();
+  EXPECT_EQ(st.message().rfind(path + ": disk full", 0), 0u) << st.message();
+  db.reset();
+  auto again = MustOpen(path, OpenMode::kReadOnly);
+  ASSERT_TRUE(again);
+  std::vector<TrajectoryPoint> trajectory;
+  ASSERT_TRUE(again->ReadTrajectory(run, PoseSource::kRaw, &trajectory).ok());
+  EXPECT_EQ(static_cast<int>(trajectory.size()), committed);
+  std::string integrity;
+  ASSERT_TRUE(again->CheckIntegrity(&integrity).ok());
+  EXPECT_EQ(integrity, "ok");
+}
+
+TEST(MapDatabase, OptionsAreValidated) {
+  MapDatabase::Options options;
+  std::string error;
+  EXPECT_TRUE(options.IsValid(&error));
+  options.png_compression = 12;
+  EXPECT_FALSE(options.IsValid(&error));
+  EXPECT_EQ(error, "MapDatabase::Options::png_compression = 12. Violated constraint: 0..9");
+  std::unique_ptr<MapDatabase> db;
+  EXPECT_EQ(MapDatabase::Open(":memory:", OpenMode::kCreate, &db, options).kind(),
+            StorageErrorKind::kInvalidArgument);
+}
+
+}  // namespace
+}  // namespace monoplane

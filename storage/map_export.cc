@@ -1,0 +1,175 @@
+#include "storage/map_export.h"
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <sstream>
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+namespace monoplane {
+namespace {
+
+std::string BaseName(const std::string& path) {
+  const std::size_t slash = path.find_last_of('/');
+  return slash == std::string::npos ? path : path.substr(slash + 1);
+}
+
+bool WriteText(const std::string& text, const std::string& path, std::string* error) {
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  if (!out) {
+    *error = path + ": cannot write (" + std::strerror(errno) + ")";
+    return false;
+  }
+  out.write(text.data(), static_cast<std::streamsize>(text.size()));
+  out.close();
+  if (!out) {
+    *error = path + ": write failed (" + std::strerror(errno) + ")";
+    return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+std::string MapServerImagePath(const std::string& yaml_path) {
+  const std::size_t slash = yaml_path.find_last_of('/');
+  const std::size_t dot = yaml_path.find_last_of('.');
+  const bool has_ext = dot != std::string::npos && (slash == std::string::npos || dot > slash);
+  return (has_ext ? yaml_path.substr(0, dot) : yaml_path) + ".pgm";
+}
+
+bool WriteMapServerFiles(const OccupancyGrid& grid, const std::string& yaml_path,
+                         std::string* error) {
+  const GridGeometry& g = grid.geometry;
+  if (g.width <= 0 || g.height <= 0 || grid.cells.size() != g.NumCells()) {
+    *error = yaml_path + ": nothing to export (the map holds no observed grid cells)";
+    return false;
+  }
+  const std::string pgm_path = MapServerImagePath(yaml_path);
+  std::string pgm = "P5\n" + std::to_string(g.width) + " " + std::to_string(g.height) + "\n255\n";
+  const std::size_t header = pgm.size();
+  pgm.resize(header + g.NumCells());
+  for (int row = 0; row < g.height; ++row) {
+    // PGM rows run top (highest y) to bottom.
+    const int grid_row = g.height - 1 - row;
+    for (int col = 0; col < g.width; ++col) {
+      const std::int8_t v = grid.At(col, grid_row);
+      const unsigned char px = v < 0 ? 205 : v >= 65 ? 0 : v <= 25 ? 254 : 205;
+      pgm[header + static_cast<std::size_t>(row) * g.width + col] = static_cast<char>(px);
+    }
+  }
+  if (!WriteText(pgm, pgm_path, error)) return false;
+  char yaml[512];
+  std::snprintf(yaml, sizeof(yaml),
+                "image: %s\nmode: trinary\nresolution: %.9g\norigin: [%.9g, %.9g, 0.0]\n"
+                "negate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.25\n",
+                BaseName(pgm_path).c_str(), g.resolution_m, g.origin_x_m, g.origin_y_m);
+  return WriteText(yaml, yaml_path, error);
+}
+
+bool WriteTumTrajectory(const std::vector<TrajectoryPoint>& trajectory, const std::string& path,
+                        std::string* error) {
+  std::string text = "# timestamp tx ty tz qx qy qz qw (monoplane, map frame)\n";
+  char line[256];
+  for (const TrajectoryPoint& p : trajectory) {
+    const double yaw = p.map_from_base.yaw;
+    const TimestampNs s = p.stamp_ns;
+    // Seconds with all nine decimals, exact for any int64 stamp.
+    const long long whole = s / 1000000000, frac = s % 1000000000;
+    const bool negative = s < 0 && (whole == 0);
+    std::snprintf(line, sizeof(line), "%s%lld.%09lld %.9f %.9f 0 0 0 %.9f %.9f\n",
+                  negative ? "-" : "", whole, std::llabs(frac), p.map_from_base.x,
+                  p.map_from_base.y, std::sin(yaw / 2.0), std::cos(yaw / 2.0));
+    text += line;
+  }
+  return WriteText(text, path, error);
+}
+
+bool WriteBytesFile(const std::string& bytes, const std::string& path, std::string* error) {
+  return WriteText(bytes, path, error);
+}
+
+bool MapPictureOptions::IsValid(std::string* error) const {
+  if (pixels_per_cell < 1 || pixels_per_cell > 16) {
+    *error = "MapPictureOptions::pixels_per_cell = " + std::to_string(pixels_per_cell) +
+             ". Violated constraint: 1..16";
+    return false;
+  }
+  if (max_side_px < 64) {
+    *error = "MapPictureOptions::max_side_px = " + std::to_string(max_side_px) +
+             ". Violated constraint: >= 64";
+    return false;
+  }
+  return true;
+}
+
+cv::Mat RenderMapPicture(const OccupancyGrid& grid, const std::vector<TrajectoryPoint>& trajectory,
+                         const MapPictureOptions& options) {
+  const GridGeometry& g = grid.geometry;
+  if (g.width <= 0 || g.height <= 0) return cv::Mat();
+  cv::Mat cells(g.height, g.width, CV_8UC3);
+  for (int row = 0; row < g.height; ++row) {
+    auto* out = cells.ptr<cv::Vec3b>(g.height - 1 - row);
+    for (int col = 0; col < g.width; ++col) {
+      const std::int8_t v = grid.At(col, row);
+      const std::uint8_t grey = v < 0 ? 160 : static_cast<std::uint8_t>(255 - v * 255 / 100);
+      out[col] = cv::Vec3b(grey, grey, grey);
+    }
+  }
+  int scale = std::max(1, std::min(options.pixels_per_cell,
+                                   options.max_side_px / std::max(g.width, g.height)));
+  cv::Mat picture;
+  cv::resize(cells, picture, cv::Size(g.width * scale, g.height * scale), 0, 0, cv::INTER_NEAREST);
+  // Shift 4 bits of sub-pixel precision for smooth lines.
+  constexpr int kShift = 4;
+  const double px_per_m = scale / g.resolution_m;
+  auto to_px = [&](const Pose2& p) {
+    const double u = (p.x - g.origin_x_m) * px_per_m;
+    const double v = picture.rows - (p.y - g.origin_y_m) * px_per_m;
+    return cv::Point(static_cast<int>(std::lround(u * (1 << kShift))),
+                     static_cast<int>(std::lround(v * (1 << kShift))));
+  };
+  static const cv::Scalar kColours[] = {{40, 40, 220}, {220, 120, 30}, {40, 170, 40},
+                                        {200, 40, 200}, {30, 160, 220}};
+  const int thickness = std::max(1, scale / 2);
+  for (std::size_t k = 0; k < trajectory.size(); ++k) {
+    const TrajectoryPoint& p = trajectory[k];
+    const cv::Scalar colour = kColours[static_cast<std::size_t>(p.run_id) % 5];
+    const bool run_start = k == 0 || trajectory[k - 1].run_id != p.run_id;
+    if (run_start) {
+      cv::circle(picture, to_px(p.map_from_base), (3 * thickness + 2) << kShift, colour, -1,
+                 cv::LINE_AA, kShift);
+    } else {
+      cv::line(picture, to_px(trajectory[k - 1].map_from_base), to_px(p.map_from_base), colour,
+               thickness, cv::LINE_AA, kShift);
+    }
+  }
+  return picture;
+}
+
+bool WriteMapPicture(const OccupancyGrid& grid, const std::vector<TrajectoryPoint>& trajectory,
+                     const MapPictureOptions& options, const std::string& path, std::string* error) {
+  if (!options.IsValid(error)) return false;
+  const cv::Mat picture = RenderMapPicture(grid, trajectory, options);
+  if (picture.empty()) {
+    *error = path + ": nothing to draw (the map holds no observed grid cells)";
+    return false;
+  }
+  try {
+    if (!cv::imwrite(path, picture)) {
+      *error = path + ": cannot write the PNG";
+      return false;
+    }
+  } catch (const cv::Exception& e) {
+    *error = path + ": cannot write the PNG (" + e.what() + ")";
+    return false;
+  }
+  return true;
+}
+
+}  // namespace monoplane

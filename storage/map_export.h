@@ -1,0 +1,44 @@
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "perception/geometry/occupancy_grid.h"
+#include "storage/map_database.h"
+
+namespace monoplane {
+
+// Exports to the formats of ../shared/INTERFACES.md. Each returns false with a message naming the
+// file and the cause in *error.
+
+// ROS map_server: `yaml_path` (image, mode: trinary, resolution, origin [x, y, 0], negate 0,
+// occupied_thresh 0.65, free_thresh 0.25) and a binary PGM beside it (the YAML name with .pgm):
+// 0 occupied, 254 free, 205 unknown; the top row is the highest y; origin = lower-left corner.
+bool WriteMapServerFiles(const OccupancyGrid& grid, const std::string& yaml_path,
+                         std::string* error);
+// The PGM path WriteMapServerFiles writes beside `yaml_path`.
+std::string MapServerImagePath(const std::string& yaml_path);
+
+// TUM trajectory: one line a frame, `t x y z qx qy qz qw` (seconds, metres; z = 0, a rotation
+// about z only), in the order given.
+bool WriteTumTrajectory(const std::vector<TrajectoryPoint>& trajectory, const std::string& path,
+                        std::string* error);
+
+// Writes bytes as they are (the stored OctoMap as a .bt file).
+bool WriteBytesFile(const std::string& bytes, const std::string& path, std::string* error);
+
+struct MapPictureOptions {
+  int pixels_per_cell = 2;       // 1..16; reduced when the picture would exceed max_side_px
+  int max_side_px = 4096;        // >= 64
+  bool IsValid(std::string* error) const;
+};
+// A picture for people: free white, occupied black, unknown grey, the trajectory of each run in
+// its own colour with a dot at its start; top row = highest y. BGR 8-bit.
+cv::Mat RenderMapPicture(const OccupancyGrid& grid, const std::vector<TrajectoryPoint>& trajectory,
+                         const MapPictureOptions& options);
+bool WriteMapPicture(const OccupancyGrid& grid, const std::vector<TrajectoryPoint>& trajectory,
+                     const MapPictureOptions& options, const std::string& path, std::string* error);
+
+}  // namespace monoplane

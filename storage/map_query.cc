@@ -1,0 +1,269 @@
+#include "storage/map_query.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "storage/map_codec.h"
+
+namespace monoplane {
+
+const char* CellStateName(CellState state) {
+  switch (state) {
+    case CellState::kUnknown: return "unknown";
+    case CellState::kFree: return "free";
+    case CellState::kOccupied: return "occupied";
+  }
+  return "unknown";
+}
+
+const char* PathStateName(PathState state) {
+  switch (state) {
+    case PathState::kClear: return "clear";
+    case PathState::kBlocked: return "blocked";
+    case PathState::kNotKnownClear: return "not-known-clear";
+  }
+  return "not-known-clear";
+}
+
+namespace {
+
+constexpr int kN = TiledGrid::kTileSize;
+
+// The trinary rule on log-odds (no exp per cell); near a threshold it falls back to the
+// probability so that the answer matches ToOccupancyGrid exactly.
+class Classifier {
+ public:
+  explicit Classifier(const TrinaryThresholds& t)
+      : thresholds_(t),
+        occupied_l_(static_cast<float>(std::log(t.occupied / (1.0 - t.occupied)))),
+        free_l_(static_cast<float>(std::log(t.free / (1.0 - t.free)))) {}
+
+  CellState operator()(const TiledGrid::Tile& tile, int k) const {
+    if (!CellObserved(tile, k)) return CellState::kUnknown;
+    const float l = tile.log_odds[k];
+    if (std::abs(l - occupied_l_) < 1e-3f || std::abs(l - free_l_) < 1e-3f) {
+      const double p = TiledGrid::Probability(l);
+      return p >= thresholds_.occupied ? CellState::kOccupied
+             : p <= thresholds_.free   ? CellState::kFree
+                                       : CellState::kUnknown;
+    }
+    return l >= occupied_l_ ? CellState::kOccupied
+           : l <= free_l_   ? CellState::kFree
+                            : CellState::kUnknown;
+  }
+
+ private:
+  TrinaryThresholds thresholds_;
+  float occupied_l_, free_l_;
+};
+
+// Per-cell access that remembers the last tile (queries walk cells in order).
+class CellReader {
+ public:
+  CellReader(const TiledGrid& grid, const TrinaryThresholds& t) : grid_(grid), classify_(t) {}
+  CellState State(const Eigen::Vector2i& cell) {
+    const TiledGrid::TileKey key = TiledGrid::TileOf(cell);
+    if (key != key_ || first_) {
+      first_ = false;
+      key_ = key;
+      const auto it = grid_.tiles().find(key);
+      tile_ = it == grid_.tiles().end() ? nullptr : &it->second;
+    }
+    return tile_ == nullptr ? CellState::kUnknown : classify_(*tile_, TiledGrid::IndexInTile(cell));
+  }
+
+ private:
+  const TiledGrid& grid_;
+  Classifier classify_;
+  TiledGrid::TileKey key_{0, 0};
+  bool first_ = true;
+  const TiledGrid::Tile* tile_ = nullptr;
+};
+
+int FloorCell(double x_m, double res) { return static_cast<int>(std::floor(x_m / res)); }
+// The last cell a box ending at x_m intersects (its open upper edge).
+int LastCell(double x_m, double res) { return static_cast<int>(std::ceil(x_m / res - 1e-9)) - 1; }
+
+}  // namespace
+
+PointQuery QueryPoint(const TiledGrid& grid, const Eigen::Vector2d& point_m,
+                      const TrinaryThresholds& thresholds) {
+  PointQuery q;
+  q.cell = grid.CellOf(point_m);
+  const TiledGrid::Tile* tile = grid.FindTile(q.cell);
+  if (tile == nullptr) return q;
+  const int k = TiledGrid::IndexInTile(q.cell);
+  q.observed = CellObserved(*tile, k);
+  if (!q.observed) return q;
+  q.state = Classifier(thresholds)(*tile, k);
+  q.probability = TiledGrid::Probability(tile->log_odds[k]);
+  if (!std::isnan(tile->height_m[k])) q.height_m = tile->height_m[k];
+  q.last_seen_ns = tile->last_seen_ns[k];
+  return q;
+}
+
+RegionQuery QueryRegion(const TiledGrid& grid, const Eigen::Vector2d& corner_a_m,
+                        const Eigen::Vector2d& corner_b_m, bool want_raster,
+                        const TrinaryThresholds& thresholds) {
+  const double res = grid.resolution_m();
+  const Eigen::Vector2d lo = corner_a_m.cwiseMin(corner_b_m), hi = corner_a_m.cwiseMax(corner_b_m);
+  RegionQuery q;
+  q.min_cell = {FloorCell(lo.x(), res), FloorCell(lo.y(), res)};
+  q.max_cell = {std::max(q.min_cell.x(), LastCell(hi.x(), res)),
+                std::max(q.min_cell.y(), LastCell(hi.y(), res))};
+  const int width = q.max_cell.x() - q.min_cell.x() + 1;
+  const int height = q.max_cell.y() - q.min_cell.y() + 1;
+  if (want_raster) {
+    GridGeometry g;
+    g.resolution_m = res;
+    g.origin_x_m = q.min_cell.x() * res;
+    g.origin_y_m = q.min_cell.y() * res;
+    g.width = width;
+    g.height = height;
+    q.raster.emplace(g, kCellUnknown);
+  }
+  const Classifier classify(thresholds);
+  std::int64_t counts[3] = {0, 0, 0};
+  for (int row = 0; row < height; ++row) {
+    const int j = q.min_cell.y() + row;
+    std::int8_t* out = want_raster ? q.raster->cells.data() + static_cast<std::size_t>(row) * width
+                                   : nullptr;
+    int i = q.min_cell.x();
+    while (i <= q.max_cell.x()) {
+      // One run of cells inside one tile.
+      const Eigen::Vector2i cell(i, j);
+      const TiledGrid::TileKey key = TiledGrid::TileOf(cell);
+      const int span_end = std::min(q.max_cell.x(), (key.first + 1) * kN - 1);
+      const int n = span_end - i + 1;
+      const TiledGrid::Tile* tile = grid.FindTile(cell);
+      if (tile == nullptr) {
+        counts[static_cast<int>(CellState::kUnknown)] += n;  // raster already unknown
+      } else {
+        const int k0 = TiledGrid::IndexInTile(cell);
+        for (int d = 0; d < n; ++d) {
+          const CellState s = classify(*tile, k0 + d);
+          ++counts[static_cast<int>(s)];
+          if (out != nullptr) {
+            out[i - q.min_cell.x() + d] = s == CellState::kOccupied ? kCellOccupied
+                                          : s == CellState::kFree   ? kCellFree
+                                                                    : kCellUnknown;
+          }
+        }
+      }
+      i = span_end + 1;
+    }
+  }
+  q.unknown = counts[static_cast<int>(CellState::kUnknown)];
+  q.free = counts[static_cast<int>(CellState::kFree)];
+  q.occupied = counts[static_cast<int>(CellState::kOccupied)];
+  return q;
+}
+
+std::optional<NearestObstacle> QueryNearestObstacle(const TiledGrid& grid,
+                                                    const Eigen::Vector2d& point_m,
+                                                    double max_radius_m,
+                                                    const TrinaryThresholds& thresholds) {
+  const double res = grid.resolution_m();
+  const int i0 = FloorCell(point_m.x() - max_radius_m, res);
+  const int i1 = FloorCell(point_m.x() + max_radius_m, res);
+  const int j0 = FloorCell(point_m.y() - max_radius_m, res);
+  const int j1 = FloorCell(point_m.y() + max_radius_m, res);
+  CellReader reader(grid, thresholds);
+  std::optional<NearestObstacle> best;
+  for (int j = j0; j <= j1; ++j) {
+    for (int i = i0; i <= i1; ++i) {
+      const Eigen::Vector2i cell(i, j);
+      const Eigen::Vector2d c = grid.CellCenter(cell);
+      const double d = (c - point_m).norm();
+      if (d > max_radius_m || (best && d >= best->distance_m)) continue;
+      if (reader.State(cell) != CellState::kOccupied) continue;
+      best = NearestObstacle{cell, c, d};
+    }
+  }
+  return best;
+}
+
+QueryBox PathQueryBox(const std::vector<Eigen::Vector2d>& path_m, double robot_radius_m) {
+  QueryBox box{Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero()};
+  if (path_m.empty()) return box;
+  box.min_m = box.max_m = path_m.front();
+  for (const Eigen::Vector2d& p : path_m) {
+    box.min_m = box.min_m.cwiseMin(p);
+    box.max_m = box.max_m.cwiseMax(p);
+  }
+  box.min_m.array() -= robot_radius_m;
+  box.max_m.array() += robot_radius_m;
+  return box;
+}
+
+PathClearance QueryPathClearance(const TiledGrid& grid, const std::vector<Eigen::Vector2d>& path_m,
+                                 double robot_radius_m, const TrinaryThresholds& thresholds) {
+  PathClearance result;
+  if (path_m.empty()) return result;
+  const double r = std::max(0.0, robot_radius_m);
+  const double res = grid.resolution_m();
+  // Segments with their start arc length; a single point is a segment of length zero.
+  struct Segment {
+    Eigen::Vector2d a, u;
+    double length, start_s;
+  };
+  std::vector<Segment> segments;
+  double s = 0.0;
+  for (std::size_t k = 0; k + 1 < path_m.size() || (k == 0 && path_m.size() == 1); ++k) {
+    const Eigen::Vector2d a = path_m[k];
+    const Eigen::Vector2d b = path_m.size() == 1 ? a : path_m[k + 1];
+    const double length = (b - a).norm();
+    segments.push_back({a, length > 0 ? Eigen::Vector2d((b - a) / length) : Eigen::Vector2d::Zero(),
+                        length, s});
+    s += length;
+  }
+  // The arc length at which a disk of radius r moving along the path first covers point c, or
+  // a negative value when it never does.
+  auto first_touch = [&](const Eigen::Vector2d& c) {
+    for (const Segment& seg : segments) {
+      const Eigen::Vector2d w = c - seg.a;
+      const double t = w.dot(seg.u);
+      const double h2 = w.squaredNorm() - t * t;
+      if (h2 > r * r) continue;
+      const double dt = std::sqrt(std::max(0.0, r * r - h2));
+      if (t + dt < 0.0 || t - dt > seg.length) continue;
+      return seg.start_s + std::max(0.0, t - dt);  // segments in order: the first hit is earliest
+    }
+    return -1.0;
+  };
+  const QueryBox box = PathQueryBox(path_m, r);
+  const int i0 = FloorCell(box.min_m.x(), res), i1 = FloorCell(box.max_m.x(), res);
+  const int j0 = FloorCell(box.min_m.y(), res), j1 = FloorCell(box.max_m.y(), res);
+  CellReader reader(grid, thresholds);
+  double best_block = std::numeric_limits<double>::infinity();
+  double best_unknown = std::numeric_limits<double>::infinity();
+  for (int j = j0; j <= j1; ++j) {
+    for (int i = i0; i <= i1; ++i) {
+      const Eigen::Vector2i cell(i, j);
+      const double at = first_touch(grid.CellCenter(cell));
+      if (at < 0.0) continue;
+      ++result.cells_checked;
+      const CellState state = reader.State(cell);
+      if (state == CellState::kOccupied && at < best_block) {
+        best_block = at;
+        result.first_blocking_cell = cell;
+        result.first_blocking_center_m = grid.CellCenter(cell);
+        result.blocking_distance_along_m = at;
+      } else if (state == CellState::kUnknown) {
+        ++result.unknown_cells;
+        if (at < best_unknown) {
+          best_unknown = at;
+          result.first_unknown_cell = cell;
+          result.unknown_distance_along_m = at;
+        }
+      }
+    }
+  }
+  result.state = result.first_blocking_cell ? PathState::kBlocked
+                 : result.unknown_cells > 0 ? PathState::kNotKnownClear
+                                            : PathState::kClear;
+  return result;
+}
+
+}  // namespace monoplane
