@@ -1,0 +1,257 @@
+#include "perception/ground_motion.h"
+
+#include <cmath>
+#include <random>
+
+#include <Eigen/Dense>
+#include <opencv2/imgproc.hpp>
+#include <opencv2/video/tracking.hpp>
+
+namespace monoplane {
+namespace {
+
+Eigen::Vector2d Project(const Eigen::Matrix3d& pixel_from_floor, const Pose2& t,
+                        const Eigen::Vector2d& floor1) {
+  return ApplyHomography(pixel_from_floor, t * floor1);
+}
+
+// The rigid planar motion taking a0 -> b0 and a1 -> b1 (rotation from the segment directions).
+std::optional<Pose2> TwoPointMotion(const Eigen::Vector2d& a0, const Eigen::Vector2d& a1,
+                                    const Eigen::Vector2d& b0, const Eigen::Vector2d& b1) {
+  const Eigen::Vector2d da = a1 - a0, db = b1 - b0;
+  if (da.norm() < 0.05 || db.norm() < 0.05) return std::nullopt;
+  const double yaw = std::atan2(db.y(), db.x()) - std::atan2(da.y(), da.x());
+  Pose2 t{0, 0, WrapAngle(yaw)};
+  const Eigen::Vector2d ca = 0.5 * (a0 + a1), cb = 0.5 * (b0 + b1);
+  const Eigen::Vector2d offset = cb - t.Rotation() * ca;
+  t.x = offset.x();
+  t.y = offset.y();
+  return t;
+}
+
+}  // namespace
+
+const char* ToString(GroundMotion::Status status) {
+  switch (status) {
+    case GroundMotion::Status::kOk: return "ok";
+    case GroundMotion::Status::kFallback: return "fallback";
+    case GroundMotion::Status::kFailed: return "failed";
+  }
+  return "?";
+}
+
+bool GroundMotionOptions::IsValid(std::string* error) const {
+  auto fail = [&](const std::string& what) {
+    *error = "ground_motion." + what;
+    return false;
+  };
+  if (!(strip_min_x_m >= 0 && strip_max_x_m > strip_min_x_m)) {
+    return fail("strip_min_x_m/strip_max_x_m: need 0 <= min < max");
+  }
+  if (!(strip_half_width_m > 0)) return fail("strip_half_width_m: must be > 0");
+  if (max_corners <= 0) return fail("max_corners: must be > 0");
+  if (!(corner_quality > 0 && corner_quality < 1)) return fail("corner_quality: must be in (0, 1)");
+  if (!(corner_min_distance_px >= 0)) return fail("corner_min_distance_px: must be >= 0");
+  if (lk_window_px < 5 || lk_window_px % 2 == 0) return fail("lk_window_px: must be odd and >= 5");
+  if (lk_levels < 0 || lk_levels > 6) return fail("lk_levels: must be in [0, 6]");
+  if (!(forward_backward_max_px > 0)) return fail("forward_backward_max_px: must be > 0");
+  if (ransac_iterations <= 0) return fail("ransac_iterations: must be > 0");
+  if (!(inlier_threshold_px > 0)) return fail("inlier_threshold_px: must be > 0");
+  if (min_inliers < 2) return fail("min_inliers: must be >= 2");
+  if (!(min_inlier_ratio > 0 && min_inlier_ratio <= 1)) {
+    return fail("min_inlier_ratio: must be in (0, 1]");
+  }
+  return true;
+}
+
+cv::Mat FloorStripMask(const CameraModel& camera, const GroundMotionOptions& options) {
+  const CameraIntrinsics& in = camera.calibration().intrinsics;
+  cv::Mat mask = cv::Mat::zeros(in.height, in.width, CV_8U);
+  // Walk the strip's outline densely so that the clipped, perspective-mapped polygon is right
+  // even where parts of the strip are behind the camera or outside the image.
+  std::vector<cv::Point> polygon;
+  const int n = 40;
+  auto add = [&](double x, double y) {
+    if (auto p = camera.ProjectToPixel({x, y, 0.0})) {
+      polygon.emplace_back(static_cast<int>(std::lround(std::clamp(p->x(), -1e4, 1e4))),
+                           static_cast<int>(std::lround(std::clamp(p->y(), -1e4, 1e4))));
+    }
+  };
+  const double x0 = options.strip_min_x_m, x1 = options.strip_max_x_m;
+  const double w = options.strip_half_width_m;
+  for (int i = 0; i <= n; ++i) add(x0 + (x1 - x0) * i / n, -w);
+  for (int i = 0; i <= n; ++i) add(x1, -w + 2 * w * i / n);
+  for (int i = 0; i <= n; ++i) add(x1 - (x1 - x0) * i / n, w);
+  for (int i = 0; i <= n; ++i) add(x0, w - 2 * w * i / n);
+  if (polygon.size() >= 3) {
+    std::vector<cv::Point> hull;
+    cv::convexHull(polygon, hull);
+    cv::fillConvexPoly(mask, hull, cv::Scalar(255));
+  }
+  // Never above the horizon (plus a margin), where nothing is floor.
+  if (auto horizon = camera.HorizonRow((in.width - 1) / 2.0)) {
+    const int top = std::clamp(static_cast<int>(*horizon) + 10, 0, in.height);
+    mask.rowRange(0, top).setTo(0);
+  }
+  return mask;
+}
+
+Pose2 RefinePlanarMotion(const CameraModel& camera, const std::vector<Eigen::Vector2d>& floor1,
+                         const std::vector<Eigen::Vector2d>& pixels2, const Pose2& initial) {
+  // Gauss-Newton with numeric derivatives: 3 parameters, a few dozen residual pairs.
+  Pose2 t = initial;
+  const Eigen::Matrix3d& g = camera.pixel_from_floor();
+  for (int iteration = 0; iteration < 10; ++iteration) {
+    Eigen::Matrix3d jtj = Eigen::Matrix3d::Zero();
+    Eigen::Vector3d jtr = Eigen::Vector3d::Zero();
+    for (std::size_t i = 0; i < floor1.size(); ++i) {
+      const Eigen::Vector2d r = Project(g, t, floor1[i]) - pixels2[i];
+      Eigen::Matrix<double, 2, 3> j;
+      const double steps[3] = {1e-6, 1e-6, 1e-7};
+      for (int k = 0; k < 3; ++k) {
+        Pose2 d = t;
+        (k == 0 ? d.x : k == 1 ? d.y : d.yaw) += steps[k];
+        j.col(k) = (Project(g, d, floor1[i]) - pixels2[i] - r) / steps[k];
+      }
+      jtj += j.transpose() * j;
+      jtr += j.transpose() * r;
+    }
+    const Eigen::Vector3d delta = jtj.ldlt().solve(-jtr);
+    if (!delta.allFinite()) break;
+    t.x += delta.x();
+    t.y += delta.y();
+    t.yaw = WrapAngle(t.yaw + delta.z());
+    if (delta.norm() < 1e-10) break;
+  }
+  return t;
+}
+
+GroundMotion EstimateGroundMotion(const cv::Mat& image1, const cv::Mat& image2,
+                                  const CameraModel& camera, const GroundMotionOptions& options,
+                                  const std::optional<Pose2>& prior) {
+  GroundMotion result;
+  auto fallback = [&]() {
+    if (prior) {
+      result.status = GroundMotion::Status::kFallback;
+      result.base2_from_base1 = *prior;
+    } else {
+      result.status = GroundMotion::Status::kFailed;
+    }
+    return result;
+  };
+  if (image1.empty() || image2.empty() || image1.size() != image2.size() ||
+      image1.type() != CV_8U || image2.type() != CV_8U) {
+    return fallback();
+  }
+  const cv::Mat mask = FloorStripMask(camera, options);
+  std::vector<cv::Point2f> corners1;
+  cv::goodFeaturesToTrack(image1, corners1, options.max_corners, options.corner_quality,
+                          options.corner_min_distance_px, mask, 3, false);
+  if (corners1.size() < static_cast<std::size_t>(options.min_inliers)) return fallback();
+
+  // Seed the tracker with where the floor would move under the prior motion.
+  std::vector<cv::Point2f> corners2 = corners1;
+  int flags = 0;
+  if (prior) {
+    const Eigen::Matrix3d h = FloorHomography(camera, *prior);
+    for (auto& c : corners2) {
+      const Eigen::Vector2d p = ApplyHomography(h, {c.x, c.y});
+      c = cv::Point2f(static_cast<float>(p.x()), static_cast<float>(p.y()));
+    }
+    flags = cv::OPTFLOW_USE_INITIAL_FLOW;
+  }
+  const cv::Size window(options.lk_window_px, options.lk_window_px);
+  const cv::TermCriteria criteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 30, 0.01);
+  std::vector<uchar> status_fwd, status_bwd;
+  std::vector<float> err;
+  cv::calcOpticalFlowPyrLK(image1, image2, corners1, corners2, status_fwd, err, window,
+                           options.lk_levels, criteria, flags);
+  std::vector<cv::Point2f> back = corners1;
+  cv::calcOpticalFlowPyrLK(image2, image1, corners2, back, status_bwd, err, window,
+                           options.lk_levels, criteria, cv::OPTFLOW_USE_INITIAL_FLOW);
+
+  std::vector<Eigen::Vector2d> floor1, pixels2;
+  for (std::size_t i = 0; i < corners1.size(); ++i) {
+    if (!status_fwd[i] || !status_bwd[i]) continue;
+    const double fb = std::hypot(back[i].x - corners1[i].x, back[i].y - corners1[i].y);
+    if (fb > options.forward_backward_max_px) continue;
+    ++result.num_tracked;
+    const auto f1 = camera.PixelToFloor({corners1[i].x, corners1[i].y});
+    if (!f1) continue;
+    floor1.push_back(*f1);
+    pixels2.emplace_back(corners2[i].x, corners2[i].y);
+  }
+  result.num_floor_candidates = static_cast<int>(floor1.size());
+  const int n = result.num_floor_candidates;
+  if (n < options.min_inliers) return fallback();
+
+  // RANSAC over 2-point motions, scored in image-2 pixels. Floor points in image 2 come from the
+  // homography, so an obstacle or a moving thing in the strip is an outlier.
+  const Eigen::Matrix3d& g = camera.pixel_from_floor();
+  std::vector<Eigen::Vector2d> floor2(n);
+  for (int i = 0; i < n; ++i) {
+    const auto f2 = camera.PixelToFloor(pixels2[i]);
+    floor2[i] = f2 ? *f2 : Eigen::Vector2d(NAN, NAN);
+  }
+  std::mt19937 rng(options.seed);
+  std::uniform_int_distribution<int> pick(0, n - 1);
+  const double threshold2 = options.inlier_threshold_px * options.inlier_threshold_px;
+  std::vector<int> best_inliers;
+  auto count_inliers = [&](const Pose2& t, std::vector<int>* inliers) {
+    inliers->clear();
+    for (int i = 0; i < n; ++i) {
+      if ((Project(g, t, floor1[i]) - pixels2[i]).squaredNorm() < threshold2) inliers->push_back(i);
+    }
+  };
+  std::vector<int> inliers;
+  if (prior) {
+    count_inliers(*prior, &inliers);
+    best_inliers = inliers;
+  }
+  for (int it = 0; it < options.ransac_iterations; ++it) {
+    const int a = pick(rng), b = pick(rng);
+    if (a == b || !floor2[a].allFinite() || !floor2[b].allFinite()) continue;
+    const auto t = TwoPointMotion(floor1[a], floor1[b], floor2[a], floor2[b]);
+    if (!t) continue;
+    count_inliers(*t, &inliers);
+    if (inliers.size() > best_inliers.size()) best_inliers = inliers;
+  }
+  if (static_cast<int>(best_inliers.size()) < options.min_inliers) return fallback();
+
+  // Refine on the inliers, then once more on the inliers of the refined motion.
+  Pose2 t = prior.value_or(Pose2{});
+  {
+    std::vector<Eigen::Vector2d> a, b;
+    for (int i : best_inliers) {
+      a.push_back(floor1[i]);
+      b.push_back(pixels2[i]);
+    }
+    const auto seed_motion = TwoPointMotion(a.front(), a.back(), floor2[best_inliers.front()],
+                                            floor2[best_inliers.back()]);
+    t = RefinePlanarMotion(camera, a, b, seed_motion.value_or(t));
+  }
+  for (int round = 0; round < 2; ++round) {
+    count_inliers(t, &inliers);
+    if (static_cast<int>(inliers.size()) < options.min_inliers) return fallback();
+    std::vector<Eigen::Vector2d> a, b;
+    for (int i : inliers) {
+      a.push_back(floor1[i]);
+      b.push_back(pixels2[i]);
+    }
+    t = RefinePlanarMotion(camera, a, b, t);
+  }
+  count_inliers(t, &inliers);
+  result.num_inliers = static_cast<int>(inliers.size());
+  if (result.num_inliers < options.min_inliers ||
+      result.num_inliers < options.min_inlier_ratio * n) {
+    return fallback();
+  }
+  double sum2 = 0.0;
+  for (int i : inliers) sum2 += (Project(g, t, floor1[i]) - pixels2[i]).squaredNorm();
+  result.rms_residual_px = std::sqrt(sum2 / result.num_inliers);
+  result.base2_from_base1 = t;
+  result.status = GroundMotion::Status::kOk;
+  return result;
+}
+
+}  // namespace monoplane

@@ -1,0 +1,56 @@
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "perception/frame_types.h"
+#include "perception/geometry/camera_model.h"
+
+namespace monoplane {
+
+// Options for EstimateGroundMotion: the paper's step of tracking corners and fitting the robot's
+// planar motion to the ones on the floor in a strip in front of the robot.
+struct GroundMotionOptions {
+  // The floor strip, base frame of the first image (metres): x in [strip_min_x_m, strip_max_x_m],
+  // |y| <= strip_half_width_m. Range: 0 <= min < max; half width > 0.
+  double strip_min_x_m = 0.2;
+  double strip_max_x_m = 4.0;
+  double strip_half_width_m = 1.5;
+  // Shi-Tomasi corners: at most this many (> 0), quality relative to the best (0, 1), spacing px.
+  int max_corners = 250;
+  double corner_quality = 0.005;
+  double corner_min_distance_px = 8.0;
+  // Pyramidal Lucas-Kanade: window side (odd, >= 5) and pyramid levels (>= 0).
+  int lk_window_px = 21;
+  int lk_levels = 3;
+  // A track is kept when tracking back lands within this many pixels of its start (> 0).
+  double forward_backward_max_px = 0.5;
+  // RANSAC over 2-point planar motions: iterations (> 0) and inlier threshold in image 2 (px, > 0).
+  int ransac_iterations = 200;
+  double inlier_threshold_px = 1.0;
+  // The fit is trusted with at least this many inliers (>= 2) and this inlier share (0, 1].
+  int min_inliers = 12;
+  double min_inlier_ratio = 0.25;
+  unsigned seed = 1;  // RANSAC sampling; fixed for repeatable results
+
+  bool IsValid(std::string* error) const;
+};
+
+// Estimates base2_from_base1 from two grey, undistorted images (CV_8U, the calibration's size).
+// `prior` (e.g. the previous motion) seeds the tracker and is the fallback when the fit fails.
+GroundMotion EstimateGroundMotion(const cv::Mat& image1, const cv::Mat& image2,
+                                  const CameraModel& camera, const GroundMotionOptions& options,
+                                  const std::optional<Pose2>& prior = std::nullopt);
+
+// The image region (CV_8U mask, 255 inside) whose floor points lie in the options' strip.
+cv::Mat FloorStripMask(const CameraModel& camera, const GroundMotionOptions& options);
+
+// The planar motion best explaining floor correspondences: least squares on image-2 pixel
+// residuals of pixel_from_floor * T * floor1 against pixels2, started at `initial`.
+Pose2 RefinePlanarMotion(const CameraModel& camera, const std::vector<Eigen::Vector2d>& floor1,
+                         const std::vector<Eigen::Vector2d>& pixels2, const Pose2& initial);
+
+}  // namespace monoplane

@@ -1,0 +1,490 @@
+#include "perception/obstacle_detector.h"
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
+#include <opencv2/ximgproc/slic.hpp>
+
+namespace monoplane {
+namespace {
+
+FrameResult UnknownResult(const cv::Size& size, const LocalMapOptions& map_options,
+                          PairStatus status, const std::string& message) {
+  FrameResult r;
+  r.status = status;
+  r.message = message;
+  if (size.area() > 0) {
+    r.labels = cv::Mat(size, CV_8U, cv::Scalar(static_cast<int>(PixelLabel::kUnknown)));
+    r.height_mm = cv::Mat::zeros(size, CV_16U);
+    r.num_unknown = size.area();
+  }
+  GridGeometry g;
+  g.resolution_m = map_options.resolution_m;
+  g.origin_x_m = map_options.min_x_m;
+  g.origin_y_m = map_options.min_y_m;
+  g.width = static_cast<int>(std::lround((map_options.max_x_m - map_options.min_x_m) / g.resolution_m));
+  g.height = static_cast<int>(std::lround((map_options.max_y_m - map_options.min_y_m) / g.resolution_m));
+  r.local_map = OccupancyGrid(g, kCellUnknown);
+  return r;
+}
+
+
+// One sample of the search grid.
+struct Sample {
+  PixelLabel raw = PixelLabel::kUnknown;  // from this sample alone
+  bool measured = false;                  // has a height
+  bool significant = false;               // zero disparity clearly not zero
+  double s_px = NAN;
+  double height_m = NAN;
+  double height_sigma_m = NAN;
+  double below_horizon_px = 0.0;
+  Eigen::Vector2d point_in_base2{NAN, NAN};  // triangulated footprint
+  Eigen::Vector2d floor_in_base2{NAN, NAN};  // where the pixel's ray meets the floor
+};
+
+PixelLabel Classify(const Sample& s, const ClassificationOptions& co, double camera_height_m) {
+  if (!s.measured) return s.raw;
+  const double range_m = s.point_in_base2.norm();
+  if (!(range_m <= co.max_range_m)) return PixelLabel::kUnknown;
+  // Below the horizon nothing static is higher than the camera: motion of its own.
+  if (s.below_horizon_px > 2.0 && s.height_m > 1.2 * camera_height_m) return PixelLabel::kMoving;
+  if (s.height_m >= co.obstacle_min_height_m && s.significant) return PixelLabel::kObstacle;
+  if (s.height_m <= -co.drop_off_min_depth_m && s.significant) return PixelLabel::kDropOff;
+  if (std::abs(s.height_m) < co.obstacle_min_height_m &&
+      s.height_sigma_m < co.obstacle_min_height_m && s.below_horizon_px > 0) {
+    return PixelLabel::kFloor;
+  }
+  return PixelLabel::kUnknown;
+}
+
+float Median(std::vector<float>* values) {
+  if (values->empty()) return NAN;
+  auto mid = values->begin() + values->size() / 2;
+  std::nth_element(values->begin(), mid, values->end());
+  return *mid;
+}
+
+// Superpixels of the current image at the search level, labels at input resolution.
+cv::Mat Superpixels(const cv::Mat& current, const ClassificationOptions& co, double scale) {
+  cv::Mat small;
+  cv::resize(current, small, cv::Size(), 1.0 / scale, 1.0 / scale, cv::INTER_AREA);
+  cv::Ptr<cv::ximgproc::SuperpixelSLIC> slic = cv::ximgproc::createSuperpixelSLIC(
+      small, cv::ximgproc::SLICO, std::max(4, static_cast<int>(co.segment_size_px / scale)), 10.0f);
+  slic->iterate(co.segment_iterations);
+  cv::Mat labels_small, labels;
+  slic->getLabels(labels_small);
+  cv::resize(labels_small, labels, current.size(), 0, 0, cv::INTER_NEAREST);
+  return labels;
+}
+
+// Per segment, the median height of its measured samples decides the label of all its measured
+// samples; the paper's aggregation for stability. Samples that measured nothing stay as they were.
+void AggregateBySegment(const cv::Mat& segments, const std::vector<Sample>& samples,
+                        int sample_rows, int sample_cols, int stride, double scale,
+                        const ClassificationOptions& co, double camera_height_m,
+                        std::vector<PixelLabel>* labels) {
+  double max_id = 0;
+  cv::minMaxLoc(segments, nullptr, &max_id);
+  const int n = static_cast<int>(max_id) + 1;
+  std::vector<std::vector<int>> members(n);
+  for (int i = 0; i < sample_rows; ++i) {
+    for (int j = 0; j < sample_cols; ++j) {
+      const int y = static_cast<int>((i * stride + stride / 2) * scale);
+      const int x = static_cast<int>((j * stride + stride / 2) * scale);
+      members[segments.at<int>(y, x)].push_back(i * sample_cols + j);
+    }
+  }
+  std::vector<float> heights, sigmas;
+  for (const auto& m : members) {
+    heights.clear();
+    sigmas.clear();
+    int moving = 0, significant = 0;
+    for (int k : m) {
+      const Sample& s = samples[k];
+      if (s.raw == PixelLabel::kMoving) ++moving;
+      if (!s.measured) continue;
+      heights.push_back(static_cast<float>(s.height_m));
+      sigmas.push_back(static_cast<float>(s.height_sigma_m));
+      significant += s.significant;
+    }
+    const int measured = static_cast<int>(heights.size());
+    if (moving > 0 && moving * 3 >= measured + moving) {
+      for (int k : m) {
+        if (samples[k].measured || samples[k].raw == PixelLabel::kMoving) {
+          (*labels)[k] = PixelLabel::kMoving;
+        }
+      }
+      continue;
+    }
+    if (measured < co.segment_min_samples) continue;
+    for (int k : m) {
+      const Sample& s = samples[k];
+      if (!s.measured) continue;
+      Sample median = s;
+      median.height_m = Median(&heights);
+      median.height_sigma_m = Median(&sigmas);
+      median.significant = significant * 2 >= measured;
+      (*labels)[k] = Classify(median, co, camera_height_m);
+    }
+  }
+}
+
+Eigen::Vector2d CameraCentreXyInOdom(const CameraModel& camera, const Pose2& odom_from_base) {
+  return odom_from_base * camera.CameraCentreInBase().head<2>();
+}
+
+}  // namespace
+
+const char* ToString(PairStatus status) {
+  switch (status) {
+    case PairStatus::kOk: return "ok";
+    case PairStatus::kNoParallax: return "no parallax (standstill or turning on the spot)";
+    case PairStatus::kNoMotion: return "ground motion unknown";
+    case PairStatus::kBadImage: return "bad image";
+  }
+  return "?";
+}
+
+bool ClassificationOptions::IsValid(std::string* error) const {
+  auto fail = [&](const std::string& what) {
+    *error = "classification." + what;
+    return false;
+  };
+  if (sample_stride < 1) return fail("sample_stride: must be >= 1");
+  if (!(obstacle_min_height_m > 0)) return fail("obstacle_min_height_m: must be > 0");
+  if (!(drop_off_min_depth_m > 0)) return fail("drop_off_min_depth_m: must be > 0");
+  if (!(disparity_sigma_px > 0)) return fail("disparity_sigma_px: must be > 0");
+  if (!(min_disparity_sigmas >= 0)) return fail("min_disparity_sigmas: must be >= 0");
+  if (!(min_texture > 0)) return fail("min_texture: must be > 0");
+  if (!(max_residual > 0)) return fail("max_residual: must be > 0");
+  if (!(moving_min_perpendicular_px > 0)) return fail("moving_min_perpendicular_px: must be > 0");
+  if (!(max_range_m > 0)) return fail("max_range_m: must be > 0");
+  if (median_radius < 1) return fail("median_radius: must be >= 1");
+  if (!(segment_size_px >= 4)) return fail("segment_size_px: must be >= 4");
+  if (segment_iterations < 1) return fail("segment_iterations: must be >= 1");
+  if (segment_min_samples < 1) return fail("segment_min_samples: must be >= 1");
+  return true;
+}
+
+bool LocalMapOptions::IsValid(std::string* error) const {
+  if (!(resolution_m > 0)) {
+    *error = "local_map.resolution_m: must be > 0";
+    return false;
+  }
+  if (!(min_x_m < max_x_m) || !(min_y_m < max_y_m)) {
+    *error = "local_map.min_x_m/max_x_m/min_y_m/max_y_m: need min < max";
+    return false;
+  }
+  return true;
+}
+
+bool PairSelectionOptions::IsValid(std::string* error) const {
+  if (!(min_baseline_m > 0)) {
+    *error = "pair_selection.min_baseline_m: must be > 0";
+    return false;
+  }
+  if (max_history < 2) {
+    *error = "pair_selection.max_history: must be >= 2";
+    return false;
+  }
+  return true;
+}
+
+bool DetectorOptions::IsValid(std::string* error) const {
+  return ground_motion.IsValid(error) && zero_disparity.IsValid(error) &&
+         classification.IsValid(error) && local_map.IsValid(error) &&
+         pair_selection.IsValid(error);
+}
+
+ObstacleDetector::ObstacleDetector(const CameraCalibration& calibration,
+                                   const DetectorOptions& options)
+    : camera_(calibration), options_(options) {
+  const CameraIntrinsics& in = calibration.intrinsics;
+  if (in.HasDistortion()) {
+    const cv::Matx33d k(in.fx, 0, in.cx, 0, in.fy, in.cy, 0, 0, 1);
+    const cv::Vec<double, 5> d(in.distortion[0], in.distortion[1], in.distortion[2],
+                               in.distortion[3], in.distortion[4]);
+    cv::initUndistortRectifyMap(k, d, cv::noArray(), k, cv::Size(in.width, in.height), CV_32FC1,
+                                undistort_map_x_, undistort_map_y_);
+  }
+}
+
+cv::Mat ObstacleDetector::Prepare(const cv::Mat& image, std::string* error) const {
+  const CameraIntrinsics& in = camera_.calibration().intrinsics;
+  if (image.empty()) {
+    *error = "empty image";
+    return {};
+  }
+  if (image.cols != in.width || image.rows != in.height) {
+    *error = "image is " + std::to_string(image.cols) + "x" + std::to_string(image.rows) +
+             ", the calibration expects " + std::to_string(in.width) + "x" +
+             std::to_string(in.height);
+    return {};
+  }
+  cv::Mat grey;
+  cv::Mat eight_bit = image;
+  if (image.depth() == CV_16U) {
+    image.convertTo(eight_bit, CV_8U, 1.0 / 256.0);
+  } else if (image.depth() != CV_8U) {
+    *error = "unsupported pixel type (need 8- or 16-bit)";
+    return {};
+  }
+  switch (eight_bit.channels()) {
+    case 1: grey = eight_bit; break;
+    case 3: cv::cvtColor(eight_bit, grey, cv::COLOR_BGR2GRAY); break;
+    case 4: cv::cvtColor(eight_bit, grey, cv::COLOR_BGRA2GRAY); break;
+    default:
+      *error = "unsupported number of channels: " + std::to_string(eight_bit.channels());
+      return {};
+  }
+  if (!undistort_map_x_.empty()) {
+    cv::Mat undistorted;
+    cv::remap(grey, undistorted, undistort_map_x_, undistort_map_y_, cv::INTER_LINEAR,
+              cv::BORDER_CONSTANT);
+    return undistorted;
+  }
+  return grey.isContinuous() ? grey : grey.clone();
+}
+
+FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& current,
+                                     const GroundMotion& motion) const {
+  const CameraIntrinsics& in = camera_.calibration().intrinsics;
+  const cv::Size size(in.width, in.height);
+  const ClassificationOptions& co = options_.classification;
+  if (reference.size() != size || current.size() != size || reference.type() != CV_8U ||
+      current.type() != CV_8U) {
+    return UnknownResult(size, options_.local_map, PairStatus::kBadImage,
+                         "images must be prepared grey images of the calibration's size");
+  }
+  if (motion.status == GroundMotion::Status::kFailed) {
+    FrameResult r = UnknownResult(size, options_.local_map, PairStatus::kNoMotion,
+                                  "the floor motion between the frames could not be estimated");
+    r.motion = motion;
+    return r;
+  }
+  const Pose2& t = motion.base2_from_base1;
+  // Camera baseline: without it there is no parallax and nothing is known.
+  const Eigen::Vector2d c1 = camera_.CameraCentreInBase().head<2>();
+  const double baseline_m = (t * c1 - c1).norm();
+  if (baseline_m < 0.01) {
+    FrameResult r = UnknownResult(size, options_.local_map, PairStatus::kNoParallax,
+                                  "camera moved " + std::to_string(baseline_m) + " m: no parallax");
+    r.motion = motion;
+    return r;
+  }
+
+  FrameResult r = UnknownResult(size, options_.local_map, PairStatus::kOk, "");
+  r.motion = motion;
+  const ZeroDisparityField field =
+      ComputeZeroDisparity(reference, current, camera_, t, options_.zero_disparity);
+  const Eigen::Matrix3d h_inv = FloorHomography(camera_, t).inverse();
+
+  const int stride = co.sample_stride;
+  const int sample_rows = field.s_px.rows / stride, sample_cols = field.s_px.cols / stride;
+  const Eigen::Vector3d horizon = camera_.HorizonLine();
+  const double horizon_norm = horizon.head<2>().norm();
+  // Orient the horizon line so that floor pixels have positive signed distance.
+  const Eigen::Vector2d bottom((in.width - 1) / 2.0, in.height - 1.0);
+  const double horizon_sign = horizon.dot(bottom.homogeneous()) >= 0 ? 1.0 : -1.0;
+  const double camera_height = camera_.CameraCentreInBase().z();
+
+  // Phase 1: measure every sample on its own.
+  std::vector<Sample> samples(static_cast<std::size_t>(sample_rows) * sample_cols);
+  for (int i = 0; i < sample_rows; ++i) {
+    for (int j = 0; j < sample_cols; ++j) {
+      Sample& sample = samples[i * sample_cols + j];
+      const int y = i * stride + stride / 2, x = j * stride + stride / 2;
+      const Eigen::Vector2d q(x * field.scale, y * field.scale);
+      sample.below_horizon_px = horizon_sign * horizon.dot(q.homogeneous()) / horizon_norm;
+      if (auto f = camera_.PixelToFloor(q)) sample.floor_in_base2 = *f;
+      if (field.texture.at<float>(y, x) < co.min_texture) continue;  // unknown, never floor
+      const float perpendicular = std::abs(field.perpendicular_px.at<float>(y, x));
+      if (perpendicular >= co.moving_min_perpendicular_px &&
+          perpendicular >= co.min_disparity_sigmas * field.perpendicular_sigma_px.at<float>(y, x)) {
+        sample.raw = PixelLabel::kMoving;
+        continue;
+      }
+      if (field.residual.at<float>(y, x) > co.max_residual) continue;
+      const double s = field.s_px.at<float>(y, x);
+      const double sigma_px =
+          std::max<double>(co.disparity_sigma_px, field.sigma_px.at<float>(y, x));
+      const Eigen::Vector2d u(field.ux.at<float>(y, x), field.uy.at<float>(y, x));
+      const auto tri = TriangulateWithMotion(camera_, t, ApplyHomography(h_inv, q - s * u), q);
+      const auto tri_sigma =
+          TriangulateWithMotion(camera_, t, ApplyHomography(h_inv, q - (s + sigma_px) * u), q);
+      if (!tri || !tri_sigma || tri->depth_m <= 0) continue;
+      sample.measured = true;
+      sample.s_px = s;
+      sample.significant = std::abs(s) >= co.min_disparity_sigmas * sigma_px;
+      sample.height_m = tri->point_in_base1.z();
+      sample.height_sigma_m = std::abs(tri_sigma->point_in_base1.z() - sample.height_m);
+      sample.point_in_base2 = t * tri->point_in_base1.head<2>();
+      sample.raw = Classify(sample, co, camera_height);
+    }
+  }
+
+  // Phase 2: aggregate, as the paper does per segment, for stability.
+  std::vector<PixelLabel> labels(samples.size());
+  for (std::size_t k = 0; k < samples.size(); ++k) labels[k] = samples[k].raw;
+  if (co.aggregation == ClassificationOptions::Aggregation::kMedian) {
+    const int radius = co.median_radius;
+    std::vector<float> heights, sigmas;
+    for (int i = 0; i < sample_rows; ++i) {
+      for (int j = 0; j < sample_cols; ++j) {
+        const Sample& centre = samples[i * sample_cols + j];
+        if (!centre.measured || centre.raw == PixelLabel::kUnknown) continue;
+        heights.clear();
+        sigmas.clear();
+        for (int di = -radius; di <= radius; ++di) {
+          for (int dj = -radius; dj <= radius; ++dj) {
+            const int ii = i + di, jj = j + dj;
+            if (ii < 0 || jj < 0 || ii >= sample_rows || jj >= sample_cols) continue;
+            const Sample& n = samples[ii * sample_cols + jj];
+            if (!n.measured) continue;
+            heights.push_back(static_cast<float>(n.height_m));
+            sigmas.push_back(static_cast<float>(n.height_sigma_m));
+          }
+        }
+        Sample median = centre;
+        median.height_m = Median(&heights);
+        median.height_sigma_m = Median(&sigmas);
+        median.significant = centre.significant;
+        labels[i * sample_cols + j] = Classify(median, co, camera_height);
+      }
+    }
+  } else if (co.aggregation == ClassificationOptions::Aggregation::kSegments) {
+    r.segments = Superpixels(current, co, field.scale);
+    AggregateBySegment(r.segments, samples, sample_rows, sample_cols, stride, field.scale, co,
+                       camera_height, &labels);
+  }
+
+  cv::Mat sample_labels(sample_rows, sample_cols, CV_8U, cv::Scalar(0));
+  cv::Mat sample_height(sample_rows, sample_cols, CV_16U, cv::Scalar(0));
+  r.zero_disparity_px = cv::Mat(sample_rows, sample_cols, CV_32F, cv::Scalar(NAN));
+  const GridGeometry& g = r.local_map.geometry;
+  std::vector<std::uint16_t> free_votes(g.NumCells(), 0), occupied_votes(g.NumCells(), 0);
+  for (int i = 0; i < sample_rows; ++i) {
+    for (int j = 0; j < sample_cols; ++j) {
+      const Sample& sample = samples[i * sample_cols + j];
+      const PixelLabel label = labels[i * sample_cols + j];
+      sample_labels.at<std::uint8_t>(i, j) = static_cast<std::uint8_t>(label);
+      if (sample.measured) r.zero_disparity_px.at<float>(i, j) = static_cast<float>(sample.s_px);
+      if (label == PixelLabel::kFloor) {
+        sample_height.at<std::uint16_t>(i, j) = EncodeHeightMm(0.0);
+        // Top view: floor at its floor point...
+        if (auto cell = g.CellOf(sample.floor_in_base2)) ++free_votes[g.Index(cell->x(), cell->y())];
+      } else if ((label == PixelLabel::kObstacle || label == PixelLabel::kDropOff) &&
+                 sample.measured) {
+        sample_height.at<std::uint16_t>(i, j) = EncodeHeightMm(sample.height_m);
+        // ...obstacles and drop-offs at their true footprint, not their stretched shadow.
+        if (auto cell = g.CellOf(sample.point_in_base2)) {
+          ++occupied_votes[g.Index(cell->x(), cell->y())];
+        }
+      }
+    }
+  }
+  for (std::size_t k = 0; k < g.NumCells(); ++k) {
+    const int occ = occupied_votes[k], fr = free_votes[k];
+    if (occ >= 2 || (occ >= 1 && fr == 0)) {
+      r.local_map.cells[k] = kCellOccupied;
+    } else if (fr >= 1) {
+      r.local_map.cells[k] = kCellFree;
+    }
+  }
+
+  // Samples cover stride x stride blocks of the search level; blow them up to input resolution.
+  const int block = static_cast<int>(stride * field.scale);
+  cv::Mat labels_full, height_full;
+  cv::resize(sample_labels, labels_full, cv::Size(sample_cols * block, sample_rows * block), 0, 0,
+             cv::INTER_NEAREST);
+  cv::resize(sample_height, height_full, cv::Size(sample_cols * block, sample_rows * block), 0, 0,
+             cv::INTER_NEAREST);
+  const cv::Rect roi(0, 0, std::min(size.width, labels_full.cols), std::min(size.height, labels_full.rows));
+  labels_full(roi).copyTo(r.labels(roi));
+  height_full(roi).copyTo(r.height_mm(roi));
+  r.num_unknown = 0;
+  for (int yy = 0; yy < r.labels.rows; ++yy) {
+    const std::uint8_t* p = r.labels.ptr<std::uint8_t>(yy);
+    for (int xx = 0; xx < r.labels.cols; ++xx) {
+      switch (static_cast<PixelLabel>(p[xx])) {
+        case PixelLabel::kFloor: ++r.num_floor; break;
+        case PixelLabel::kObstacle: ++r.num_obstacle; break;
+        case PixelLabel::kDropOff: ++r.num_drop_off; break;
+        case PixelLabel::kMoving: ++r.num_moving; break;
+        default: ++r.num_unknown; break;
+      }
+    }
+  }
+  return r;
+}
+
+SequenceDetector::SequenceDetector(const CameraCalibration& calibration,
+                                   const DetectorOptions& options)
+    : detector_(calibration, options) {}
+
+SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, TimestampNs stamp_ns) {
+  Output out;
+  const DetectorOptions& options = detector_.options();
+  const CameraIntrinsics& in = detector_.camera().calibration().intrinsics;
+  cv::Mat prepared = detector_.Prepare(image, &out.message);
+  if (prepared.empty()) {
+    out.odom_from_base = odom_from_base_;
+    return out;  // skipped; the history is untouched
+  }
+  out.image_ok = true;
+  if (history_.empty()) {
+    history_.push_back({prepared, odom_from_base_, stamp_ns});
+    out.odom_from_base = odom_from_base_;
+    return out;
+  }
+  const Frame& previous = history_.back();
+  out.step = EstimateGroundMotion(previous.image, prepared, detector_.camera(),
+                                  options.ground_motion, last_step_);
+  if (out.step.status != GroundMotion::Status::kFailed) {
+    odom_from_base_ = previous.odom_from_base * out.step.base2_from_base1.Inverse();
+    if (out.step.status == GroundMotion::Status::kOk) last_step_ = out.step.base2_from_base1;
+  }
+  out.odom_from_base = odom_from_base_;
+
+  const cv::Size size(in.width, in.height);
+  if (out.step.status == GroundMotion::Status::kFailed) {
+    out.result = UnknownResult(size, options.local_map, PairStatus::kNoMotion,
+                               "no floor motion from the previous frame");
+    out.result->motion = out.step;
+  } else {
+    // The newest earlier frame far enough away for parallax.
+    const Eigen::Vector2d c_now = CameraCentreXyInOdom(detector_.camera(), odom_from_base_);
+    const Frame* reference = nullptr;
+    for (auto it = history_.rbegin(); it != history_.rend(); ++it) {
+      const Eigen::Vector2d c = CameraCentreXyInOdom(detector_.camera(), it->odom_from_base);
+      if ((c_now - c).norm() >= options.pair_selection.min_baseline_m) {
+        reference = &*it;
+        break;
+      }
+    }
+    if (!reference) {
+      out.result = UnknownResult(size, options.local_map, PairStatus::kNoParallax,
+                                 "the camera has not moved enough for parallax");
+      out.result->motion = out.step;
+    } else {
+      const Pose2 prior = odom_from_base_.Inverse() * reference->odom_from_base;
+      GroundMotion motion = EstimateGroundMotion(reference->image, prepared, detector_.camera(),
+                                                 options.ground_motion, prior);
+      if (motion.status == GroundMotion::Status::kFailed) {
+        motion.status = GroundMotion::Status::kFallback;
+        motion.base2_from_base1 = prior;
+      }
+      out.result = detector_.Detect(reference->image, prepared, motion);
+    }
+  }
+  history_.push_back({prepared, odom_from_base_, stamp_ns});
+  while (static_cast<int>(history_.size()) > options.pair_selection.max_history) {
+    history_.pop_front();
+  }
+  return out;
+}
+
+}  // namespace monoplane

@@ -1,0 +1,142 @@
+#pragma once
+
+#include <deque>
+#include <optional>
+#include <string>
+
+#include <opencv2/core.hpp>
+
+#include "perception/frame_types.h"
+#include "perception/geometry/camera_model.h"
+#include "perception/geometry/timestamp.h"
+#include "perception/ground_motion.h"
+#include "perception/zero_disparity.h"
+
+namespace monoplane {
+
+// How samples become floor, obstacle, drop-off, moving or unknown (the paper's steps 4-5).
+struct ClassificationOptions {
+  // Sample spacing on the finest search level, pixels (>= 1). Labels are per sample, upsampled.
+  int sample_stride = 2;
+  // Heights (metres, > 0): at or above obstacle_min_height_m an obstacle, at or below
+  // -drop_off_min_depth_m a drop-off.
+  double obstacle_min_height_m = 0.03;
+  double drop_off_min_depth_m = 0.03;
+  // Smallest error assumed for a zero disparity, input pixels (> 0); each sample's own error
+  // (ZeroDisparityField::sigma_px) is used when larger. A point is only called floor when its
+  // error keeps its height within the thresholds above; otherwise unknown.
+  double disparity_sigma_px = 0.05;
+  // An obstacle or drop-off needs a zero disparity of at least this many sigmas (>= 0).
+  double min_disparity_sigmas = 3.0;
+  // Minimum texture along the epipolar line (mean squared gradient, grey levels^2 per pixel^2, > 0);
+  // below it a pixel is unknown, never floor.
+  double min_texture = 4.0;
+  // Maximum mean |difference| after alignment, grey levels (> 0); above it unknown (or moving).
+  double max_residual = 12.0;
+  // Offset perpendicular to the epipolar line that marks motion of its own, input pixels (> 0).
+  double moving_min_perpendicular_px = 1.5;
+  // Points farther than this from the robot (metres, > 0) are unknown: not reliable.
+  double max_range_m = 6.0;
+  // How samples are combined before labelling: each on its own, with the median height of their
+  // neighbours, or with the median height of their superpixel (SLICO; the paper's segments).
+  enum class Aggregation { kNone, kMedian, kSegments };
+  Aggregation aggregation = Aggregation::kMedian;
+  int median_radius = 1;            // samples, for kMedian (>= 1)
+  double segment_size_px = 16.0;    // superpixel side, input pixels, for kSegments (>= 4)
+  int segment_iterations = 4;       // SLIC iterations (>= 1)
+  int segment_min_samples = 3;      // measured samples a segment needs to be labelled (>= 1)
+
+  bool IsValid(std::string* error) const;
+};
+
+// The robot-frame top view (the paper's step 6).
+struct LocalMapOptions {
+  double resolution_m = 0.05;  // cell side (> 0)
+  double min_x_m = -1.0;       // extent in the base frame of the current frame (min < max)
+  double max_x_m = 7.0;
+  double min_y_m = -4.0;
+  double max_y_m = 4.0;
+
+  bool IsValid(std::string* error) const;
+};
+
+// Reference frame selection (the paper's step 1): keep a reference until the camera has moved
+// enough for parallax.
+struct PairSelectionOptions {
+  double min_baseline_m = 0.10;  // camera centre travel between the pair (> 0)
+  int max_history = 20;          // frames kept to choose a reference from (>= 2)
+
+  bool IsValid(std::string* error) const;
+};
+
+struct DetectorOptions {
+  GroundMotionOptions ground_motion;
+  ZeroDisparityOptions zero_disparity;
+  ClassificationOptions classification;
+  LocalMapOptions local_map;
+  PairSelectionOptions pair_selection;
+
+  bool IsValid(std::string* error) const;
+};
+
+// Detects floor, obstacles, drop-offs and moving things in the second of two frames. Holds the
+// calibration's precomputed matrices and undistortion maps; no files, threads or clocks.
+// Const methods are thread-safe.
+class ObstacleDetector {
+ public:
+  ObstacleDetector(const CameraCalibration& calibration, const DetectorOptions& options);
+
+  const CameraModel& camera() const { return camera_; }
+  const DetectorOptions& options() const { return options_; }
+
+  // Converts any 8-bit grey or colour image of the calibration's size to the undistorted grey
+  // image the detector works on. Returns an empty Mat and a reason for unusable images.
+  cv::Mat Prepare(const cv::Mat& image, std::string* error) const;
+
+  // The whole chain on a prepared pair (reference, current) with a known or estimated motion.
+  // `motion` may come from EstimateGroundMotion or from odometry.
+  FrameResult Detect(const cv::Mat& reference, const cv::Mat& current,
+                     const GroundMotion& motion) const;
+
+ private:
+  CameraModel camera_;
+  DetectorOptions options_;
+  cv::Mat undistort_map_x_, undistort_map_y_;
+};
+
+// Feeds a sequence frame by frame: tracks consecutive frames for odometry, picks a reference with
+// enough parallax, and runs the detector. State is only the recent frames and poses; no I/O.
+class SequenceDetector {
+ public:
+  SequenceDetector(const CameraCalibration& calibration, const DetectorOptions& options);
+
+  struct Output {
+    std::optional<FrameResult> result;  // none for the first frame or an unusable image
+    Pose2 odom_from_base;               // dead-reckoned pose of this frame
+    GroundMotion step;                  // motion from the previous good frame
+    bool image_ok = false;
+    std::string message;                // why the image was unusable
+  };
+  Output Process(const cv::Mat& image, TimestampNs stamp_ns);
+
+  const ObstacleDetector& detector() const { return detector_; }
+
+ private:
+  struct Frame {
+    cv::Mat image;
+    Pose2 odom_from_base;
+    TimestampNs stamp_ns;
+  };
+  ObstacleDetector detector_;
+  std::deque<Frame> history_;
+  std::optional<Pose2> last_step_;
+  Pose2 odom_from_base_;
+};
+
+// The 2x2 picture for people: input with labels, segmentation, zero disparity, top view.
+cv::Mat RenderPanels(const cv::Mat& current, const FrameResult& result);
+
+// The local map drawn as an image (free white, occupied black, unknown grey, x up).
+cv::Mat RenderLocalMap(const OccupancyGrid& grid, int pixels_per_cell = 2);
+
+}  // namespace monoplane

@@ -1,0 +1,179 @@
+#include "perception/zero_disparity.h"
+
+#include <cmath>
+#include <vector>
+
+#include <opencv2/imgproc.hpp>
+
+namespace monoplane {
+namespace {
+
+// S * H * S^-1 for pyramid level `level` (pyrDown maps input pixel 2x to level pixel x).
+Eigen::Matrix3d HomographyAtLevel(const Eigen::Matrix3d& h, int level) {
+  const double f = 1.0 / (1 << level);
+  const Eigen::Matrix3d s = Eigen::Vector3d(f, f, 1.0).asDiagonal();
+  const Eigen::Matrix3d s_inv = Eigen::Vector3d(1.0 / f, 1.0 / f, 1.0).asDiagonal();
+  return s * h * s_inv;
+}
+
+}  // namespace
+
+bool ZeroDisparityOptions::IsValid(std::string* error) const {
+  auto fail = [&](const std::string& what) {
+    *error = "zero_disparity." + what;
+    return false;
+  };
+  if (finest_level < 0 || finest_level > 3) return fail("finest_level: must be in [0, 3]");
+  if (num_levels < 1 || num_levels > 6) return fail("num_levels: must be in [1, 6]");
+  if (iterations_per_level < 1 || iterations_per_level > 10) {
+    return fail("iterations_per_level: must be in [1, 10]");
+  }
+  if (window_px < 3 || window_px % 2 == 0) return fail("window_px: must be odd and >= 3");
+  if (!(max_step_px > 0)) return fail("max_step_px: must be > 0");
+  if (!(damping >= 0)) return fail("damping: must be >= 0");
+  return true;
+}
+
+Eigen::Vector3d EpipoleInImage2(const CameraModel& camera, const Pose2& base2_from_base1) {
+  const Eigen::Vector3d c1 = camera.CameraCentreInBase();
+  const Eigen::Vector2d xy = base2_from_base1 * c1.head<2>();
+  const Eigen::Vector3d c1_in_camera2 = camera.camera_from_base() * Eigen::Vector3d(xy.x(), xy.y(), c1.z());
+  return camera.K() * c1_in_camera2;
+}
+
+ZeroDisparityField ComputeZeroDisparity(const cv::Mat& image1, const cv::Mat& image2,
+                                        const CameraModel& camera, const Pose2& base2_from_base1,
+                                        const ZeroDisparityOptions& options) {
+  ZeroDisparityField field;
+  const int finest = options.finest_level;
+  const int coarsest = finest + options.num_levels - 1;
+  field.level = finest;
+  field.scale = 1 << finest;
+
+  const Eigen::Vector3d epipole = EpipoleInImage2(camera, base2_from_base1);
+  const double baseline = (camera.K().inverse() * epipole).norm();
+  field.has_parallax = baseline > 1e-6;
+
+  std::vector<cv::Mat> pyr1, pyr2;
+  cv::buildPyramid(image1, pyr1, coarsest);
+  cv::buildPyramid(image2, pyr2, coarsest);
+  const Eigen::Matrix3d h_full_inv = FloorHomography(camera, base2_from_base1).inverse();
+
+  cv::Mat s;  // at the current level, in that level's pixels
+  const cv::Size box(options.window_px, options.window_px);
+  for (int level = coarsest; level >= finest; --level) {
+    const cv::Mat& i1 = pyr1[level];
+    cv::Mat i2;
+    pyr2[level].convertTo(i2, CV_32F);
+    const int rows = i2.rows, cols = i2.cols;
+    const double f = 1.0 / (1 << level);
+    const Eigen::Matrix3d h_inv = HomographyAtLevel(h_full_inv, level);
+    // The epipole at this level: scale its inhomogeneous part.
+    const Eigen::Vector3d e(epipole.x() * f, epipole.y() * f, epipole.z());
+
+    cv::Mat ux(rows, cols, CV_32F), uy(rows, cols, CV_32F);
+    for (int y = 0; y < rows; ++y) {
+      float* pux = ux.ptr<float>(y);
+      float* puy = uy.ptr<float>(y);
+      for (int x = 0; x < cols; ++x) {
+        const double dx = e.x() - e.z() * x, dy = e.y() - e.z() * y;
+        const double n = std::hypot(dx, dy);
+        pux[x] = n > 0 ? static_cast<float>(dx / n) : 0.f;
+        puy[x] = n > 0 ? static_cast<float>(dy / n) : 0.f;
+      }
+    }
+    if (s.empty()) {
+      s = cv::Mat::zeros(rows, cols, CV_32F);
+    } else {
+      cv::Mat up;
+      cv::resize(s, up, cv::Size(cols, rows), 0, 0, cv::INTER_LINEAR);
+      s = up * 2.0f;
+    }
+
+    cv::Mat map_x(rows, cols, CV_32F), map_y(rows, cols, CV_32F), warped, gx, gy, gu, d;
+    cv::Mat num, den, mean2, mean_w;
+    cv::boxFilter(i2, mean2, CV_32F, box);
+    auto warp = [&]() {
+      for (int y = 0; y < rows; ++y) {
+        const float* ps = s.ptr<float>(y);
+        const float* pux = ux.ptr<float>(y);
+        const float* puy = uy.ptr<float>(y);
+        float* mx = map_x.ptr<float>(y);
+        float* my = map_y.ptr<float>(y);
+        for (int x = 0; x < cols; ++x) {
+          // Where image 1 holds what image 2 shows at (x, y) for zero disparity s: H^-1 (q - s u).
+          const double qx = x - ps[x] * pux[x], qy = y - ps[x] * puy[x];
+          const double w = h_inv(2, 0) * qx + h_inv(2, 1) * qy + h_inv(2, 2);
+          mx[x] = static_cast<float>((h_inv(0, 0) * qx + h_inv(0, 1) * qy + h_inv(0, 2)) / w);
+          my[x] = static_cast<float>((h_inv(1, 0) * qx + h_inv(1, 1) * qy + h_inv(1, 2)) / w);
+        }
+      }
+      cv::remap(i1, warped, map_x, map_y, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
+      warped.convertTo(warped, CV_32F);
+      cv::Sobel(warped, gx, CV_32F, 1, 0, 3, 1.0 / 8.0);
+      cv::Sobel(warped, gy, CV_32F, 0, 1, 3, 1.0 / 8.0);
+      gu = gx.mul(ux) + gy.mul(uy);
+      // Zero-mean difference: robust to a change of exposure between the frames.
+      cv::boxFilter(warped, mean_w, CV_32F, box);
+      d = (i2 - mean2) - (warped - mean_w);
+    };
+    for (int it = 0; it < options.iterations_per_level; ++it) {
+      warp();
+      cv::boxFilter(gu.mul(d), num, CV_32F, box);
+      cv::boxFilter(gu.mul(gu), den, CV_32F, box);
+      const float max_step = static_cast<float>(options.max_step_px);
+      const float damping = static_cast<float>(options.damping);
+      for (int y = 0; y < rows; ++y) {
+        float* ps = s.ptr<float>(y);
+        const float* pn = num.ptr<float>(y);
+        const float* pd = den.ptr<float>(y);
+        for (int x = 0; x < cols; ++x) {
+          // I2 = W(q - (s + delta) u) ~ Ws - delta * Gu  =>  delta = -sum(Gu D) / sum(Gu^2).
+          ps[x] += std::clamp(-pn[x] / (pd[x] + damping), -max_step, max_step);
+        }
+      }
+    }
+    if (level == finest) {
+      warp();
+      cv::boxFilter(gu.mul(gu), field.texture, CV_32F, box);
+      cv::Mat abs_d = cv::abs(d);
+      cv::boxFilter(abs_d, field.residual, CV_32F, box);
+      // Best offset perpendicular to the epipolar line: a static point has none.
+      cv::Mat gp = gy.mul(ux) - gx.mul(uy);
+      cv::Mat sp, spp;
+      cv::boxFilter(gp.mul(d), sp, CV_32F, box);
+      cv::boxFilter(gp.mul(gp), spp, CV_32F, box);
+      field.perpendicular_px = cv::Mat::zeros(rows, cols, CV_32F);
+      for (int y = 0; y < rows; ++y) {
+        const float* a = sp.ptr<float>(y);
+        const float* b = spp.ptr<float>(y);
+        float* out = field.perpendicular_px.ptr<float>(y);
+        for (int x = 0; x < cols; ++x) {
+          out[x] = b[x] > 1e-3f ? -a[x] / b[x] * static_cast<float>(field.scale) : 0.f;
+        }
+      }
+      field.s_px = s * static_cast<float>(1 << level);
+      field.sigma_px = cv::Mat(rows, cols, CV_32F);
+      field.perpendicular_sigma_px = cv::Mat(rows, cols, CV_32F);
+      const float area = static_cast<float>(options.window_px * options.window_px);
+      for (int y = 0; y < rows; ++y) {
+        const float* res = field.residual.ptr<float>(y);
+        const float* tex = field.texture.ptr<float>(y);
+        float* out = field.sigma_px.ptr<float>(y);
+        for (int x = 0; x < cols; ++x) {
+          // Mean |d| of a Gaussian is 0.8 sigma; one grey level of quantisation at least.
+          const float noise = std::max(1.25f * res[x], 1.0f);
+          out[x] = noise / std::sqrt(area * std::max(tex[x], 1e-6f)) * static_cast<float>(field.scale);
+          field.perpendicular_sigma_px.at<float>(y, x) =
+              noise / std::sqrt(area * std::max(spp.at<float>(y, x), 1e-6f)) *
+              static_cast<float>(field.scale);
+        }
+      }
+      field.ux = ux;
+      field.uy = uy;
+    }
+  }
+  return field;
+}
+
+}  // namespace monoplane

@@ -1,0 +1,59 @@
+#pragma once
+
+#include <string>
+
+#include <opencv2/core.hpp>
+
+#include "perception/geometry/camera_model.h"
+
+namespace monoplane {
+
+// Options for the dense zero-disparity search (the paper's step 3).
+struct ZeroDisparityOptions {
+  // Finest pyramid level the search runs at (0 = input resolution, 1 = half, ...), in [0, 3].
+  int finest_level = 1;
+  // Number of pyramid levels searched coarse to fine, from the finest upward, in [1, 6].
+  int num_levels = 4;
+  // Gauss-Newton iterations per level along the epipolar line, in [1, 10].
+  int iterations_per_level = 3;
+  // Side of the square aggregation window at each level, pixels (odd, >= 3).
+  int window_px = 7;
+  // Largest step per iteration, pixels at that level (> 0): keeps the search from jumping.
+  double max_step_px = 1.0;
+  // Damping of each step (grey levels^2 per pixel^2, >= 0): where texture is weak the estimate
+  // stays where it is instead of drifting.
+  double damping = 4.0;
+
+  bool IsValid(std::string* error) const;
+};
+
+// The zero disparity at every pixel of the finest search level. Pixel q of that level is
+// (2^finest_level) * q in input pixels. The zero disparity s (in input pixels) is the offset, along
+// the epipolar direction of growing height u(q), between where a point appears in image 2 (q) and
+// where the floor homography maps its image-1 position: H p1 = q - s u(q).
+struct ZeroDisparityField {
+  int level = 0;
+  double scale = 1.0;       // input pixels per level pixel (2^level)
+  cv::Mat s_px;             // CV_32F, signed, input pixels
+  cv::Mat texture;          // CV_32F, sum over the window of (image gradient along u)^2 / window area
+  cv::Mat residual;         // CV_32F, mean |I2 - I1 warped| over the window after alignment (grey levels)
+  cv::Mat perpendicular_px; // CV_32F, best offset perpendicular to the epipolar line (input px)
+  // CV_32F, standard deviation of s_px (input px) from the alignment residual and the texture:
+  // sigma_noise / sqrt(window area * texture), as for a Lucas-Kanade estimate.
+  cv::Mat sigma_px;
+  cv::Mat perpendicular_sigma_px;  // CV_32F, the same for perpendicular_px
+  cv::Mat ux, uy;           // CV_32F, the unit epipolar direction of growing height
+  bool has_parallax = false;
+};
+
+// Dense, multi-resolution matching of image 2 against image 1 warped by the floor homography,
+// constrained to the epipolar lines. Images are grey CV_8U of the calibration's size (undistorted).
+ZeroDisparityField ComputeZeroDisparity(const cv::Mat& image1, const cv::Mat& image2,
+                                        const CameraModel& camera, const Pose2& base2_from_base1,
+                                        const ZeroDisparityOptions& options);
+
+// The image-2 epipole of the motion, homogeneous (e_x, e_y, e_w): the camera-1 centre seen from
+// camera 2. The direction of growing height at pixel x is (e_x - e_w x, e_y - e_w y), normalised.
+Eigen::Vector3d EpipoleInImage2(const CameraModel& camera, const Pose2& base2_from_base1);
+
+}  // namespace monoplane
