@@ -218,17 +218,44 @@ PathClearance QueryPathClearance(const TiledGrid& grid, const std::vector<Eigen:
                         length, s});
     s += length;
   }
-  // The arc length at which a disk of radius r moving along the path first covers point c, or
-  // a negative value when it never does.
-  auto first_touch = [&](const Eigen::Vector2d& c) {
+  // The arc length at which the robot's disk, moving along the path, first touches a cell's
+  // square, or a negative value when it never does. The disk touches the square when the centre
+  // enters the square grown by r: two crossed rectangles and four corner disks.
+  auto first_touch = [&](const Eigen::Vector2i& cell) {
+    const Eigen::Vector2d lo(cell.x() * res, cell.y() * res);
+    const Eigen::Vector2d hi = lo + Eigen::Vector2d(res, res);
     for (const Segment& seg : segments) {
-      const Eigen::Vector2d w = c - seg.a;
-      const double t = w.dot(seg.u);
-      const double h2 = w.squaredNorm() - t * t;
-      if (h2 > r * r) continue;
-      const double dt = std::sqrt(std::max(0.0, r * r - h2));
-      if (t + dt < 0.0 || t - dt > seg.length) continue;
-      return seg.start_s + std::max(0.0, t - dt);  // segments in order: the first hit is earliest
+      double best = std::numeric_limits<double>::infinity();
+      const Eigen::Vector2d grow[2] = {{r, 0.0}, {0.0, r}};
+      for (const Eigen::Vector2d& g : grow) {
+        // Liang-Barsky clipping of the segment against the rectangle [lo - g, hi + g].
+        double t0 = 0.0, t1 = seg.length;
+        for (int axis = 0; axis < 2 && t0 <= t1; ++axis) {
+          const double a = seg.a[axis], u = seg.u[axis];
+          const double l = lo[axis] - g[axis], h = hi[axis] + g[axis];
+          if (std::abs(u) < 1e-12) {
+            if (a < l || a > h) t0 = t1 + 1.0;
+            continue;
+          }
+          double tn = (l - a) / u, tf = (h - a) / u;
+          if (tn > tf) std::swap(tn, tf);
+          t0 = std::max(t0, tn);
+          t1 = std::min(t1, tf);
+        }
+        if (t0 <= t1) best = std::min(best, t0);
+      }
+      for (const Eigen::Vector2d& corner : {lo, hi, Eigen::Vector2d(lo.x(), hi.y()),
+                                           Eigen::Vector2d(hi.x(), lo.y())}) {
+        const Eigen::Vector2d w = corner - seg.a;
+        const double t = w.dot(seg.u);
+        const double h2 = w.squaredNorm() - t * t;
+        if (h2 > r * r) continue;
+        const double dt = std::sqrt(std::max(0.0, r * r - h2));
+        if (t + dt < 0.0 || t - dt > seg.length) continue;
+        best = std::min(best, std::max(0.0, t - dt));
+      }
+      // Segments come in order: the first that touches gives the smallest arc length.
+      if (best < std::numeric_limits<double>::infinity()) return seg.start_s + best;
     }
     return -1.0;
   };
@@ -241,7 +268,7 @@ PathClearance QueryPathClearance(const TiledGrid& grid, const std::vector<Eigen:
   for (int j = j0; j <= j1; ++j) {
     for (int i = i0; i <= i1; ++i) {
       const Eigen::Vector2i cell(i, j);
-      const double at = first_touch(grid.CellCenter(cell));
+      const double at = first_touch(cell);
       if (at < 0.0) continue;
       ++result.cells_checked;
       const CellState state = reader.State(cell);

@@ -69,14 +69,15 @@ struct PathClearance {
   // The first occupied cell along the path (smallest arc length of its closest path point).
   std::optional<Eigen::Vector2i> first_blocking_cell;
   Eigen::Vector2d first_blocking_center_m = Eigen::Vector2d::Zero();
-  double blocking_distance_along_m = 0.0;  // arc length at which the path first meets it
+  double blocking_distance_along_m = 0.0;  // arc length at which the disk first touches it
   std::int64_t unknown_cells = 0;          // unknown cells within the radius
   std::optional<Eigen::Vector2i> first_unknown_cell;  // first along the path
   double unknown_distance_along_m = 0.0;
   std::int64_t cells_checked = 0;
 };
 // Whether a robot of radius robot_radius_m (>= 0) can follow the polyline (>= 1 point). A cell
-// counts when its centre lies within the radius of the path.
+// counts when the robot's disk touches the cell's square anywhere along the path (radius 0: the
+// cells the path passes through, including their edges).
 PathClearance QueryPathClearance(const TiledGrid& grid, const std::vector<Eigen::Vector2d>& path_m,
                                  double robot_radius_m, const TrinaryThresholds& thresholds = {});
 
