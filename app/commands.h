@@ -12,5 +12,6 @@ inline constexpr int kExitInterrupted = 130;
 
 // Each command registers its subcommand; the callback stores the exit code in *exit_code.
 void RegisterCheckCalibCommand(CLI::App* app, int* exit_code);
+void RegisterEchoCommand(CLI::App* app, int* exit_code);  // app/echo_command.cc
 
 }  // namespace monoplane::app

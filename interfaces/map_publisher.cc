@@ -105,6 +105,7 @@ struct MapPublisher::Impl {
   dds_entity_t participant = 0;
   dds_entity_t writers[kNumEndpoints] = {};
   PublishStats stats[kNumEndpoints];
+  dds_entity_t map_match_waitset = 0;  // triggers when rt/map readers come or go
 
   ~Impl() { DeleteEntity(participant); }
 
@@ -186,6 +187,15 @@ std::unique_ptr<MapPublisher> MapPublisher::Create(const Options& options, std::
       if (error) *error += " for " + name;
       return nullptr;
     }
+  }
+  impl->map_match_waitset = dds_create_waitset(impl->participant);
+  dds_set_status_mask(impl->writers[kMap], DDS_PUBLICATION_MATCHED_STATUS);
+  const dds_return_t rc = impl->map_match_waitset < 0
+                              ? impl->map_match_waitset
+                              : dds_waitset_attach(impl->map_match_waitset, impl->writers[kMap], 0);
+  if (rc < 0) {
+    if (error) *error = DdsError(rc, "watching rt/map readers");
+    return nullptr;
   }
   return std::unique_ptr<MapPublisher>(new MapPublisher(std::move(impl)));
 }
@@ -285,5 +295,16 @@ int MatchedReaders(dds_entity_t writer) {
 
 int MapPublisher::MatchedLocalMapReaders() const { return MatchedReaders(impl_->writers[kLocalMap]); }
 int MapPublisher::MatchedMapReaders() const { return MatchedReaders(impl_->writers[kMap]); }
+
+bool MapPublisher::WaitForMapReaders(const std::function<bool(int)>& done, double timeout_s) const {
+  const dds_time_t deadline =
+      dds_time() + static_cast<dds_duration_t>(std::max(0.0, timeout_s) * 1e9);
+  while (true) {
+    // Reading the status resets its trigger, so the wait below wakes on the next change only.
+    if (done(MatchedReaders(impl_->writers[kMap]))) return true;
+    if (dds_time() >= deadline) return false;
+    if (dds_waitset_wait_until(impl_->map_match_waitset, nullptr, 0, deadline) < 0) return false;
+  }
+}
 
 }  // namespace monoplane::interfaces

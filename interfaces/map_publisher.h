@@ -1,6 +1,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -114,6 +115,9 @@ class MapPublisher {
   // How many readers are currently matched to the writer of rt/monoplane/local_map (and rt/map).
   int MatchedLocalMapReaders() const;
   int MatchedMapReaders() const;
+  // Waits (on DDS match events) up to timeout_s until `done(number of matched rt/map readers)`
+  // holds; returns whether it did.
+  bool WaitForMapReaders(const std::function<bool(int)>& done, double timeout_s) const;
 
  private:
   struct Impl;
