@@ -1,0 +1,181 @@
+#include "tools/eval/grid_metrics.h"
+
+#include <filesystem>
+#include <fstream>
+
+#include <gtest/gtest.h>
+#include <opencv2/imgcodecs.hpp>
+#include <unistd.h>
+
+namespace monoplane::eval {
+namespace {
+
+namespace fs = std::filesystem;
+
+class GridMetricsTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() / ("monoplane_grid_test_" + std::to_string(getpid()) + "_" +
+                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  // Writes NAME.yaml + NAME.pgm (map_server trinary, as INTERFACES.md exports them) and loads it.
+  MapServerMap WriteAndLoad(const std::string& name, const cv::Mat& pgm, double resolution,
+                            double origin_x, double origin_y, double free_thresh = 0.25) {
+    const fs::path yaml = dir_ / (name + ".yaml");
+    EXPECT_TRUE(cv::imwrite((dir_ / (name + ".pgm")).string(), pgm));
+    std::ofstream(yaml) << "image: " << name << ".pgm\nmode: trinary\nresolution: " << resolution
+                        << "\norigin: [" << origin_x << ", " << origin_y
+                        << ", 0.0]\nnegate: 0\noccupied_thresh: 0.65\nfree_thresh: " << free_thresh
+                        << "\n";
+    MapServerMap map;
+    std::string error;
+    EXPECT_TRUE(LoadMapServerMap(yaml.string(), &map, &error)) << error;
+    return map;
+  }
+
+  // A 40x40 free map (image rows: top = highest y) with a vertical wall in column wall_col,
+  // image rows 5..34.
+  static cv::Mat WallImage(int wall_col) {
+    cv::Mat image(40, 40, CV_8UC1, cv::Scalar(254));
+    for (int r = 5; r < 35; ++r) image.at<std::uint8_t>(r, wall_col) = 0;
+    return image;
+  }
+
+  fs::path dir_;
+};
+
+TEST_F(GridMetricsTest, ReaderHonoursOriginRowOrderAndTrinaryUnknown) {
+  cv::Mat image(3, 4, CV_8UC1, cv::Scalar(254));
+  image.at<std::uint8_t>(0, 1) = 0;    // top row: highest y
+  image.at<std::uint8_t>(2, 3) = 205;  // bottom row: unknown even with free_thresh 0.25
+  const MapServerMap map = WriteAndLoad("m", image, 0.5, -1.0, 2.0);
+  EXPECT_EQ(map.grid.geometry.width, 4);
+  EXPECT_EQ(map.grid.geometry.height, 3);
+  EXPECT_EQ(map.grid.At(1, 2), kCellOccupied);
+  EXPECT_EQ(map.grid.At(3, 0), kCellUnknown);
+  EXPECT_EQ(map.grid.At(0, 0), kCellFree);
+  // Cell (1, 2) spans x in [-0.5, 0), y in [3.0, 3.5).
+  EXPECT_EQ(map.ValueAt({-0.25, 3.25}), kCellOccupied);
+  EXPECT_EQ(map.ValueAt({0.75, 2.25}), kCellUnknown);
+  EXPECT_FALSE(map.ValueAt({-1.1, 2.1}).has_value());
+}
+
+TEST_F(GridMetricsTest, NegatedImageAndMissingFilesAreHandled) {
+  const fs::path yaml = dir_ / "neg.yaml";
+  cv::Mat image(1, 3, CV_8UC1);
+  image.at<std::uint8_t>(0, 0) = 0;
+  image.at<std::uint8_t>(0, 1) = 255;
+  image.at<std::uint8_t>(0, 2) = 128;
+  ASSERT_TRUE(cv::imwrite((dir_ / "neg.pgm").string(), image));
+  std::ofstream(yaml) << "image: neg.pgm\nresolution: 0.1\norigin: [0, 0, 0]\nnegate: 1\n"
+                         "occupied_thresh: 0.65\nfree_thresh: 0.196\n";
+  MapServerMap map;
+  std::string error;
+  ASSERT_TRUE(LoadMapServerMap(yaml.string(), &map, &error)) << error;
+  EXPECT_EQ(map.grid.At(0, 0), kCellFree);      // negated: black is free
+  EXPECT_EQ(map.grid.At(1, 0), kCellOccupied);  // white is occupied
+  EXPECT_EQ(map.grid.At(2, 0), kCellUnknown);
+
+  std::ofstream(dir_ / "bad.yaml") << "image: nothing.pgm\nresolution: 0.1\norigin: [0, 0, 0]\n";
+  EXPECT_FALSE(LoadMapServerMap((dir_ / "bad.yaml").string(), &map, &error));
+  EXPECT_NE(error.find("nothing.pgm"), std::string::npos) << error;
+  std::ofstream(dir_ / "bad2.yaml") << "image: neg.pgm\norigin: [0, 0, 0]\n";
+  EXPECT_FALSE(LoadMapServerMap((dir_ / "bad2.yaml").string(), &map, &error));
+  EXPECT_NE(error.find("resolution: missing"), std::string::npos) << error;
+}
+
+TEST_F(GridMetricsTest, PerfectPredictionScoresOne) {
+  const MapServerMap gt = WriteAndLoad("gt", WallImage(10), 0.05, -1.0, -1.0);
+  GridEvalResult r;
+  std::string error;
+  ASSERT_TRUE(CompareGrids(gt, gt, GridEvalOptions{}, {}, &r, &error)) << error;
+  EXPECT_EQ(r.gt_occupied, 30);
+  EXPECT_EQ(r.pred_occupied, 30);
+  EXPECT_DOUBLE_EQ(*r.precision, 1.0);
+  EXPECT_DOUBLE_EQ(*r.recall, 1.0);
+  EXPECT_DOUBLE_EQ(*r.f1, 1.0);
+  EXPECT_EQ(r.dangerous, 0);
+  EXPECT_DOUBLE_EQ(*r.unknown_share, 0.0);
+  EXPECT_EQ(r.gt_cells_scored, 1600);
+}
+
+TEST_F(GridMetricsTest, ShiftByKCellsScoresZeroBelowAndOneAtTolerance) {
+  const int k = 3;
+  const MapServerMap gt = WriteAndLoad("gt", WallImage(10), 0.05, -1.0, -1.0);
+  const MapServerMap pred = WriteAndLoad("pred", WallImage(10 + k), 0.05, -1.0, -1.0);
+  GridEvalResult r;
+  std::string error;
+  GridEvalOptions options;
+  options.tolerance_cells = k - 1;
+  ASSERT_TRUE(CompareGrids(pred, gt, options, {}, &r, &error)) << error;
+  EXPECT_DOUBLE_EQ(*r.precision, 0.0);
+  EXPECT_DOUBLE_EQ(*r.recall, 0.0);
+  EXPECT_DOUBLE_EQ(*r.f1, 0.0);
+  EXPECT_EQ(r.dangerous, 30);  // every wall cell is free in the prediction
+  EXPECT_DOUBLE_EQ(*r.dangerous_share, 1.0);
+
+  options.tolerance_cells = k;
+  ASSERT_TRUE(CompareGrids(pred, gt, options, {}, &r, &error)) << error;
+  EXPECT_DOUBLE_EQ(*r.precision, 1.0);
+  EXPECT_DOUBLE_EQ(*r.recall, 1.0);
+  EXPECT_EQ(r.dangerous, 0);
+}
+
+TEST_F(GridMetricsTest, ComparesInMetresAcrossOriginsAndResolutions) {
+  // The same world at half the cell size and an origin 0.5 m further left and down: the GT wall
+  // cell column 10 covers x in [-0.5, -0.45); in the finer map that is columns 20, 21 + 20 = 40, 41.
+  const MapServerMap gt = WriteAndLoad("gt", WallImage(10), 0.05, -1.0, -1.0);
+  cv::Mat fine(100, 100, CV_8UC1, cv::Scalar(254));
+  // GT image rows 5..34 cover y in [-1 + (40-35)*0.05, -1 + (40-5)*0.05) = [-0.75, 0.75).
+  // Fine map: origin y -1.5, 100 rows of 0.025: y in [-0.75, 0.75) = rows from bottom 30..89,
+  // image rows 100-1-89 = 10 .. 100-1-30 = 69.
+  for (int r = 10; r <= 69; ++r) {
+    fine.at<std::uint8_t>(r, 40) = 0;
+    fine.at<std::uint8_t>(r, 41) = 0;
+  }
+  const MapServerMap pred = WriteAndLoad("fine", fine, 0.025, -1.5, -1.5);
+  GridEvalResult r;
+  std::string error;
+  ASSERT_TRUE(CompareGrids(pred, gt, GridEvalOptions{}, {}, &r, &error)) << error;
+  EXPECT_DOUBLE_EQ(*r.precision, 1.0);
+  EXPECT_DOUBLE_EQ(*r.recall, 1.0);
+  EXPECT_DOUBLE_EQ(*r.unknown_share, 0.0);
+}
+
+TEST_F(GridMetricsTest, UnknownShareAndRadiusRestriction) {
+  const MapServerMap gt = WriteAndLoad("gt", WallImage(10), 0.05, -1.0, -1.0);
+  // Prediction: only the left half (columns 0..19) is known; the right half is unknown.
+  cv::Mat half = WallImage(10);
+  half(cv::Rect(20, 0, 20, 40)).setTo(205);
+  const MapServerMap pred = WriteAndLoad("half", half, 0.05, -1.0, -1.0);
+  GridEvalResult r;
+  std::string error;
+  ASSERT_TRUE(CompareGrids(pred, gt, GridEvalOptions{}, {}, &r, &error)) << error;
+  EXPECT_DOUBLE_EQ(*r.unknown_share, 0.5);
+  EXPECT_EQ(r.gt_known_pred_unknown, 800);
+
+  // Only cells within 0.1 m of a point deep in the unknown half: all of them unknown.
+  GridEvalOptions options;
+  options.radius_m = 0.1;
+  ASSERT_TRUE(CompareGrids(pred, gt, options, {Eigen::Vector2d(0.5, 0.0)}, &r, &error)) << error;
+  EXPECT_GT(r.gt_cells_scored, 0);
+  EXPECT_LT(r.gt_cells_scored, 30);
+  EXPECT_DOUBLE_EQ(*r.unknown_share, 1.0);
+  EXPECT_FALSE(r.recall.has_value());  // no GT wall there
+}
+
+TEST_F(GridMetricsTest, InvalidOptionsAreRejected) {
+  const MapServerMap gt = WriteAndLoad("gt", WallImage(10), 0.05, 0.0, 0.0);
+  GridEvalOptions options;
+  options.tolerance_cells = -1;
+  GridEvalResult r;
+  std::string error;
+  EXPECT_FALSE(CompareGrids(gt, gt, options, {}, &r, &error));
+  EXPECT_NE(error.find("tolerance_cells"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace monoplane::eval
