@@ -5,6 +5,9 @@
 #include <cstdint>
 #include <string>
 
+#include <vector>
+
+#include <Eigen/Core>
 #include <opencv2/core.hpp>
 
 #include "perception/geometry/occupancy_grid.h"
@@ -37,6 +40,13 @@ struct GroundMotion {
 };
 const char* ToString(GroundMotion::Status status);
 
+// A corner tracked from frame to frame, for the mapping layer's landmarks.
+struct FeatureObservation {
+  std::int64_t track_id = 0;  // the same id in every frame that sees the same corner
+  Eigen::Vector2d pixel;      // undistorted pixel in this frame
+  bool floor_inlier = false;  // moved as the floor did between the previous frame and this one
+};
+
 // Why a frame pair did or did not give heights.
 enum class PairStatus {
   kOk,
@@ -59,6 +69,9 @@ struct FrameResult {
   cv::Mat segments;           // CV_32S segment id per full-resolution pixel (empty if disabled)
   // Local top-view map in the current base frame (x forward, y left), int8 cells.
   OccupancyGrid local_map;
+  // Obstacle and drop-off points, base frame of the current frame (z = height above the floor),
+  // one per labelled sample, for 3-D maps.
+  std::vector<Eigen::Vector3f> obstacle_points_in_base;
   // Counts of labelled pixels (full resolution).
   int num_floor = 0, num_obstacle = 0, num_drop_off = 0, num_moving = 0, num_unknown = 0;
 };

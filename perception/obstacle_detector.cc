@@ -6,6 +6,7 @@
 
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
+#include <opencv2/video/tracking.hpp>
 #include <opencv2/ximgproc/slic.hpp>
 
 namespace monoplane {
@@ -130,6 +131,10 @@ void AggregateBySegment(const cv::Mat& segments, const std::vector<Sample>& samp
       (*labels)[k] = Classify(median, co, camera_height_m);
     }
   }
+}
+
+bool CameraSeesFloor(const CameraModel& camera, const Eigen::Vector2d& pixel) {
+  return camera.PixelToFloor(pixel).has_value();
 }
 
 Eigen::Vector2d CameraCentreXyInOdom(const CameraModel& camera, const Pose2& odom_from_base) {
@@ -379,6 +384,9 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
       } else if ((label == PixelLabel::kObstacle || label == PixelLabel::kDropOff) &&
                  sample.measured) {
         sample_height.at<std::uint16_t>(i, j) = EncodeHeightMm(sample.height_m);
+        r.obstacle_points_in_base.emplace_back(static_cast<float>(sample.point_in_base2.x()),
+                                               static_cast<float>(sample.point_in_base2.y()),
+                                               static_cast<float>(sample.height_m));
         // ...obstacles and drop-offs at their true footprint, not their stretched shadow.
         if (auto cell = g.CellOf(sample.point_in_base2)) {
           ++occupied_votes[g.Index(cell->x(), cell->y())];
@@ -438,6 +446,8 @@ SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, Timesta
   if (history_.empty()) {
     history_.push_back({prepared, odom_from_base_, stamp_ns});
     out.odom_from_base = odom_from_base_;
+    out.features = TrackFeatures(cv::Mat(), prepared, out.step);
+    tracks_ = out.features;
     return out;
   }
   const Frame& previous = history_.back();
@@ -448,6 +458,8 @@ SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, Timesta
     if (out.step.status == GroundMotion::Status::kOk) last_step_ = out.step.base2_from_base1;
   }
   out.odom_from_base = odom_from_base_;
+  out.features = TrackFeatures(previous.image, prepared, out.step);
+  tracks_ = out.features;
 
   const cv::Size size(in.width, in.height);
   if (out.step.status == GroundMotion::Status::kFailed) {
@@ -485,6 +497,67 @@ SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, Timesta
     history_.pop_front();
   }
   return out;
+}
+
+std::vector<FeatureObservation> SequenceDetector::TrackFeatures(const cv::Mat& previous,
+                                                                const cv::Mat& current,
+                                                                const GroundMotion& step) {
+  const GroundMotionOptions& gm = detector_.options().ground_motion;
+  std::vector<FeatureObservation> tracked;
+  if (!previous.empty() && !tracks_.empty()) {
+    std::vector<cv::Point2f> p0, p1, back;
+    for (const auto& f : tracks_) p0.emplace_back(static_cast<float>(f.pixel.x()), static_cast<float>(f.pixel.y()));
+    p1 = p0;
+    int flags = 0;
+    if (step.status != GroundMotion::Status::kFailed) {
+      const Eigen::Matrix3d h = FloorHomography(detector_.camera(), step.base2_from_base1);
+      for (auto& c : p1) {
+        const Eigen::Vector2d p = ApplyHomography(h, {c.x, c.y});
+        c = cv::Point2f(static_cast<float>(p.x()), static_cast<float>(p.y()));
+      }
+      flags = cv::OPTFLOW_USE_INITIAL_FLOW;
+    }
+    std::vector<uchar> st1, st2;
+    std::vector<float> err;
+    const cv::Size window(gm.lk_window_px, gm.lk_window_px);
+    const cv::TermCriteria criteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 30, 0.01);
+    cv::calcOpticalFlowPyrLK(previous, current, p0, p1, st1, err, window, gm.lk_levels, criteria, flags);
+    back = p0;
+    cv::calcOpticalFlowPyrLK(current, previous, p1, back, st2, err, window, gm.lk_levels, criteria,
+                             cv::OPTFLOW_USE_INITIAL_FLOW);
+    const Eigen::Matrix3d h = FloorHomography(detector_.camera(), step.base2_from_base1);
+    for (std::size_t i = 0; i < p0.size(); ++i) {
+      if (!st1[i] || !st2[i]) continue;
+      if (std::hypot(back[i].x - p0[i].x, back[i].y - p0[i].y) > gm.forward_backward_max_px) continue;
+      if (p1[i].x < 0 || p1[i].y < 0 || p1[i].x > current.cols - 1 || p1[i].y > current.rows - 1) continue;
+      FeatureObservation f;
+      f.track_id = tracks_[i].track_id;
+      f.pixel = Eigen::Vector2d(p1[i].x, p1[i].y);
+      f.floor_inlier = step.status == GroundMotion::Status::kOk &&
+                       CameraSeesFloor(detector_.camera(), tracks_[i].pixel) &&
+                       (ApplyHomography(h, tracks_[i].pixel) - f.pixel).norm() < gm.inlier_threshold_px;
+      tracked.push_back(f);
+    }
+  }
+  // Top up with new corners away from the tracked ones.
+  const int wanted = gm.max_corners;
+  if (static_cast<int>(tracked.size()) < wanted * 3 / 4) {
+    cv::Mat mask(current.size(), CV_8U, cv::Scalar(255));
+    for (const auto& f : tracked) {
+      cv::circle(mask, cv::Point(static_cast<int>(f.pixel.x()), static_cast<int>(f.pixel.y())),
+                 static_cast<int>(gm.corner_min_distance_px), cv::Scalar(0), -1);
+    }
+    std::vector<cv::Point2f> corners;
+    cv::goodFeaturesToTrack(current, corners, wanted - static_cast<int>(tracked.size()),
+                            gm.corner_quality, gm.corner_min_distance_px, mask, 3, false);
+    for (const auto& c : corners) {
+      FeatureObservation f;
+      f.track_id = next_track_id_++;
+      f.pixel = Eigen::Vector2d(c.x, c.y);
+      tracked.push_back(f);
+    }
+  }
+  return tracked;
 }
 
 }  // namespace monoplane

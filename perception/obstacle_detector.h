@@ -114,6 +114,7 @@ class SequenceDetector {
     std::optional<FrameResult> result;  // none for the first frame or an unusable image
     Pose2 odom_from_base;               // dead-reckoned pose of this frame
     GroundMotion step;                  // motion from the previous good frame
+    std::vector<FeatureObservation> features;  // corners tracked into this frame
     bool image_ok = false;
     std::string message;                // why the image was unusable
   };
@@ -127,10 +128,15 @@ class SequenceDetector {
     Pose2 odom_from_base;
     TimestampNs stamp_ns;
   };
+  std::vector<FeatureObservation> TrackFeatures(const cv::Mat& previous, const cv::Mat& current,
+                                                const GroundMotion& step);
+
   ObstacleDetector detector_;
   std::deque<Frame> history_;
   std::optional<Pose2> last_step_;
   Pose2 odom_from_base_;
+  std::vector<FeatureObservation> tracks_;  // in the previous frame
+  std::int64_t next_track_id_ = 0;
 };
 
 // The 2x2 picture for people: input with labels, segmentation, zero disparity, top view.

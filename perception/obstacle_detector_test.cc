@@ -296,9 +296,15 @@ TEST_F(DetectorOnSyntheticScene, StandstillAndTurningInPlaceGiveUnknown) {
   SequenceDetector sequence(calib_, options_);
   Scene scene;
   const Rendered a = Render(scene, sequence.detector().camera(), {0, 0, 0});
-  EXPECT_FALSE(sequence.Process(a.image, 0).result);
+  const auto first = sequence.Process(a.image, 0);
+  EXPECT_FALSE(first.result);
+  ASSERT_GT(first.features.size(), 100u);
   for (int i = 1; i < 4; ++i) {
     const auto out = sequence.Process(a.image, i);
+    // The same corners keep their track ids.
+    ASSERT_EQ(out.features.size(), first.features.size());
+    EXPECT_EQ(out.features[17].track_id, first.features[17].track_id);
+    EXPECT_LT((out.features[17].pixel - first.features[17].pixel).norm(), 0.05);
     ASSERT_TRUE(out.result);
     EXPECT_EQ(out.result->status, PairStatus::kNoParallax);
     EXPECT_EQ(out.result->num_floor, 0);
