@@ -30,6 +30,19 @@ struct Prepared {
   double cos_yaw = 1.0, sin_yaw = 0.0;
   Eigen::Vector3d bound_center;
   double bound_radius = 0.0;
+  // Per frame (SetOrigin): the camera centre relative to the shape.
+  Eigen::Vector3d origin_local{0, 0, 0};  // box: in the box frame; else relative to center3
+  Eigen::Vector3d bound_oc{0, 0, 0};      // camera centre - bound_center
+  double bound_c = 0.0;                   // |bound_oc|^2 - bound_radius^2
+
+  void SetOrigin(const Eigen::Vector3d& o) {
+    const Eigen::Vector3d r = o - center3;
+    origin_local = shape.type == ShapeType::kBox
+                       ? Eigen::Vector3d(cos_yaw * r.x() + sin_yaw * r.y(), -sin_yaw * r.x() + cos_yaw * r.y(), r.z())
+                       : r;
+    bound_oc = o - bound_center;
+    bound_c = bound_oc.squaredNorm() - bound_radius * bound_radius;
+  }
 };
 
 Prepared Prepare(const Shape& s, std::uint8_t label) {
@@ -69,10 +82,9 @@ struct Hit {
   bool floor_plane = false;
 };
 
-bool IntersectBox(const Prepared& p, const Eigen::Vector3d& o, const Eigen::Vector3d& d, Hit* hit) {
-  const Eigen::Vector3d r = o - p.center3;
-  // Into the box frame (rotation by -yaw about z).
-  const Eigen::Vector3d ol(p.cos_yaw * r.x() + p.sin_yaw * r.y(), -p.sin_yaw * r.x() + p.cos_yaw * r.y(), r.z());
+bool IntersectBox(const Prepared& p, const Eigen::Vector3d& d, Hit* hit) {
+  // Into the box frame (rotation by -yaw about z); the origin was transformed once per frame.
+  const Eigen::Vector3d& ol = p.origin_local;
   const Eigen::Vector3d dl(p.cos_yaw * d.x() + p.sin_yaw * d.y(), -p.sin_yaw * d.x() + p.cos_yaw * d.y(), d.z());
   const Eigen::Vector3d h = p.shape.size / 2;
   double t_near = -kInf, t_far = kInf;
@@ -82,7 +94,8 @@ bool IntersectBox(const Prepared& p, const Eigen::Vector3d& o, const Eigen::Vect
       if (std::abs(ol[k]) > h[k]) return false;
       continue;
     }
-    double t1 = (-h[k] - ol[k]) / dl[k], t2 = (h[k] - ol[k]) / dl[k];
+    const double inv = 1.0 / dl[k];
+    double t1 = (-h[k] - ol[k]) * inv, t2 = (h[k] - ol[k]) * inv;
     if (t1 > t2) std::swap(t1, t2);
     if (t1 > t_near) {
       t_near = t1;
@@ -102,9 +115,10 @@ bool IntersectBox(const Prepared& p, const Eigen::Vector3d& o, const Eigen::Vect
   return true;
 }
 
-bool IntersectCylinder(const Prepared& p, const Eigen::Vector3d& o, const Eigen::Vector3d& d, Hit* hit) {
+bool IntersectCylinder(const Prepared& p, const Eigen::Vector3d& d, Hit* hit) {
   const double r = p.shape.size.x() / 2, z0 = p.shape.z_m, z1 = p.shape.Top();
-  const double ox = o.x() - p.center3.x(), oy = o.y() - p.center3.y();
+  const double ox = p.origin_local.x(), oy = p.origin_local.y();
+  const double oz = p.origin_local.z();  // center3.z = 0: the world height
   double best = hit->t;
   bool found = false;
   const double a = d.x() * d.x() + d.y() * d.y();
@@ -113,7 +127,7 @@ bool IntersectCylinder(const Prepared& p, const Eigen::Vector3d& o, const Eigen:
     const double disc = b * b - 4 * a * c;
     if (disc >= 0) {
       const double t = (-b - std::sqrt(disc)) / (2 * a);
-      const double z = o.z() + t * d.z();
+      const double z = oz + t * d.z();
       if (t > kEps && t < best && z >= z0 && z <= z1) {
         best = t;
         found = true;
@@ -125,9 +139,9 @@ bool IntersectCylinder(const Prepared& p, const Eigen::Vector3d& o, const Eigen:
   }
   if (std::abs(d.z()) > 1e-15) {
     for (double zc : {z1, z0}) {
-      const bool facing = (zc == z1) ? (o.z() > z1 && d.z() < 0) : (o.z() < z0 && d.z() > 0);
+      const bool facing = (zc == z1) ? (oz > z1 && d.z() < 0) : (oz < z0 && d.z() > 0);
       if (!facing) continue;
-      const double t = (zc - o.z()) / d.z();
+      const double t = (zc - oz) / d.z();
       const double x = ox + t * d.x(), y = oy + t * d.y();
       if (t > kEps && t < best && x * x + y * y <= r * r) {
         best = t;
@@ -141,9 +155,9 @@ bool IntersectCylinder(const Prepared& p, const Eigen::Vector3d& o, const Eigen:
   return found;
 }
 
-bool IntersectSphere(const Prepared& p, const Eigen::Vector3d& o, const Eigen::Vector3d& d, Hit* hit) {
+bool IntersectSphere(const Prepared& p, const Eigen::Vector3d& d, Hit* hit) {
   const double r = p.shape.size.z() / 2;
-  const Eigen::Vector3d oc = o - p.center3;
+  const Eigen::Vector3d& oc = p.origin_local;
   const double a = d.squaredNorm(), b = 2 * oc.dot(d), c = oc.squaredNorm() - r * r;
   const double disc = b * b - 4 * a * c;
   if (disc < 0) return false;
@@ -160,11 +174,17 @@ bool IntersectSphere(const Prepared& p, const Eigen::Vector3d& o, const Eigen::V
   return true;
 }
 
-bool Intersect(const Prepared& p, const Eigen::Vector3d& o, const Eigen::Vector3d& d, Hit* hit) {
+bool Intersect(const Prepared& p, const Eigen::Vector3d& d, Hit* hit) {
+  // Bounding sphere first: most rays of a tile miss most of its candidates.
+  const double b = p.bound_oc.dot(d);
+  if (p.bound_c > 0 && b > 0) return false;  // outside the sphere and moving away
+  const double a = d.squaredNorm();
+  const double disc = b * b - a * p.bound_c;
+  if (disc < 0) return false;
   switch (p.shape.type) {
-    case ShapeType::kBox: return IntersectBox(p, o, d, hit);
-    case ShapeType::kCylinder: return IntersectCylinder(p, o, d, hit);
-    case ShapeType::kSphere: return IntersectSphere(p, o, d, hit);
+    case ShapeType::kBox: return IntersectBox(p, d, hit);
+    case ShapeType::kCylinder: return IntersectCylinder(p, d, hit);
+    case ShapeType::kSphere: return IntersectSphere(p, d, hit);
   }
   return false;
 }
@@ -197,6 +217,7 @@ struct SceneRenderer::Impl {
   std::vector<Eigen::Vector3d> rays;  // camera frame, z = 1, per pixel centre (distorted image)
   std::vector<MipTexture> textures;   // by material index (plain placeholder for unused ones)
   std::vector<Prepared> statics;
+  std::vector<double> decal_cos, decal_sin;
   // Per tile: the cone of its rays in the camera frame.
   int tiles_x = 0, tiles_y = 0;
   std::vector<Eigen::Vector3d> tile_axis;
@@ -238,6 +259,10 @@ struct SceneRenderer::Impl {
                                  : MipTexture(cv::Mat1f(1, 1, 0.5f), 0.002));
     }
     for (const auto& o : s.obstacles) statics.push_back(Prepare(o, kLabelObstacle));
+    for (const auto& d : s.decals) {
+      decal_cos.push_back(std::cos(d.yaw_rad));
+      decal_sin.push_back(std::sin(d.yaw_rad));
+    }
     // Tile cones.
     tiles_x = (width + kTile - 1) / kTile;
     tiles_y = (height + kTile - 1) / kTile;
@@ -292,6 +317,7 @@ struct SceneRenderer::Impl {
     f.origin = world_from_camera.translation();
     f.shapes = statics;
     for (const auto& m : scene.movers) f.shapes.push_back(Prepare(MoverShapeAt(m, time_s), kLabelMoving));
+    for (auto& shape : f.shapes) shape.SetOrigin(f.origin);
     f.tile_shapes.assign(tile_axis.size(), {});
     const Eigen::Matrix3d camera_from_world_r = f.world_from_camera_r.transpose();
     for (std::size_t j = 0; j < f.shapes.size(); ++j) {
@@ -316,7 +342,7 @@ struct SceneRenderer::Impl {
     Hit hit;
     const Eigen::Vector3d& o = f.origin;
     for (int j : candidates) {
-      if (Intersect(f.shapes[j], o, d, &hit)) {
+      if (Intersect(f.shapes[j], d, &hit)) {
         hit.id = kShapeIdBase + j;
         hit.label = f.shapes[j].label;
         hit.surface = &f.shapes[j].shape.surface;
@@ -405,8 +431,9 @@ struct SceneRenderer::Impl {
         albedo *= 1.0 - 0.7 * std::max(0.0, outer - inner);
       }
     }
-    for (const auto& decal : scene.decals) {
-      const double c = std::cos(decal.yaw_rad), s = std::sin(decal.yaw_rad);
+    for (std::size_t k = 0; k < scene.decals.size(); ++k) {
+      const Decal& decal = scene.decals[k];
+      const double c = decal_cos[k], s = decal_sin[k];
       const Eigen::Vector2d rel = p - decal.center;
       const double half_diag = decal.size.norm() / 2 + wx + wy + (decal.rows > 0 ? 2 * decal.square_m : 0);
       if (rel.squaredNorm() > half_diag * half_diag) continue;
@@ -476,28 +503,39 @@ struct SceneRenderer::Impl {
       gt->height = cv::Mat1w(height, width, std::uint16_t{0});
       gt->depth = cv::Mat1w(height, width, std::uint16_t{0});
     }
-    for (int ty = 0; ty < tiles_y; ++ty) {
-      for (int tx = 0; tx < tiles_x; ++tx) {
-        const std::vector<int>& candidates = f.tile_shapes[ty * tiles_x + tx];
-        const int v_end = std::min(height, (ty + 1) * kTile), u_end = std::min(width, (tx + 1) * kTile);
-        for (int v = ty * kTile; v < v_end; ++v) {
-          for (int u = tx * kTile; u < u_end; ++u) {
-            const Eigen::Vector3d d = rot * Ray(u, v);
-            const Hit hit = Trace(f, candidates, d);
-            const int un = u + 1 < width ? u + 1 : u - 1, vn = v + 1 < height ? v + 1 : v - 1;
-            const Eigen::Vector3d du_ray = rot * (Ray(un, v) - Ray(u, v)) * (un > u ? 1.0 : -1.0);
-            const Eigen::Vector3d dv_ray = rot * (Ray(u, vn) - Ray(u, v)) * (vn > v ? 1.0 : -1.0);
-            (*radiance)(v, u) = static_cast<float>(Shade(f, hit, d, du_ray, dv_ray));
-            ids[v * width + u] = hit.id;
-            if (gt && hit.label != kLabelNone) {
-              gt->label(v, u) = hit.label;
-              const double z = f.origin.z() + hit.t * d.z();
-              gt->height(v, u) = static_cast<std::uint16_t>(
-                  std::clamp<long>(std::lround(z * 1000.0) + kHeightOffsetMm, 1, 65535));
-              const long depth_mm = std::lround(hit.t * 1000.0);
-              gt->depth(v, u) = depth_mm <= 65535 ? static_cast<std::uint16_t>(depth_mm) : 0;
-            }
-          }
+    // Row by row: the pixel rays of this row and the next in the world frame; their differences
+    // give the per-pixel ray derivatives.
+    std::vector<Eigen::Vector3d> row_prev(width), row_cur(width), row_next(width);
+    auto rotate_row = [&](int v, std::vector<Eigen::Vector3d>* out) {
+      const Eigen::Vector3d* src = &rays[static_cast<std::size_t>(v) * width];
+      for (int u = 0; u < width; ++u) (*out)[u] = rot * src[u];
+    };
+    rotate_row(0, &row_cur);
+    if (height > 1) rotate_row(1, &row_next);
+    for (int v = 0; v < height; ++v) {
+      if (v > 0) {
+        std::swap(row_prev, row_cur);
+        std::swap(row_cur, row_next);
+        if (v + 1 < height) rotate_row(v + 1, &row_next);
+      }
+      const bool last_row = v + 1 >= height;
+      const std::vector<Eigen::Vector3d>& row_v = last_row ? row_prev : row_next;
+      const double v_sign = last_row ? -1.0 : 1.0;
+      const std::vector<int>* tile_row = &f.tile_shapes[(v / kTile) * tiles_x];
+      for (int u = 0; u < width; ++u) {
+        const Eigen::Vector3d& d = row_cur[u];
+        const Hit hit = Trace(f, tile_row[u / kTile], d);
+        const int un = u + 1 < width ? u + 1 : u - 1;
+        const Eigen::Vector3d du_ray = (row_cur[un] - d) * (un > u ? 1.0 : -1.0);
+        const Eigen::Vector3d dv_ray = (row_v[u] - d) * v_sign;
+        (*radiance)(v, u) = static_cast<float>(Shade(f, hit, d, du_ray, dv_ray));
+        ids[v * width + u] = hit.id;
+        if (gt && hit.label != kLabelNone) {
+          gt->label(v, u) = hit.label;
+          const double z_mm = (f.origin.z() + hit.t * d.z()) * 1000.0 + kHeightOffsetMm;
+          gt->height(v, u) = static_cast<std::uint16_t>(std::clamp(std::floor(z_mm + 0.5), 1.0, 65535.0));
+          const double depth_mm = std::floor(hit.t * 1000.0 + 0.5);
+          gt->depth(v, u) = depth_mm <= 65535.0 ? static_cast<std::uint16_t>(depth_mm) : 0;
         }
       }
     }

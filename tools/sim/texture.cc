@@ -176,55 +176,12 @@ MipTexture::MipTexture(const cv::Mat1f& level0, double texel_m) : texel_m_(texel
     cv::resize(prev, next, cv::Size(prev.cols / 2, prev.rows / 2), 0, 0, cv::INTER_AREA);
     levels_.push_back(next);
   }
-}
-
-float MipTexture::Bilinear(int level, double u, double v) const {
-  const cv::Mat1f& img = levels_[level];
-  const int mask = img.rows - 1;
-  u -= 0.5;
-  v -= 0.5;
-  const double fu = std::floor(u), fv = std::floor(v);
-  const int x0 = static_cast<int>(fu) & mask, y0 = static_cast<int>(fv) & mask;
-  const int x1 = (x0 + 1) & mask, y1 = (y0 + 1) & mask;
-  const float ax = static_cast<float>(u - fu), ay = static_cast<float>(v - fv);
-  const float* r0 = img[y0];
-  const float* r1 = img[y1];
-  const float a = r0[x0] + ax * (r0[x1] - r0[x0]);
-  const float b = r1[x0] + ax * (r1[x1] - r1[x0]);
-  return a + ay * (b - a);
-}
-
-float MipTexture::Trilinear(double u, double v, double lod) const {
-  const int last = num_levels() - 1;
-  if (lod <= 0) return Bilinear(0, u, v);
-  if (lod >= last) return levels_[last](0, 0);
-  const int l = static_cast<int>(lod);
-  const float f = static_cast<float>(lod - l);
-  const double s0 = 1.0 / (1 << l), s1 = 0.5 * s0;
-  const float a = Bilinear(l, u * s0, v * s0);
-  const float b = Bilinear(l + 1, u * s1, v * s1);
-  return a + f * (b - a);
-}
-
-float MipTexture::SampleIso(const Eigen::Vector2d& point_m, double footprint_m) const {
-  const double inv = 1.0 / texel_m_;
-  return Trilinear(point_m.x() * inv, point_m.y() * inv, std::log2(std::max(footprint_m * inv, 1e-6)));
-}
-
-float MipTexture::Sample(const Eigen::Vector2d& point_m, const Eigen::Vector2d& major_m,
-                         double minor_m) const {
-  const double inv = 1.0 / texel_m_;
-  const double major = major_m.norm() * inv, minor = std::max(minor_m * inv, 1e-6);
-  const int n = std::clamp(static_cast<int>(std::ceil(major / minor)), 1, 4);
-  const double lod = std::log2(std::max(minor, major / n));
-  const double u = point_m.x() * inv, v = point_m.y() * inv;
-  if (n == 1) return Trilinear(u, v, lod);
-  float sum = 0.0f;
-  for (int i = 0; i < n; ++i) {
-    const double a = (i + 0.5) / n - 0.5;
-    sum += Trilinear(u + a * major_m.x() * inv, v + a * major_m.y() * inv, lod);
+  for (const cv::Mat1f& level : levels_) {
+    data_.push_back(level.ptr<float>(0));
+    int shift = 0;
+    while ((1 << shift) < level.rows) ++shift;
+    shift_.push_back(shift);
   }
-  return sum / n;
 }
 
 MipTexture BakeMaterial(Material material, unsigned seed) {

@@ -1,5 +1,7 @@
 #pragma once
 
+#include <algorithm>
+#include <cmath>
 #include <vector>
 
 #include <Eigen/Core>
@@ -19,7 +21,6 @@ class MipTexture {
 
   double texel_m() const { return texel_m_; }
   int num_levels() const { return static_cast<int>(levels_.size()); }
-  const cv::Mat1f& level(int i) const { return levels_[i]; }
 
   // Albedo at a point in pattern metres for a footprint (pixel extent on the surface): the
   // footprint's long axis `major_m` (a 2-D vector) and its short extent `minor_m`. Up to four
@@ -29,12 +30,81 @@ class MipTexture {
   float SampleIso(const Eigen::Vector2d& point_m, double footprint_m) const;
 
  private:
+  // Bilinear lookup at texel coordinates of one level (wraps around).
   float Bilinear(int level, double u, double v) const;
   float Trilinear(double u, double v, double lod) const;
 
   std::vector<cv::Mat1f> levels_;
+  std::vector<const float*> data_;  // level pixels, row-major
+  std::vector<int> shift_;          // log2 of each level's size
   double texel_m_;
 };
+
+namespace texture_internal {
+
+// log2 for positive finite x, good to about 0.01 (enough to pick a mip level).
+inline double FastLog2(double x) {
+  int exponent = 0;
+  const double m = 2.0 * std::frexp(x, &exponent);  // x = m 2^(e - 1), m in [1, 2)
+  const double t = m - 1.0;
+  return exponent - 1 + t * (1.3465 - 0.3465 * t);
+}
+
+// A large multiple of every level size, so that texel coordinates become positive before the
+// integer truncation (cheaper than floor).
+constexpr double kWrapOffset = 1 << 22;
+
+}  // namespace texture_internal
+
+inline float MipTexture::Bilinear(int level, double u, double v) const {
+  const int shift = shift_[level];
+  const int mask = (1 << shift) - 1;
+  u += texture_internal::kWrapOffset - 0.5;
+  v += texture_internal::kWrapOffset - 0.5;
+  const long iu = static_cast<long>(u), iv = static_cast<long>(v);
+  const float ax = static_cast<float>(u - static_cast<double>(iu));
+  const float ay = static_cast<float>(v - static_cast<double>(iv));
+  const int x0 = static_cast<int>(iu) & mask, y0 = static_cast<int>(iv) & mask;
+  const int x1 = (x0 + 1) & mask, y1 = (y0 + 1) & mask;
+  const float* r0 = data_[level] + (y0 << shift);
+  const float* r1 = data_[level] + (y1 << shift);
+  const float a = r0[x0] + ax * (r0[x1] - r0[x0]);
+  const float b = r1[x0] + ax * (r1[x1] - r1[x0]);
+  return a + ay * (b - a);
+}
+
+inline float MipTexture::Trilinear(double u, double v, double lod) const {
+  const int last = num_levels() - 1;
+  if (lod <= 0) return Bilinear(0, u, v);
+  if (lod >= last) return data_[last][0];
+  const int l = static_cast<int>(lod);
+  const float f = static_cast<float>(lod - l);
+  const double s0 = 1.0 / (1 << l), s1 = 0.5 * s0;
+  const float a = Bilinear(l, u * s0, v * s0);
+  const float b = Bilinear(l + 1, u * s1, v * s1);
+  return a + f * (b - a);
+}
+
+inline float MipTexture::SampleIso(const Eigen::Vector2d& point_m, double footprint_m) const {
+  const double inv = 1.0 / texel_m_;
+  return Trilinear(point_m.x() * inv, point_m.y() * inv, texture_internal::FastLog2(std::max(footprint_m * inv, 1e-6)));
+}
+
+inline float MipTexture::Sample(const Eigen::Vector2d& point_m, const Eigen::Vector2d& major_m,
+                         double minor_m) const {
+  const double inv = 1.0 / texel_m_;
+  const double major = major_m.norm() * inv, minor = std::max(minor_m * inv, 1e-6);
+  const int n = std::clamp(static_cast<int>(std::ceil(major / minor)), 1, 4);
+  const double lod = texture_internal::FastLog2(std::max(minor, major / n));
+  const double u = point_m.x() * inv, v = point_m.y() * inv;
+  if (n == 1) return Trilinear(u, v, lod);
+  float sum = 0.0f;
+  for (int i = 0; i < n; ++i) {
+    const double a = (i + 0.5) / n - 0.5;
+    sum += Trilinear(u + a * major_m.x() * inv, v + a * major_m.y() * inv, lod);
+  }
+  return sum / static_cast<float>(n);
+}
 
 // Bakes a material's texture (512 x 512 texels of 2 mm, a 1.024 m tile), deterministic for a seed.
 MipTexture BakeMaterial(Material material, unsigned seed);
