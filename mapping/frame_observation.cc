@@ -1,0 +1,19 @@
+#include "mapping/frame_observation.h"
+
+namespace monoplane {
+
+FrameObservation MakeFrameObservation(const SequenceDetector::Output& output, TimestampNs stamp_ns) {
+  FrameObservation frame;
+  frame.stamp_ns = stamp_ns;
+  frame.odom_from_base = output.odom_from_base;
+  frame.step = output.step;
+  frame.features = output.features;
+  if (output.result && output.result->status == PairStatus::kOk) {
+    frame.has_result = true;
+    frame.local_map = output.result->local_map;
+    frame.obstacle_points_in_base = output.result->obstacle_points_in_base;
+  }
+  return frame;
+}
+
+}  // namespace monoplane

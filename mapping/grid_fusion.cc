@@ -1,0 +1,93 @@
+#include "mapping/grid_fusion.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace monoplane {
+
+bool LogOddsOptions::IsValid(std::string* error) const {
+  auto fail = [&](const std::string& m) {
+    if (error) *error = m;
+    return false;
+  };
+  if (!(hit > 0)) return fail("LogOddsOptions::hit = " + std::to_string(hit) + ": must be > 0");
+  if (!(miss < 0)) return fail("LogOddsOptions::miss = " + std::to_string(miss) + ": must be < 0");
+  if (!(min < 0)) return fail("LogOddsOptions::min = " + std::to_string(min) + ": must be < 0");
+  if (!(max > 0)) return fail("LogOddsOptions::max = " + std::to_string(max) + ": must be > 0");
+  return true;
+}
+
+void FuseLocalMap(const OccupancyGrid& local_map, const std::vector<Eigen::Vector3f>& obstacle_points_in_base,
+                  const Pose2& map_from_base, TimestampNs stamp_ns, const LogOddsOptions& options,
+                  TiledGrid* grid, std::set<TiledGrid::TileKey>* changed_tiles) {
+  const GridGeometry& g = local_map.geometry;
+  if (g.width <= 0 || g.height <= 0 || local_map.cells.size() != g.NumCells()) return;
+  const TimestampNs seen = std::max<TimestampNs>(stamp_ns, 1);
+  const double res = grid->resolution_m();
+
+  // Map-frame bounding box of the local map.
+  const double x0 = g.origin_x_m, y0 = g.origin_y_m;
+  const double x1 = x0 + g.width * g.resolution_m, y1 = y0 + g.height * g.resolution_m;
+  Eigen::Vector2d lo(std::numeric_limits<double>::max(), std::numeric_limits<double>::max());
+  Eigen::Vector2d hi = -lo;
+  for (const Eigen::Vector2d& corner : {Eigen::Vector2d(x0, y0), Eigen::Vector2d(x1, y0),
+                                        Eigen::Vector2d(x0, y1), Eigen::Vector2d(x1, y1)}) {
+    const Eigen::Vector2d m = map_from_base * corner;
+    lo = lo.cwiseMin(m);
+    hi = hi.cwiseMax(m);
+  }
+  const Eigen::Vector2i cell_lo = grid->CellOf(lo), cell_hi = grid->CellOf(hi);
+  const Pose2 base_from_map = map_from_base.Inverse();
+  const Eigen::Matrix2d r = base_from_map.Rotation();
+  const Eigen::Vector2d t = base_from_map.Translation();
+  const double inv_local_res = 1.0 / g.resolution_m;
+
+  TiledGrid::TileKey cached_key{std::numeric_limits<int>::min(), 0};
+  TiledGrid::Tile* tile = nullptr;
+  for (int j = cell_lo.y(); j <= cell_hi.y(); ++j) {
+    for (int i = cell_lo.x(); i <= cell_hi.x(); ++i) {
+      const Eigen::Vector2d centre((i + 0.5) * res, (j + 0.5) * res);
+      const Eigen::Vector2d b = r * centre + t;
+      const double fc = (b.x() - x0) * inv_local_res, fr = (b.y() - y0) * inv_local_res;
+      if (fc < 0 || fr < 0) continue;
+      const int col = static_cast<int>(fc), row = static_cast<int>(fr);
+      if (col >= g.width || row >= g.height) continue;
+      const std::int8_t v = local_map.cells[static_cast<std::size_t>(row) * g.width + col];
+      if (v < 0) continue;
+      const Eigen::Vector2i cell(i, j);
+      const TiledGrid::TileKey key = TiledGrid::TileOf(cell);
+      if (key != cached_key) {
+        tile = &grid->TileAt(cell);
+        cached_key = key;
+        if (changed_tiles) changed_tiles->insert(key);
+      }
+      const int k = TiledGrid::IndexInTile(cell);
+      const bool occupied = v >= 50;
+      tile->log_odds[k] = UpdateLogOdds(tile->log_odds[k], occupied, options);
+      tile->last_seen_ns[k] = seen;
+      if (tile->log_odds[k] <= 0.0f) tile->height_m[k] = std::numeric_limits<float>::quiet_NaN();
+    }
+  }
+
+  for (const Eigen::Vector3f& p : obstacle_points_in_base) {
+    const Eigen::Vector2i cell = grid->CellOf(map_from_base * Eigen::Vector2d(p.x(), p.y()));
+    TiledGrid::Tile& tl = grid->TileAt(cell);
+    if (changed_tiles) changed_tiles->insert(TiledGrid::TileOf(cell));
+    const int k = TiledGrid::IndexInTile(cell);
+    if (tl.log_odds[k] <= 0.0f) continue;  // not (yet) occupied: keep the height unknown
+    float& h = tl.height_m[k];
+    if (std::isnan(h) || p.z() > h) h = p.z();
+  }
+}
+
+void ClearGrid(TiledGrid* grid, std::set<TiledGrid::TileKey>* changed_tiles) {
+  for (auto& [key, tile] : grid->mutable_tiles()) {
+    std::fill(tile.log_odds.begin(), tile.log_odds.end(), 0.0f);
+    std::fill(tile.height_m.begin(), tile.height_m.end(), std::numeric_limits<float>::quiet_NaN());
+    std::fill(tile.last_seen_ns.begin(), tile.last_seen_ns.end(), 0);
+    if (changed_tiles) changed_tiles->insert(key);
+  }
+}
+
+}  // namespace monoplane

@@ -1,0 +1,50 @@
+#pragma once
+
+#include <set>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "perception/geometry/occupancy_grid.h"
+#include "perception/geometry/pose2.h"
+#include "perception/geometry/tiled_grid.h"
+#include "perception/geometry/timestamp.h"
+
+namespace monoplane {
+
+// Log-odds occupancy updates (Thrun, Probabilistic Robotics ch. 9). A cell that was never observed
+// keeps log-odds 0 and last_seen_ns 0 (unknown); every observation adds `hit` (seen occupied) or
+// `miss` (seen free) and clamps to [min, max], so a cell seen free later decays back to free
+// through misses: from the max 3.5 it takes ceil((3.5 - logit(0.25)) / 0.4) = 12 misses to read
+// free (p <= 0.25) with the defaults.
+struct LogOddsOptions {
+  float hit = 0.85f;    // added when a local map says occupied, > 0 (p = 0.70)
+  float miss = -0.4f;   // added when a local map says free, < 0 (p = 0.40)
+  float min = -2.0f;    // clamp, < 0 (p = 0.12): a free cell can become occupied within 3 hits
+  float max = 3.5f;     // clamp, > 0 (p = 0.97)
+
+  bool IsValid(std::string* error) const;
+};
+
+// One observation applied to a log-odds value.
+inline float UpdateLogOdds(float log_odds, bool occupied, const LogOddsOptions& options) {
+  const float v = log_odds + (occupied ? options.hit : options.miss);
+  return v < options.min ? options.min : (v > options.max ? options.max : v);
+}
+
+// Fuses a local map (cells -1 / 0 / 100 in the base frame) seen at map_from_base into the global
+// grid: every grid cell whose centre falls on a known local cell gets one hit or miss and
+// last_seen_ns = max(stamp_ns, 1) (so an observed cell is never mistaken for unknown). Obstacle
+// points (base frame, z = height) raise the cell's height_m to their maximum; a cell whose
+// log-odds drops to <= 0 forgets its height (NaN). Keys of every touched tile go into
+// changed_tiles when given. The grids must share the resolution.
+void FuseLocalMap(const OccupancyGrid& local_map, const std::vector<Eigen::Vector3f>& obstacle_points_in_base,
+                  const Pose2& map_from_base, TimestampNs stamp_ns, const LogOddsOptions& options,
+                  TiledGrid* grid, std::set<TiledGrid::TileKey>* changed_tiles = nullptr);
+
+// Resets every cell of every tile to unknown (keeping the tiles, so that their keys can be
+// reported as changed) and records their keys in changed_tiles when given.
+void ClearGrid(TiledGrid* grid, std::set<TiledGrid::TileKey>* changed_tiles = nullptr);
+
+}  // namespace monoplane

@@ -1,0 +1,116 @@
+#include "mapping/grid_fusion.h"
+
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+namespace monoplane {
+namespace {
+
+TEST(LogOdds, HitMissClampArithmetic) {
+  const LogOddsOptions o;  // hit 0.85, miss -0.4, clamp [-2, 3.5]
+  EXPECT_FLOAT_EQ(UpdateLogOdds(0.0f, true, o), 0.85f);
+  EXPECT_FLOAT_EQ(UpdateLogOdds(0.85f, true, o), 1.70f);
+  EXPECT_FLOAT_EQ(UpdateLogOdds(0.0f, false, o), -0.4f);
+  EXPECT_FLOAT_EQ(UpdateLogOdds(3.2f, true, o), 3.5f);   // clamped at max
+  EXPECT_FLOAT_EQ(UpdateLogOdds(-1.8f, false, o), -2.0f);  // clamped at min
+  // 5 hits: 4.25 -> 3.5; then misses decay it: free (p <= 0.25, log-odds <= -1.0986) after 12.
+  float l = 0.0f;
+  for (int k = 0; k < 5; ++k) l = UpdateLogOdds(l, true, o);
+  EXPECT_FLOAT_EQ(l, 3.5f);
+  int misses = 0;
+  while (TiledGrid::Probability(l) > 0.25f) {
+    l = UpdateLogOdds(l, false, o);
+    ++misses;
+  }
+  EXPECT_EQ(misses, 12);
+  EXPECT_NEAR(l, 3.5f - 12 * 0.4f, 1e-5);
+  std::string error;
+  EXPECT_TRUE(o.IsValid(&error));
+  LogOddsOptions bad;
+  bad.miss = 0.1f;
+  EXPECT_FALSE(bad.IsValid(&error));
+  EXPECT_NE(error.find("miss"), std::string::npos);
+}
+
+OccupancyGrid SmallLocalMap() {
+  GridGeometry g;
+  g.resolution_m = 0.05;
+  g.origin_x_m = 0.0;
+  g.origin_y_m = 0.0;
+  g.width = 4;
+  g.height = 2;
+  OccupancyGrid m(g, kCellUnknown);
+  m.At(0, 0) = kCellFree;
+  m.At(1, 0) = kCellOccupied;
+  m.At(2, 0) = kCellFree;
+  // (3, 0) and row 1 stay unknown.
+  return m;
+}
+
+TEST(GridFusion, FusesHitsMissesHeightsAndStamps) {
+  TiledGrid grid(0.05);
+  std::set<TiledGrid::TileKey> changed;
+  const OccupancyGrid local = SmallLocalMap();
+  // Base frame shifted by (1.0, 2.0): local cell (c, r) lands on global cell (20 + c, 40 + r).
+  const Pose2 pose{1.0, 2.0, 0.0};
+  const std::vector<Eigen::Vector3f> points = {{0.075f, 0.025f, 0.42f}, {0.075f, 0.025f, 0.30f}};
+  FuseLocalMap(local, points, pose, 5000, LogOddsOptions(), &grid, &changed);
+  EXPECT_EQ(changed.size(), 1u);
+  EXPECT_FLOAT_EQ(grid.LogOdds({20, 40}), -0.4f);
+  EXPECT_FLOAT_EQ(grid.LogOdds({21, 40}), 0.85f);
+  EXPECT_FLOAT_EQ(grid.LogOdds({22, 40}), -0.4f);
+  EXPECT_FLOAT_EQ(grid.LogOdds({23, 40}), 0.0f);  // unknown stays unknown
+  const TiledGrid::Tile* tile = grid.FindTile({21, 40});
+  ASSERT_NE(tile, nullptr);
+  EXPECT_FLOAT_EQ(tile->height_m[TiledGrid::IndexInTile({21, 40})], 0.42f);
+  EXPECT_EQ(tile->last_seen_ns[TiledGrid::IndexInTile({21, 40})], 5000);
+  EXPECT_EQ(tile->last_seen_ns[TiledGrid::IndexInTile({23, 40})], 0);
+  EXPECT_TRUE(std::isnan(tile->height_m[TiledGrid::IndexInTile({20, 40})]));
+
+  // Unknown vs free vs occupied in the trinary export.
+  const OccupancyGrid out = ToOccupancyGrid(grid);
+  const auto c20 = out.geometry.CellOf(grid.CellCenter({20, 40}));
+  const auto c21 = out.geometry.CellOf(grid.CellCenter({21, 40}));
+  ASSERT_TRUE(c20 && c21);
+  EXPECT_EQ(out.At(c21->x(), c21->y()), kCellOccupied);  // p(0.85) = 0.70 >= 0.65
+  EXPECT_EQ(out.At(c20->x(), c20->y()), kCellUnknown);   // p(-0.4) = 0.40: not yet free
+
+  // The occupied cell is later seen free (an object moved away): it decays and forgets its height.
+  OccupancyGrid all_free = local;
+  for (auto& c : all_free.cells) c = c == kCellUnknown ? kCellUnknown : kCellFree;
+  FuseLocalMap(all_free, {}, pose, 6000, LogOddsOptions(), &grid, nullptr);
+  EXPECT_NEAR(grid.LogOdds({21, 40}), 0.45f, 1e-6);
+  FuseLocalMap(all_free, {}, pose, 7000, LogOddsOptions(), &grid, nullptr);
+  EXPECT_NEAR(grid.LogOdds({21, 40}), 0.05f, 1e-6);
+  FuseLocalMap(all_free, {}, pose, 8000, LogOddsOptions(), &grid, nullptr);
+  EXPECT_NEAR(grid.LogOdds({21, 40}), -0.35f, 1e-6);
+  EXPECT_TRUE(std::isnan(tile->height_m[TiledGrid::IndexInTile({21, 40})]));
+  for (int k = 0; k < 2; ++k) FuseLocalMap(all_free, {}, pose, 9000, LogOddsOptions(), &grid, nullptr);
+  EXPECT_NEAR(grid.LogOdds({21, 40}), -1.15f, 1e-6);
+  const OccupancyGrid later = ToOccupancyGrid(grid);
+  const auto d21 = later.geometry.CellOf(grid.CellCenter({21, 40}));
+  ASSERT_TRUE(d21);
+  EXPECT_EQ(later.At(d21->x(), d21->y()), kCellFree);  // p(-1.15) = 0.24 <= 0.25
+  EXPECT_EQ(tile->last_seen_ns[TiledGrid::IndexInTile({21, 40})], 9000);
+}
+
+TEST(GridFusion, RotatedPoseAndClear) {
+  TiledGrid grid(0.05);
+  const OccupancyGrid local = SmallLocalMap();
+  // Rotated by +90 degrees: local +x becomes map +y. Local cell (1, 0) centre (0.075, 0.025)
+  // lands at (-0.025, 0.075): global cell (-1, 1), in tile (-1, 0).
+  FuseLocalMap(local, {}, Pose2{0.0, 0.0, M_PI / 2}, 1, LogOddsOptions(), &grid, nullptr);
+  EXPECT_FLOAT_EQ(grid.LogOdds({-1, 1}), 0.85f);
+  EXPECT_FLOAT_EQ(grid.LogOdds({-1, 0}), -0.4f);
+  EXPECT_FLOAT_EQ(grid.LogOdds({-1, 2}), -0.4f);
+  EXPECT_TRUE(grid.tiles().count({-1, 0}));
+  std::set<TiledGrid::TileKey> changed;
+  ClearGrid(&grid, &changed);
+  EXPECT_EQ(changed.size(), grid.tiles().size());
+  EXPECT_FLOAT_EQ(grid.LogOdds({-1, 1}), 0.0f);
+  EXPECT_EQ(ToOccupancyGrid(grid).geometry.width, 0);
+}
+
+}  // namespace
+}  // namespace monoplane

@@ -1,0 +1,409 @@
+#include "mapping/mapper.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <limits>
+#include <unordered_set>
+
+namespace monoplane {
+
+namespace {
+
+void CheckOrDie(bool ok, const std::string& what) {
+  if (!ok) {
+    std::fprintf(stderr, "Mapper: %s\n", what.c_str());
+    std::abort();
+  }
+}
+
+Pose2 Between(const Pose2& a, const Pose2& b) { return a.Inverse() * b; }
+
+// The map-frame bounding box of a local map seen at a pose, grown by margin_m.
+std::pair<Eigen::Vector2d, Eigen::Vector2d> LocalMapBounds(const OccupancyGrid& local_map, const Pose2& pose,
+                                                           double margin_m) {
+  const GridGeometry& g = local_map.geometry;
+  const double x0 = g.origin_x_m, y0 = g.origin_y_m;
+  const double x1 = x0 + g.width * g.resolution_m, y1 = y0 + g.height * g.resolution_m;
+  Eigen::Vector2d lo(std::numeric_limits<double>::max(), std::numeric_limits<double>::max());
+  Eigen::Vector2d hi = -lo;
+  for (const Eigen::Vector2d& c : {Eigen::Vector2d(x0, y0), Eigen::Vector2d(x1, y0), Eigen::Vector2d(x0, y1),
+                                   Eigen::Vector2d(x1, y1)}) {
+    const Eigen::Vector2d m = pose * c;
+    lo = lo.cwiseMin(m);
+    hi = hi.cwiseMax(m);
+  }
+  return {lo.array() - margin_m, hi.array() + margin_m};
+}
+
+}  // namespace
+
+bool Mapper::Options::IsValid(std::string* error) const {
+  auto fail = [&](const std::string& key, double value, const std::string& constraint) {
+    if (error) *error = "Mapper::Options::" + key + " = " + std::to_string(value) + ": must be " + constraint;
+    return false;
+  };
+  if (!(keyframe_distance_m > 0)) return fail("keyframe_distance_m", keyframe_distance_m, "> 0");
+  if (!(keyframe_rotation_rad > 0)) return fail("keyframe_rotation_rad", keyframe_rotation_rad, "> 0");
+  if (!(keyframe_min_shared_tracks >= 0 && keyframe_min_shared_tracks <= 1)) {
+    return fail("keyframe_min_shared_tracks", keyframe_min_shared_tracks, "in [0, 1]");
+  }
+  if (!(keyframe_min_distance_m >= 0)) return fail("keyframe_min_distance_m", keyframe_min_distance_m, ">= 0");
+  if (!(odom_sigma_per_m > 0)) return fail("odom_sigma_per_m", odom_sigma_per_m, "> 0");
+  if (!(odom_sigma_min_m > 0)) return fail("odom_sigma_min_m", odom_sigma_min_m, "> 0");
+  if (!(odom_yaw_sigma_per_rad > 0)) return fail("odom_yaw_sigma_per_rad", odom_yaw_sigma_per_rad, "> 0");
+  if (!(odom_yaw_sigma_per_m >= 0)) return fail("odom_yaw_sigma_per_m", odom_yaw_sigma_per_m, ">= 0");
+  if (!(odom_yaw_sigma_min_rad > 0)) return fail("odom_yaw_sigma_min_rad", odom_yaw_sigma_min_rad, "> 0");
+  if (good_motion_min_inliers < 0) return fail("good_motion_min_inliers", good_motion_min_inliers, ">= 0");
+  if (!(good_motion_max_rms_px > 0)) return fail("good_motion_max_rms_px", good_motion_max_rms_px, "> 0");
+  if (!(poor_motion_sigma_factor >= 1)) return fail("poor_motion_sigma_factor", poor_motion_sigma_factor, ">= 1");
+  if (!(fallback_motion_sigma_factor >= 1)) {
+    return fail("fallback_motion_sigma_factor", fallback_motion_sigma_factor, ">= 1");
+  }
+  if (window_size < 2) return fail("window_size", window_size, ">= 2");
+  if (!(loop_min_travel_m >= 0)) return fail("loop_min_travel_m", loop_min_travel_m, ">= 0");
+  if (!(loop_candidate_radius_m > 0)) return fail("loop_candidate_radius_m", loop_candidate_radius_m, "> 0");
+  if (loop_max_candidates < 1) return fail("loop_max_candidates", loop_max_candidates, ">= 1");
+  if (loop_min_interval_keyframes < 0) {
+    return fail("loop_min_interval_keyframes", loop_min_interval_keyframes, ">= 0");
+  }
+  if (!(loop_sigma_xy_m > 0)) return fail("loop_sigma_xy_m", loop_sigma_xy_m, "> 0");
+  if (!(loop_sigma_yaw_rad > 0)) return fail("loop_sigma_yaw_rad", loop_sigma_yaw_rad, "> 0");
+  if (!(rebuild_min_change_m >= 0)) return fail("rebuild_min_change_m", rebuild_min_change_m, ">= 0");
+  if (!(rebuild_min_change_rad >= 0)) return fail("rebuild_min_change_rad", rebuild_min_change_rad, ">= 0");
+  if (!(grid_resolution_m > 0)) return fail("grid_resolution_m", grid_resolution_m, "> 0");
+  std::string sub;
+  auto nested = [&](bool ok, const std::string& key) {
+    if (!ok && error) *error = "Mapper::Options::" + key + ": " + sub;
+    return ok;
+  };
+  if (!nested(window.IsValid(&sub), "window")) return false;
+  if (!nested(loop_match.IsValid(&sub), "loop_match")) return false;
+  if (!nested(pose_graph.IsValid(&sub), "pose_graph")) return false;
+  if (!nested(log_odds.IsValid(&sub), "log_odds")) return false;
+  if (!nested(octree.IsValid(&sub), "octree")) return false;
+  if (!nested(localization_match.IsValid(&sub), "localization_match")) return false;
+  return true;
+}
+
+Mapper::Mapper(const Options& options, const CameraCalibration& calibration)
+    : options_(options),
+      calibration_(calibration),
+      camera_(calibration),
+      mount_(calibration.mount),
+      grid_(options.grid_resolution_m),
+      saved_grid_(options.grid_resolution_m),
+      octree_(options.octree) {
+  std::string error;
+  CheckOrDie(options.IsValid(&error), error);
+  CheckOrDie(calibration.IsValid(&error), error);
+}
+
+Mapper::Mapper(const Options& options, const CameraCalibration& calibration, TiledGrid saved_grid,
+               std::vector<Keyframe> saved_keyframes, const Pose2& initial_map_from_base)
+    : Mapper(options, calibration) {
+  CheckOrDie(std::abs(saved_grid.resolution_m() - options.grid_resolution_m) < 1e-9,
+             "saved grid resolution differs from Options::grid_resolution_m");
+  saved_grid_ = std::move(saved_grid);
+  grid_ = saved_grid_;
+  keyframes_ = std::move(saved_keyframes);
+  num_saved_ = static_cast<int>(keyframes_.size());
+  for (Keyframe& k : keyframes_) {
+    k.from_saved_map = true;
+    next_id_ = std::max(next_id_, k.id + 1);
+    if (options_.build_octree) octree_.Insert(k.obstacle_points_in_base, k.map_from_base, camera_.CameraCentreInBase());
+  }
+  initial_map_from_base_ = initial_map_from_base;
+  localization_ = LocalizationResult{};
+  localization_->message = "no keyframe yet";
+}
+
+double Mapper::StepSigmaFactor(const GroundMotion& step) const {
+  if (step.status != GroundMotion::Status::kOk) return options_.fallback_motion_sigma_factor;
+  if (step.num_inliers < options_.good_motion_min_inliers || step.rms_residual_px > options_.good_motion_max_rms_px) {
+    return options_.poor_motion_sigma_factor;
+  }
+  return 1.0;
+}
+
+bool Mapper::WantsKeyframe(const FrameObservation& frame) const {
+  if (!frame.has_result || frame.local_map.cells.empty()) return false;
+  if (static_cast<int>(keyframes_.size()) == num_saved_) return true;
+  const Keyframe& last = keyframes_.back();
+  const Pose2 delta = Between(last.odom_from_base, frame.odom_from_base);
+  const double distance = delta.TranslationNorm();
+  if (distance >= options_.keyframe_distance_m) return true;
+  if (std::abs(delta.yaw) >= options_.keyframe_rotation_rad) return true;
+  if (!last.features.empty() && distance >= options_.keyframe_min_distance_m) {
+    std::unordered_set<std::int64_t> ids;
+    for (const FeatureObservation& f : last.features) ids.insert(f.track_id);
+    int shared = 0;
+    for (const FeatureObservation& f : frame.features) shared += ids.count(f.track_id) ? 1 : 0;
+    if (shared < options_.keyframe_min_shared_tracks * static_cast<double>(last.features.size())) return true;
+  }
+  return false;
+}
+
+Mapper::FrameUpdate Mapper::AddFrame(const FrameObservation& frame) {
+  FrameUpdate update;
+  ++counters_.frames;
+  if (!frames_.empty()) {
+    const Pose2 step = Between(frames_.back().odom_from_base, frame.odom_from_base);
+    path_length_m_ += step.TranslationNorm();
+    const double factor = StepSigmaFactor(frame.step);
+    const double s_xy =
+        factor * std::max(options_.odom_sigma_min_m, options_.odom_sigma_per_m * step.TranslationNorm());
+    const double s_yaw = factor * std::max(options_.odom_yaw_sigma_min_rad,
+                                           options_.odom_yaw_sigma_per_rad * std::abs(step.yaw) +
+                                               options_.odom_yaw_sigma_per_m * step.TranslationNorm());
+    pending_var_xy_ += s_xy * s_xy;
+    pending_var_yaw_ += s_yaw * s_yaw;
+  } else if (!map_from_odom_) {
+    // The map is the base frame of the first frame (or the given pose in a saved map).
+    map_from_odom_ = initial_map_from_base_ * frame.odom_from_base.Inverse();
+  }
+  const int keyframe_index = static_cast<int>(keyframes_.size()) > num_saved_ ? static_cast<int>(keyframes_.size()) - 1 : -1;
+  frames_.push_back({frame.stamp_ns, frame.odom_from_base, keyframe_index});
+  if (WantsKeyframe(frame)) {
+    AddKeyframe(frame, &update);
+    frames_.back().keyframe_index = static_cast<int>(keyframes_.size()) - 1;
+  }
+  update.map_from_base = CurrentPose();
+  return update;
+}
+
+void Mapper::AddKeyframe(const FrameObservation& frame, FrameUpdate* update) {
+  const bool first_of_run = static_cast<int>(keyframes_.size()) == num_saved_;
+  Keyframe kf;
+  kf.id = next_id_++;
+  kf.stamp_ns = frame.stamp_ns;
+  kf.odom_from_base = frame.odom_from_base;
+  kf.path_length_m = path_length_m_;
+  kf.local_map = frame.local_map;
+  kf.obstacle_points_in_base = frame.obstacle_points_in_base;
+  kf.features = frame.features;
+  if (first_of_run) {
+    kf.map_from_base = *map_from_odom_ * frame.odom_from_base;
+    if (num_saved_ > 0) {
+      // Localise in the saved map with a wide search.
+      const ScanMatchOptions& m = options_.localization_match;
+      const auto [lo, hi] = LocalMapBounds(kf.local_map, kf.map_from_base, m.linear_window_m + 0.5);
+      const MatchTarget target = MakeMatchTarget(saved_grid_, lo, hi, m.smoothing_sigma_m);
+      const ScanMatchResult r = MatchScan(OccupiedPoints(kf.local_map, m.max_points), target, kf.map_from_base, m);
+      LocalizationResult& loc = *localization_;
+      loc.success = r.accepted;
+      loc.score = r.score;
+      loc.second_score = r.second_score;
+      loc.message = r.accepted ? "localised" : r.reason;
+      if (r.accepted) {
+        kf.map_from_base = r.map_from_base;
+        map_from_odom_ = kf.map_from_base * frame.odom_from_base.Inverse();
+      }
+      loc.map_from_base = kf.map_from_base;
+    }
+  } else {
+    const Keyframe& prev = keyframes_.back();
+    const Pose2 delta = Between(prev.odom_from_base, frame.odom_from_base);
+    kf.map_from_base = prev.map_from_base * delta;
+    PoseGraphEdge edge;
+    edge.from = static_cast<int>(keyframes_.size()) - 1;
+    edge.to = edge.from + 1;
+    edge.from_T_to = delta;
+    edge.sigma_xy_m = std::sqrt(std::max(pending_var_xy_, 1e-12));
+    edge.sigma_yaw_rad = std::sqrt(std::max(pending_var_yaw_, 1e-12));
+    odometry_edges_.push_back(edge);
+    refined_edges_.push_back(edge);
+  }
+  pending_var_xy_ = pending_var_yaw_ = 0;
+  keyframes_.push_back(std::move(kf));
+  ++counters_.keyframes;
+  const int index = static_cast<int>(keyframes_.size()) - 1;
+
+  OptimizeWindow();
+  FuseKeyframe(keyframes_[index]);
+  update->keyframe = true;
+  update->keyframe_id = keyframes_[index].id;
+  if (TryLoopClosure(index)) {
+    update->loop_closed = true;
+    update->map_rebuilt = OptimizeAllAndMaybeRebuild();
+  }
+  if (on_keyframe_) on_keyframe_(keyframes_[index]);
+}
+
+void Mapper::OptimizeWindow() {
+  const int n = static_cast<int>(keyframes_.size());
+  const int begin = std::max(FirstRunIndex(), n - options_.window_size);
+  if (n - begin < 2) return;
+  std::vector<WindowKeyframe> window;
+  for (int i = begin; i < n; ++i) {
+    window.push_back({keyframes_[i].map_from_base, i == begin, keyframes_[i].features});
+  }
+  std::vector<PoseGraphEdge> edges;
+  for (const PoseGraphEdge& e : odometry_edges_) {
+    if (e.from >= begin) {
+      PoseGraphEdge local = e;
+      local.from -= begin;
+      local.to -= begin;
+      edges.push_back(local);
+    }
+  }
+  CameraCalibration calibration = calibration_;
+  calibration.mount = mount_;
+  const WindowResult r = AdjustWindow(window, edges, calibration, options_.window);
+  ++counters_.window_optimizations;
+  if (!r.summary.ok) return;
+  for (int i = begin; i < n; ++i) keyframes_[i].map_from_base = r.poses[i - begin];
+  mount_ = r.mount;
+  for (PoseGraphEdge& e : refined_edges_) {
+    if (e.from >= begin) e.from_T_to = Between(keyframes_[e.from].map_from_base, keyframes_[e.to].map_from_base);
+  }
+}
+
+bool Mapper::TryLoopClosure(int index) {
+  if (!options_.loop_closure) return false;
+  if (last_closure_index_ >= 0 && index - last_closure_index_ <= options_.loop_min_interval_keyframes) return false;
+  const Keyframe& current = keyframes_[index];
+  std::vector<std::pair<double, int>> candidates;
+  for (int j = 0; j < index; ++j) {
+    const Keyframe& k = keyframes_[j];
+    if (!k.from_saved_map && current.path_length_m - k.path_length_m < options_.loop_min_travel_m) continue;
+    const double d = (k.map_from_base.Translation() - current.map_from_base.Translation()).norm();
+    if (d <= options_.loop_candidate_radius_m) candidates.push_back({d, j});
+  }
+  if (candidates.empty()) return false;
+  std::sort(candidates.begin(), candidates.end());
+  if (static_cast<int>(candidates.size()) > options_.loop_max_candidates) candidates.resize(options_.loop_max_candidates);
+  ++counters_.loop_closure_attempts;
+
+  const ScanMatchOptions& m = options_.loop_match;
+  TiledGrid older(options_.grid_resolution_m);
+  for (const auto& [d, j] : candidates) {
+    FuseLocalMap(keyframes_[j].local_map, {}, keyframes_[j].map_from_base, 1, options_.log_odds, &older);
+  }
+  const auto [lo, hi] = LocalMapBounds(current.local_map, current.map_from_base, m.linear_window_m + 0.5);
+  const MatchTarget target = MakeMatchTarget(older, lo, hi, m.smoothing_sigma_m);
+  const ScanMatchResult r = MatchScan(OccupiedPoints(current.local_map, m.max_points), target, current.map_from_base, m);
+
+  const int anchor = candidates.front().second;
+  LoopClosureEvent event;
+  event.keyframe_id = current.id;
+  event.anchor_id = keyframes_[anchor].id;
+  event.anchor_from_current = Between(keyframes_[anchor].map_from_base, r.map_from_base);
+  event.score = r.score;
+  event.second_score = r.second_score;
+  event.accepted = r.accepted;
+  event.reason = r.reason;
+  loop_events_.push_back(event);
+  if (!r.accepted) {
+    ++counters_.loop_closures_rejected;
+    return false;
+  }
+  ++counters_.loop_closures_accepted;
+  last_closure_index_ = index;
+  PoseGraphEdge edge;
+  edge.from = anchor;
+  edge.to = index;
+  edge.from_T_to = event.anchor_from_current;
+  edge.sigma_xy_m = options_.loop_sigma_xy_m;
+  edge.sigma_yaw_rad = options_.loop_sigma_yaw_rad;
+  edge.robust = true;
+  loop_edges_.push_back(edge);
+  return true;
+}
+
+bool Mapper::OptimizeAllAndMaybeRebuild() {
+  const int n = static_cast<int>(keyframes_.size());
+  std::vector<Pose2> poses(n);
+  std::vector<bool> fixed(n, false);
+  for (int i = 0; i < n; ++i) {
+    poses[i] = keyframes_[i].map_from_base;
+    fixed[i] = keyframes_[i].from_saved_map;
+  }
+  // The gauge: the first keyframe of this run stays unless a loop ties the run to the saved map
+  // it could not be localised in.
+  bool tied_to_saved = false;
+  for (const PoseGraphEdge& e : loop_edges_) tied_to_saved |= keyframes_[e.from].from_saved_map;
+  const bool localized = localization_ && localization_->success;
+  if (FirstRunIndex() < n && (num_saved_ == 0 || localized || !tied_to_saved)) fixed[FirstRunIndex()] = true;
+
+  std::vector<PoseGraphEdge> edges = refined_edges_;
+  edges.insert(edges.end(), loop_edges_.begin(), loop_edges_.end());
+  const OptimizationSummary s = OptimizePoseGraph(edges, fixed, options_.pose_graph, &poses);
+  if (!s.ok) return false;
+  double max_move = 0, max_turn = 0;
+  for (int i = 0; i < n; ++i) {
+    max_move = std::max(max_move, (poses[i].Translation() - keyframes_[i].map_from_base.Translation()).norm());
+    max_turn = std::max(max_turn, std::abs(WrapAngle(poses[i].yaw - keyframes_[i].map_from_base.yaw)));
+    keyframes_[i].map_from_base = poses[i];
+  }
+  if (max_move <= options_.rebuild_min_change_m && max_turn <= options_.rebuild_min_change_rad) return false;
+  Rebuild();
+  if (on_correction_) on_correction_();
+  return true;
+}
+
+void Mapper::FuseKeyframe(const Keyframe& keyframe) {
+  FuseLocalMap(keyframe.local_map, keyframe.obstacle_points_in_base, keyframe.map_from_base, keyframe.stamp_ns,
+               options_.log_odds, &grid_, &changed_tiles_);
+  if (options_.build_octree) {
+    octree_.Insert(keyframe.obstacle_points_in_base, keyframe.map_from_base, camera_.CameraCentreInBase());
+  }
+}
+
+void Mapper::Rebuild() {
+  ++counters_.map_rebuilds;
+  ClearGrid(&grid_, &changed_tiles_);
+  for (const auto& [key, tile] : saved_grid_.tiles()) {
+    grid_.mutable_tiles()[key] = tile;
+    changed_tiles_.insert(key);
+  }
+  octree_.Clear();
+  for (int i = 0; i < static_cast<int>(keyframes_.size()); ++i) {
+    const Keyframe& k = keyframes_[i];
+    if (k.from_saved_map) {
+      if (options_.build_octree) octree_.Insert(k.obstacle_points_in_base, k.map_from_base, camera_.CameraCentreInBase());
+    } else {
+      FuseKeyframe(k);
+    }
+  }
+}
+
+std::vector<TrajectoryPoint> Mapper::Trajectory() const {
+  std::vector<TrajectoryPoint> out;
+  out.reserve(frames_.size());
+  for (const FrameRecord& f : frames_) {
+    TrajectoryPoint p;
+    p.stamp_ns = f.stamp_ns;
+    p.odom_from_base = f.odom_from_base;
+    if (f.keyframe_index >= 0) {
+      const Keyframe& k = keyframes_[f.keyframe_index];
+      p.keyframe_id = k.id;
+      p.map_from_base = k.map_from_base * Between(k.odom_from_base, f.odom_from_base);
+    } else {
+      p.map_from_base = map_from_odom_.value_or(Pose2::Identity()) * f.odom_from_base;
+    }
+    out.push_back(p);
+  }
+  return out;
+}
+
+Pose2 Mapper::CurrentPose() const {
+  if (frames_.empty()) return initial_map_from_base_;
+  const FrameRecord& f = frames_.back();
+  if (f.keyframe_index >= 0) {
+    const Keyframe& k = keyframes_[f.keyframe_index];
+    return k.map_from_base * Between(k.odom_from_base, f.odom_from_base);
+  }
+  return map_from_odom_.value_or(Pose2::Identity()) * f.odom_from_base;
+}
+
+std::set<TiledGrid::TileKey> Mapper::TakeChangedTiles() {
+  std::set<TiledGrid::TileKey> out;
+  out.swap(changed_tiles_);
+  return out;
+}
+
+std::string Mapper::OctomapBinary() const { return octree_.ToBinary(); }
+
+}  // namespace monoplane

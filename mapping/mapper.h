@@ -1,0 +1,169 @@
+#pragma once
+
+#include <functional>
+#include <optional>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "mapping/grid_fusion.h"
+#include "mapping/obstacle_octree.h"
+#include "mapping/optimization.h"
+#include "mapping/scan_matcher.h"
+#include "mapping/types.h"
+#include "perception/geometry/camera_calibration.h"
+#include "perception/geometry/camera_model.h"
+#include "perception/geometry/tiled_grid.h"
+
+namespace monoplane {
+
+// The mapping layer: turns the detector's per-frame results into keyframes with refined planar
+// poses (sliding-window adjustment, loop closure, pose graph), a global 2-D log-odds grid and a 3-D
+// OctoMap. Keeps state, does no I/O (no files, threads or clocks): storage and DDS read its values
+// or register callbacks. The map frame is the base frame at the first frame of the first run.
+// Not thread-safe: one thread drives AddFrame and reads the outputs.
+class Mapper {
+ public:
+  struct Options {
+    // Keyframe selection (odometry since the last keyframe).
+    double keyframe_distance_m = 0.30;      // travelled distance that makes a keyframe, > 0
+    double keyframe_rotation_rad = 0.17;    // rotation that makes a keyframe, > 0
+    // Tracking quality: when fewer than this fraction of the last keyframe's tracks are still seen
+    // (and the robot moved keyframe_min_distance_m), a keyframe is made early. In [0, 1].
+    double keyframe_min_shared_tracks = 0.5;
+    double keyframe_min_distance_m = 0.05;  // >= 0
+
+    // Odometry factor noise per frame step, summed (as variances) between keyframes.
+    double odom_sigma_per_m = 0.05;         // translation sigma per metre travelled, > 0
+    double odom_sigma_min_m = 0.002;        // per step, > 0
+    double odom_yaw_sigma_per_rad = 0.05;   // yaw sigma per radian turned, > 0
+    double odom_yaw_sigma_per_m = 0.02;     // yaw sigma per metre travelled, >= 0
+    double odom_yaw_sigma_min_rad = 0.002;  // per step, > 0
+    // Ground-motion quality: a kOk step with fewer inliers or a larger residual is "poor".
+    int good_motion_min_inliers = 20;       // >= 0
+    double good_motion_max_rms_px = 2.0;    // > 0
+    double poor_motion_sigma_factor = 3.0;      // sigma multiplier for poor steps, >= 1
+    double fallback_motion_sigma_factor = 10.0; // for kFallback / kFailed steps, >= 1
+
+    // Sliding window.
+    int window_size = 10;  // keyframes per adjustment (the oldest is fixed), >= 2
+    WindowOptions window;
+
+    // Loop closure: match a new keyframe's local map against older keyframes near it.
+    bool loop_closure = true;
+    double loop_min_travel_m = 5.0;        // path length between candidate and current, >= 0
+    double loop_candidate_radius_m = 3.0;  // candidates within this of the current estimate, > 0
+    int loop_max_candidates = 30;          // nearest candidates fused into the target, >= 1
+    int loop_min_interval_keyframes = 3;   // keyframes between accepted closures, >= 0
+    double loop_sigma_xy_m = 0.05;         // loop constraint noise, > 0
+    double loop_sigma_yaw_rad = 0.02;      // > 0
+    ScanMatchOptions loop_match;
+    PoseGraphOptions pose_graph;
+    // Rebuild the grid and the OctoMap when a correction moves any keyframe by more than this.
+    double rebuild_min_change_m = 0.02;    // >= 0
+    double rebuild_min_change_rad = 0.01;  // >= 0
+
+    // Maps.
+    double grid_resolution_m = 0.05;  // global grid cell side, > 0
+    LogOddsOptions log_odds;
+    bool build_octree = true;
+    ObstacleOctree::Options octree;
+
+    // Localisation of a new run in a saved map: a wider search around the initial guess.
+    ScanMatchOptions localization_match = WideMatch();
+
+    bool IsValid(std::string* error) const;
+
+    static ScanMatchOptions WideMatch() {
+      ScanMatchOptions o;
+      o.linear_window_m = 2.0;
+      o.angular_window_rad = 0.5;
+      return o;
+    }
+  };
+
+  // What AddFrame did.
+  struct FrameUpdate {
+    bool keyframe = false;      // the frame became a keyframe
+    int keyframe_id = -1;
+    bool loop_closed = false;   // an accepted loop closure corrected the poses
+    bool map_rebuilt = false;   // the grid and the OctoMap were rebuilt from the keyframes
+    Pose2 map_from_base;        // this frame's pose
+  };
+
+  // A fresh map. Aborts on invalid options or calibration (check IsValid first).
+  Mapper(const Options& options, const CameraCalibration& calibration);
+  // Extends a saved map: its grid and keyframes (kept fixed). The first keyframe of this run is
+  // localised against the saved grid around initial_map_from_base (the map pose of this run's first
+  // frame); see localization().
+  Mapper(const Options& options, const CameraCalibration& calibration, TiledGrid saved_grid,
+         std::vector<Keyframe> saved_keyframes, const Pose2& initial_map_from_base = Pose2::Identity());
+
+  FrameUpdate AddFrame(const FrameObservation& frame);
+
+  // Outputs.
+  const std::vector<Keyframe>& keyframes() const { return keyframes_; }
+  std::vector<TrajectoryPoint> Trajectory() const;  // every frame, latest correction applied
+  Pose2 CurrentPose() const;
+  const TiledGrid& grid() const { return grid_; }
+  // Keys of the tiles changed since the last call (for storage and DDS), then forgets them.
+  std::set<TiledGrid::TileKey> TakeChangedTiles();
+  std::string OctomapBinary() const;  // .bt bytes (empty tree when build_octree is off)
+  const ObstacleOctree& octree() const { return octree_; }
+  const MapperCounters& counters() const { return counters_; }
+  const std::vector<LoopClosureEvent>& loop_closures() const { return loop_events_; }
+  const std::optional<LocalizationResult>& localization() const { return localization_; }
+  const CameraMount& refined_mount() const { return mount_; }
+
+  // Callbacks (run inside AddFrame, on its thread).
+  void SetKeyframeCallback(std::function<void(const Keyframe&)> callback) { on_keyframe_ = std::move(callback); }
+  void SetCorrectionCallback(std::function<void()> callback) { on_correction_ = std::move(callback); }
+
+ private:
+  struct FrameRecord {
+    TimestampNs stamp_ns;
+    Pose2 odom_from_base;
+    int keyframe_index;
+  };
+
+  double StepSigmaFactor(const GroundMotion& step) const;
+  bool WantsKeyframe(const FrameObservation& frame) const;
+  void AddKeyframe(const FrameObservation& frame, FrameUpdate* update);
+  void OptimizeWindow();
+  bool TryLoopClosure(int index);
+  bool OptimizeAllAndMaybeRebuild();
+  void FuseKeyframe(const Keyframe& keyframe);
+  void Rebuild();
+  int FirstRunIndex() const { return num_saved_; }
+
+  Options options_;
+  CameraCalibration calibration_;
+  CameraModel camera_;
+  CameraMount mount_;
+
+  std::vector<Keyframe> keyframes_;
+  int num_saved_ = 0;
+  int next_id_ = 0;
+  std::vector<PoseGraphEdge> odometry_edges_;  // raw, consecutive keyframes of this run
+  std::vector<PoseGraphEdge> refined_edges_;   // the same pairs, refined by the window
+  std::vector<PoseGraphEdge> loop_edges_;
+  std::vector<FrameRecord> frames_;
+  std::optional<Pose2> map_from_odom_;  // fixed by the first frame (or localisation)
+  Pose2 initial_map_from_base_;
+  double path_length_m_ = 0;
+  double pending_var_xy_ = 0, pending_var_yaw_ = 0;
+  int last_closure_index_ = -1;
+
+  TiledGrid grid_;
+  TiledGrid saved_grid_;
+  std::set<TiledGrid::TileKey> changed_tiles_;
+  ObstacleOctree octree_;
+
+  MapperCounters counters_;
+  std::vector<LoopClosureEvent> loop_events_;
+  std::optional<LocalizationResult> localization_;
+  std::function<void(const Keyframe&)> on_keyframe_;
+  std::function<void()> on_correction_;
+};
+
+}  // namespace monoplane

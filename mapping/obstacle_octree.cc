@@ -1,0 +1,75 @@
+#include "mapping/obstacle_octree.h"
+
+#include <sstream>
+
+#include <octomap/OcTree.h>
+
+namespace monoplane {
+
+bool ObstacleOctree::Options::IsValid(std::string* error) const {
+  auto fail = [&](const std::string& m) {
+    if (error) *error = "ObstacleOctree::Options::" + m;
+    return false;
+  };
+  if (!(resolution_m > 0)) return fail("resolution_m = " + std::to_string(resolution_m) + ": must be > 0");
+  if (!(max_range_m > 0)) return fail("max_range_m = " + std::to_string(max_range_m) + ": must be > 0");
+  if (!(prob_hit > 0.5 && prob_hit < 1)) {
+    return fail("prob_hit = " + std::to_string(prob_hit) + ": must be in (0.5, 1)");
+  }
+  if (!(prob_miss > 0 && prob_miss < 0.5)) {
+    return fail("prob_miss = " + std::to_string(prob_miss) + ": must be in (0, 0.5)");
+  }
+  return true;
+}
+
+struct ObstacleOctree::Impl {
+  Options options;
+  octomap::OcTree tree;
+  explicit Impl(const Options& o) : options(o), tree(o.resolution_m) {
+    tree.setProbHit(o.prob_hit);
+    tree.setProbMiss(o.prob_miss);
+  }
+};
+
+ObstacleOctree::ObstacleOctree(const Options& options) : impl_(std::make_unique<Impl>(options)) {}
+ObstacleOctree::~ObstacleOctree() = default;
+ObstacleOctree::ObstacleOctree(ObstacleOctree&&) noexcept = default;
+ObstacleOctree& ObstacleOctree::operator=(ObstacleOctree&&) noexcept = default;
+
+void ObstacleOctree::Insert(const std::vector<Eigen::Vector3f>& points_in_base, const Pose2& map_from_base,
+                            const Eigen::Vector3d& camera_centre_in_base) {
+  if (points_in_base.empty()) return;
+  const double c = std::cos(map_from_base.yaw), s = std::sin(map_from_base.yaw);
+  auto to_map = [&](double x, double y, double z) {
+    return octomap::point3d(static_cast<float>(c * x - s * y + map_from_base.x),
+                            static_cast<float>(s * x + c * y + map_from_base.y), static_cast<float>(z));
+  };
+  octomap::Pointcloud cloud;
+  cloud.reserve(points_in_base.size());
+  for (const Eigen::Vector3f& p : points_in_base) cloud.push_back(to_map(p.x(), p.y(), p.z()));
+  const octomap::point3d origin =
+      to_map(camera_centre_in_base.x(), camera_centre_in_base.y(), camera_centre_in_base.z());
+  // discretize: one ray per end voxel, which bounds the cost by the number of distinct voxels.
+  impl_->tree.insertPointCloud(cloud, origin, impl_->options.max_range_m, /*lazy_eval=*/false,
+                               /*discretize=*/true);
+}
+
+void ObstacleOctree::Clear() { impl_->tree.clear(); }
+
+std::string ObstacleOctree::ToBinary() const {
+  std::ostringstream out;
+  // writeBinaryConst writes the same .bt format as writeBinary without pruning the live tree
+  // to its maximum-likelihood values (which would change later updates).
+  impl_->tree.writeBinaryConst(out);
+  return out.str();
+}
+
+std::size_t ObstacleOctree::NumOccupiedLeaves() const {
+  std::size_t n = 0;
+  for (auto it = impl_->tree.begin_leafs(); it != impl_->tree.end_leafs(); ++it) {
+    if (impl_->tree.isNodeOccupied(*it)) ++n;
+  }
+  return n;
+}
+
+}  // namespace monoplane

@@ -1,0 +1,48 @@
+#pragma once
+
+#include <cstddef>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "perception/geometry/pose2.h"
+
+namespace monoplane {
+
+// The 3-D obstacle map: an OctoMap (octomap::OcTree, hidden behind a pointer) of the detector's
+// obstacle and drop-off points at their metric heights, free space by ray casting from the camera
+// centre to every point. Map frame, z = height above the floor. Not thread-safe.
+class ObstacleOctree {
+ public:
+  struct Options {
+    double resolution_m = 0.05;  // voxel side, > 0
+    double max_range_m = 8.0;    // rays longer than this are not inserted, > 0
+    double prob_hit = 0.7;       // OctoMap sensor model, in (0.5, 1)
+    double prob_miss = 0.4;      // in (0, 0.5)
+
+    bool IsValid(std::string* error) const;
+  };
+
+  explicit ObstacleOctree(const Options& options);
+  ~ObstacleOctree();
+  ObstacleOctree(ObstacleOctree&&) noexcept;
+  ObstacleOctree& operator=(ObstacleOctree&&) noexcept;
+
+  // Inserts points (base frame, z = height) seen from camera_centre_in_base at map_from_base.
+  void Insert(const std::vector<Eigen::Vector3f>& points_in_base, const Pose2& map_from_base,
+              const Eigen::Vector3d& camera_centre_in_base);
+  void Clear();
+
+  // The tree as the bytes of a .bt file (octomap::OcTree::writeBinary), readable by
+  // octomap::OcTree::readBinary and octovis.
+  std::string ToBinary() const;
+  std::size_t NumOccupiedLeaves() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace monoplane

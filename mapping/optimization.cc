@@ -1,0 +1,224 @@
+#include "mapping/optimization.h"
+
+#include <array>
+#include <cmath>
+#include <map>
+#include <memory>
+
+#include <ceres/ceres.h>
+
+#include "mapping/cost_functors.h"
+#include "perception/geometry/camera_model.h"
+
+namespace monoplane {
+
+namespace {
+
+constexpr double kDegToRad = M_PI / 180.0;
+
+ceres::LinearSolverType SparseSolver() {
+  return ceres::IsSparseLinearAlgebraLibraryTypeAvailable(ceres::SUITE_SPARSE) ||
+                 ceres::IsSparseLinearAlgebraLibraryTypeAvailable(ceres::EIGEN_SPARSE)
+             ? ceres::SPARSE_NORMAL_CHOLESKY
+             : ceres::DENSE_QR;
+}
+
+void AddEdge(const PoseGraphEdge& e, double* a, double* b, ceres::LossFunction* loss, ceres::Problem* problem) {
+  auto* cost = new ceres::AutoDiffCostFunction<cost::RelativePoseFunctor, 3, 3, 3>(new cost::RelativePoseFunctor(
+      e.from_T_to.x, e.from_T_to.y, e.from_T_to.yaw, e.sigma_xy_m, e.sigma_yaw_rad));
+  problem->AddResidualBlock(cost, loss, a, b);
+}
+
+OptimizationSummary ToSummary(const ceres::Solver::Summary& s) {
+  OptimizationSummary out;
+  out.ok = s.IsSolutionUsable();
+  out.initial_cost = s.initial_cost;
+  out.final_cost = s.final_cost;
+  out.iterations = static_cast<int>(s.iterations.size());
+  out.message = s.BriefReport();
+  return out;
+}
+
+}  // namespace
+
+bool PoseGraphOptions::IsValid(std::string* error) const {
+  if (max_iterations < 1) {
+    if (error) *error = "PoseGraphOptions::max_iterations = " + std::to_string(max_iterations) + ": must be >= 1";
+    return false;
+  }
+  if (!(cauchy_scale > 0)) {
+    if (error) *error = "PoseGraphOptions::cauchy_scale = " + std::to_string(cauchy_scale) + ": must be > 0";
+    return false;
+  }
+  return true;
+}
+
+bool WindowOptions::IsValid(std::string* error) const {
+  auto fail = [&](const std::string& key, double value, const std::string& constraint) {
+    if (error) *error = "WindowOptions::" + key + " = " + std::to_string(value) + ": must be " + constraint;
+    return false;
+  };
+  if (!(pixel_sigma_px > 0)) return fail("pixel_sigma_px", pixel_sigma_px, "> 0");
+  if (!(huber_sigmas > 0)) return fail("huber_sigmas", huber_sigmas, "> 0");
+  if (min_observations < 2) return fail("min_observations", min_observations, ">= 2");
+  if (max_iterations < 1) return fail("max_iterations", max_iterations, ">= 1");
+  if (!(max_point_height_m > 0)) return fail("max_point_height_m", max_point_height_m, "> 0");
+  if (!(max_landmark_range_m > 0)) return fail("max_landmark_range_m", max_landmark_range_m, "> 0");
+  if (!(camera_prior_sigma_rad > 0)) return fail("camera_prior_sigma_rad", camera_prior_sigma_rad, "> 0");
+  if (!(camera_prior_sigma_m > 0)) return fail("camera_prior_sigma_m", camera_prior_sigma_m, "> 0");
+  return true;
+}
+
+OptimizationSummary OptimizePoseGraph(const std::vector<PoseGraphEdge>& edges, const std::vector<bool>& fixed,
+                                      const PoseGraphOptions& options, std::vector<Pose2>* poses) {
+  const int n = static_cast<int>(poses->size());
+  std::vector<std::array<double, 3>> params(n);
+  for (int i = 0; i < n; ++i) params[i] = {(*poses)[i].x, (*poses)[i].y, (*poses)[i].yaw};
+  ceres::Problem problem;
+  for (const PoseGraphEdge& e : edges) {
+    if (e.from < 0 || e.to < 0 || e.from >= n || e.to >= n) continue;
+    AddEdge(e, params[e.from].data(), params[e.to].data(),
+            e.robust ? new ceres::CauchyLoss(options.cauchy_scale) : nullptr, &problem);
+  }
+  for (int i = 0; i < n; ++i) {
+    if (i < static_cast<int>(fixed.size()) && fixed[i] && problem.HasParameterBlock(params[i].data())) {
+      problem.SetParameterBlockConstant(params[i].data());
+    }
+  }
+  ceres::Solver::Options solver;
+  solver.linear_solver_type = SparseSolver();
+  solver.max_num_iterations = options.max_iterations;
+  solver.num_threads = 1;
+  ceres::Solver::Summary summary;
+  ceres::Solve(solver, &problem, &summary);
+  for (int i = 0; i < n; ++i) (*poses)[i] = {params[i][0], params[i][1], WrapAngle(params[i][2])};
+  return ToSummary(summary);
+}
+
+WindowResult AdjustWindow(const std::vector<WindowKeyframe>& keyframes,
+                          const std::vector<PoseGraphEdge>& odometry, const CameraCalibration& calibration,
+                          const WindowOptions& options) {
+  WindowResult result;
+  result.mount = calibration.mount;
+  const int n = static_cast<int>(keyframes.size());
+  std::vector<std::array<double, 3>> poses(n);
+  for (int i = 0; i < n; ++i) {
+    const Pose2& p = keyframes[i].map_from_base;
+    poses[i] = {p.x, p.y, p.yaw};
+  }
+  std::array<double, 3> camera = {calibration.mount.pitch_deg * kDegToRad,
+                                  calibration.mount.roll_deg * kDegToRad, calibration.mount.height_m};
+  const cost::CameraFixed fixed_camera = cost::CameraFixed::From(calibration);
+  const CameraModel model(calibration);
+
+  ceres::Problem problem;
+  for (const PoseGraphEdge& e : odometry) {
+    if (e.from < 0 || e.to < 0 || e.from >= n || e.to >= n) continue;
+    AddEdge(e, poses[e.from].data(), poses[e.to].data(), nullptr, &problem);
+  }
+
+  // Observations per track: (keyframe, pixel, floor_inlier).
+  struct Obs {
+    int keyframe;
+    Eigen::Vector2d pixel;
+    bool floor;
+  };
+  std::map<std::int64_t, std::vector<Obs>> tracks;
+  for (int i = 0; i < n; ++i) {
+    for (const FeatureObservation& f : keyframes[i].features) tracks[f.track_id].push_back({i, f.pixel, f.floor_inlier});
+  }
+  std::vector<std::unique_ptr<std::array<double, 3>>> landmarks;
+  for (const auto& [id, obs] : tracks) {
+    if (static_cast<int>(obs.size()) < options.min_observations) continue;
+    int floor_votes = 0;
+    for (const Obs& o : obs) floor_votes += o.floor ? 1 : 0;
+    const bool is_floor = 2 * floor_votes > static_cast<int>(obs.size());
+    const Obs& first = obs.front();
+    const Pose2& first_pose = keyframes[first.keyframe].map_from_base;
+    auto landmark = std::make_unique<std::array<double, 3>>();
+    if (is_floor) {
+      const auto floor = model.PixelToFloor(first.pixel);
+      if (!floor || floor->norm() > options.max_landmark_range_m) continue;
+      const Eigen::Vector2d m = first_pose * *floor;
+      *landmark = {m.x(), m.y(), 0.0};
+    } else {
+      const Obs& last = obs.back();
+      const Pose2 base2_from_base1 = keyframes[last.keyframe].map_from_base.Inverse() * first_pose;
+      const auto point = TriangulateWithMotion(model, base2_from_base1, first.pixel, last.pixel);
+      if (!point || point->depth_m <= 0 || point->point_in_base1.head<2>().norm() > options.max_landmark_range_m ||
+          point->point_in_base1.z() > options.max_point_height_m || point->point_in_base1.z() < -options.max_point_height_m) {
+        continue;
+      }
+      const Eigen::Vector2d m = first_pose * Eigen::Vector2d(point->point_in_base1.head<2>());
+      *landmark = {m.x(), m.y(), point->point_in_base1.z()};
+    }
+    int added = 0;
+    for (const Obs& o : obs) {
+      // Skip observations that do not project from the initial estimate (behind the camera).
+      double pixel[2];
+      const double* pose = poses[o.keyframe].data();
+      if (!cost::ProjectMapPoint(fixed_camera, pose, camera.data(), landmark->data(), pixel)) continue;
+      ceres::LossFunction* loss = new ceres::HuberLoss(options.huber_sigmas);
+      if (is_floor) {
+        problem.AddResidualBlock(new ceres::AutoDiffCostFunction<cost::FloorReprojectionFunctor, 2, 3, 2, 3>(
+                                     new cost::FloorReprojectionFunctor(fixed_camera, o.pixel.x(), o.pixel.y(),
+                                                                        options.pixel_sigma_px)),
+                                 loss, poses[o.keyframe].data(), landmark->data(), camera.data());
+      } else {
+        problem.AddResidualBlock(new ceres::AutoDiffCostFunction<cost::PointReprojectionFunctor, 2, 3, 3, 3>(
+                                     new cost::PointReprojectionFunctor(fixed_camera, o.pixel.x(), o.pixel.y(),
+                                                                        options.pixel_sigma_px)),
+                                 loss, poses[o.keyframe].data(), landmark->data(), camera.data());
+      }
+      ++added;
+    }
+    if (added == 0) continue;
+    result.num_reprojections += added;
+    (is_floor ? result.num_floor_landmarks : result.num_point_landmarks) += 1;
+    landmarks.push_back(std::move(landmark));
+  }
+
+  for (int i = 0; i < n; ++i) {
+    if (keyframes[i].fixed && problem.HasParameterBlock(poses[i].data())) {
+      problem.SetParameterBlockConstant(poses[i].data());
+    }
+  }
+  if (problem.HasParameterBlock(camera.data())) {
+    if (options.refine_camera) {
+      problem.AddResidualBlock(new ceres::AutoDiffCostFunction<cost::CameraPriorFunctor, 3, 3>(
+                                   new cost::CameraPriorFunctor(camera[0], camera[1], camera[2],
+                                                                options.camera_prior_sigma_rad,
+                                                                options.camera_prior_sigma_m)),
+                               nullptr, camera.data());
+    } else {
+      problem.SetParameterBlockConstant(camera.data());
+    }
+  }
+
+  result.poses.resize(n);
+  if (problem.NumResidualBlocks() == 0) {
+    for (int i = 0; i < n; ++i) result.poses[i] = keyframes[i].map_from_base;
+    result.summary.ok = true;
+    result.summary.message = "nothing to optimise";
+    return result;
+  }
+  ceres::Solver::Options solver;
+  solver.linear_solver_type = ceres::DENSE_SCHUR;
+  solver.max_num_iterations = options.max_iterations;
+  solver.num_threads = 1;
+  ceres::Solver::Summary summary;
+  ceres::Solve(solver, &problem, &summary);
+  result.summary = ToSummary(summary);
+  for (int i = 0; i < n; ++i) {
+    result.poses[i] = result.summary.ok ? Pose2{poses[i][0], poses[i][1], WrapAngle(poses[i][2])}
+                                        : keyframes[i].map_from_base;
+  }
+  if (result.summary.ok && options.refine_camera) {
+    result.mount.pitch_deg = camera[0] / kDegToRad;
+    result.mount.roll_deg = camera[1] / kDegToRad;
+    result.mount.height_m = camera[2];
+  }
+  return result;
+}
+
+}  // namespace monoplane

@@ -1,0 +1,82 @@
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "perception/frame_types.h"
+#include "perception/geometry/camera_calibration.h"
+#include "perception/geometry/pose2.h"
+
+namespace monoplane {
+
+// A relative pose constraint: poses[to] seen from poses[from] is from_T_to (= from^-1 * to).
+struct PoseGraphEdge {
+  int from = 0;
+  int to = 0;
+  Pose2 from_T_to;
+  double sigma_xy_m = 0.05;     // > 0
+  double sigma_yaw_rad = 0.02;  // > 0
+  bool robust = false;          // Cauchy loss (loop closures), else plain squares
+};
+
+struct PoseGraphOptions {
+  int max_iterations = 50;      // Ceres iterations, >= 1
+  double cauchy_scale = 1.0;    // loss scale in sigmas for robust edges, > 0
+
+  bool IsValid(std::string* error) const;
+};
+
+struct OptimizationSummary {
+  bool ok = false;
+  double initial_cost = 0;
+  double final_cost = 0;
+  int iterations = 0;
+  std::string message;
+};
+
+// Optimises planar poses (map_from_base) under relative-pose edges with Ceres (sparse normal
+// Cholesky); poses with fixed[i] stay put. Poses are updated in place.
+OptimizationSummary OptimizePoseGraph(const std::vector<PoseGraphEdge>& edges, const std::vector<bool>& fixed,
+                                      const PoseGraphOptions& options, std::vector<Pose2>* poses);
+
+// The sliding-window adjustment: planar keyframe poses, odometry edges between them, and the
+// reprojection of tracked features: floor features (floor_inlier in most observations) as 2-DOF
+// landmarks on z = 0, the others as 3-DOF landmarks. Landmarks are initialised from the current
+// poses (floor: back-projection onto the floor; others: triangulation between the first and the
+// last observation) and are not kept between calls.
+struct WindowOptions {
+  double pixel_sigma_px = 1.0;          // feature noise, > 0
+  double huber_sigmas = 2.0;            // Huber loss on reprojection, in sigmas, > 0
+  int min_observations = 2;             // keyframes that must see a track, >= 2
+  int max_iterations = 20;              // >= 1
+  double max_point_height_m = 3.0;      // off-floor landmarks above this are dropped, > 0
+  double max_landmark_range_m = 10.0;   // landmarks farther from the first view are dropped, > 0
+  // Online refinement of the camera's pitch, roll and height, with a prior from the calibration.
+  bool refine_camera = false;
+  double camera_prior_sigma_rad = 0.0175;   // pitch and roll prior, > 0
+  double camera_prior_sigma_m = 0.02;       // height prior, > 0
+
+  bool IsValid(std::string* error) const;
+};
+
+struct WindowKeyframe {
+  Pose2 map_from_base;
+  bool fixed = false;
+  std::vector<FeatureObservation> features;
+};
+
+struct WindowResult {
+  OptimizationSummary summary;
+  std::vector<Pose2> poses;       // one per input keyframe
+  CameraMount mount;              // refined (the input mount when refine_camera is off)
+  int num_floor_landmarks = 0;
+  int num_point_landmarks = 0;
+  int num_reprojections = 0;
+};
+
+// odometry edges index into keyframes.
+WindowResult AdjustWindow(const std::vector<WindowKeyframe>& keyframes,
+                          const std::vector<PoseGraphEdge>& odometry, const CameraCalibration& calibration,
+                          const WindowOptions& options);
+
+}  // namespace monoplane

@@ -1,0 +1,177 @@
+#include "mapping/scan_matcher.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace monoplane {
+
+bool ScanMatchOptions::IsValid(std::string* error) const {
+  auto fail = [&](const std::string& key, double value, const std::string& constraint) {
+    if (error) *error = "ScanMatchOptions::" + key + " = " + std::to_string(value) + ": must be " + constraint;
+    return false;
+  };
+  if (!(linear_window_m >= 0)) return fail("linear_window_m", linear_window_m, ">= 0");
+  if (!(angular_window_rad >= 0)) return fail("angular_window_rad", angular_window_rad, ">= 0");
+  if (!(angular_step_rad > 0)) return fail("angular_step_rad", angular_step_rad, "> 0");
+  if (!(smoothing_sigma_m >= 0)) return fail("smoothing_sigma_m", smoothing_sigma_m, ">= 0");
+  if (max_points < 1) return fail("max_points", max_points, ">= 1");
+  if (min_points < 1) return fail("min_points", min_points, ">= 1");
+  if (!(min_score >= 0 && min_score <= 1)) return fail("min_score", min_score, "in [0, 1]");
+  if (!(max_second_ratio > 0 && max_second_ratio <= 1)) {
+    return fail("max_second_ratio", max_second_ratio, "in (0, 1]");
+  }
+  if (!(separation_m > 0)) return fail("separation_m", separation_m, "> 0");
+  if (!(separation_rad > 0)) return fail("separation_rad", separation_rad, "> 0");
+  return true;
+}
+
+MatchTarget MakeMatchTarget(const TiledGrid& grid, const Eigen::Vector2d& region_lo,
+                            const Eigen::Vector2d& region_hi, double smoothing_sigma_m,
+                            double occupied_probability) {
+  MatchTarget target;
+  const double res = grid.resolution_m();
+  const Eigen::Vector2i lo = grid.CellOf(region_lo), hi = grid.CellOf(region_hi);
+  GridGeometry& g = target.geometry;
+  g.resolution_m = res;
+  g.origin_x_m = lo.x() * res;
+  g.origin_y_m = lo.y() * res;
+  g.width = std::max(0, hi.x() - lo.x() + 1);
+  g.height = std::max(0, hi.y() - lo.y() + 1);
+  target.score.assign(g.NumCells(), 0.0f);
+  if (g.NumCells() == 0) return target;
+
+  const float occupied_log_odds =
+      static_cast<float>(std::log(occupied_probability / (1.0 - occupied_probability)));
+  const int radius = static_cast<int>(std::ceil(3.0 * smoothing_sigma_m / res));
+  std::vector<float> kernel((2 * radius + 1) * (2 * radius + 1), 1.0f);
+  if (smoothing_sigma_m > 0) {
+    const double inv = 1.0 / (2.0 * smoothing_sigma_m * smoothing_sigma_m);
+    for (int dy = -radius; dy <= radius; ++dy) {
+      for (int dx = -radius; dx <= radius; ++dx) {
+        kernel[(dy + radius) * (2 * radius + 1) + dx + radius] =
+            static_cast<float>(std::exp(-(dx * dx + dy * dy) * res * res * inv));
+      }
+    }
+  }
+  // Visit only the tiles that overlap the region.
+  for (const auto& [key, tile] : grid.tiles()) {
+    const int tx0 = key.first * TiledGrid::kTileSize, ty0 = key.second * TiledGrid::kTileSize;
+    const int i0 = std::max(tx0, lo.x()), i1 = std::min(tx0 + TiledGrid::kTileSize - 1, hi.x());
+    const int j0 = std::max(ty0, lo.y()), j1 = std::min(ty0 + TiledGrid::kTileSize - 1, hi.y());
+    for (int j = j0; j <= j1; ++j) {
+      for (int i = i0; i <= i1; ++i) {
+        if (tile.log_odds[(j - ty0) * TiledGrid::kTileSize + (i - tx0)] < occupied_log_odds) continue;
+        const int col = i - lo.x(), row = j - lo.y();
+        // Max of Gaussians: an isolated occupied cell scores 1 at its centre.
+        for (int dy = -radius; dy <= radius; ++dy) {
+          const int r = row + dy;
+          if (r < 0 || r >= g.height) continue;
+          float* out = &target.score[static_cast<std::size_t>(r) * g.width];
+          const float* k = &kernel[(dy + radius) * (2 * radius + 1) + radius];
+          for (int dx = -radius; dx <= radius; ++dx) {
+            const int c = col + dx;
+            if (c < 0 || c >= g.width) continue;
+            out[c] = std::max(out[c], k[dx]);
+          }
+        }
+      }
+    }
+  }
+  return target;
+}
+
+std::vector<Eigen::Vector2d> OccupiedPoints(const OccupancyGrid& local_map, int max_points) {
+  std::vector<Eigen::Vector2d> all;
+  const GridGeometry& g = local_map.geometry;
+  for (int row = 0; row < g.height; ++row) {
+    for (int col = 0; col < g.width; ++col) {
+      if (local_map.At(col, row) >= 50) all.push_back(g.CellCenter(col, row));
+    }
+  }
+  if (static_cast<int>(all.size()) <= max_points) return all;
+  std::vector<Eigen::Vector2d> out;
+  out.reserve(max_points);
+  const double stride = static_cast<double>(all.size()) / max_points;
+  for (int k = 0; k < max_points; ++k) out.push_back(all[static_cast<std::size_t>(k * stride)]);
+  return out;
+}
+
+ScanMatchResult MatchScan(const std::vector<Eigen::Vector2d>& points_in_base, const MatchTarget& target,
+                          const Pose2& initial_map_from_base, const ScanMatchOptions& options) {
+  ScanMatchResult result;
+  result.map_from_base = initial_map_from_base;
+  result.num_points = static_cast<int>(points_in_base.size());
+  if (result.num_points < options.min_points) {
+    result.reason = "too few occupied points (" + std::to_string(result.num_points) + ")";
+    return result;
+  }
+  const GridGeometry& g = target.geometry;
+  if (g.NumCells() == 0) {
+    result.reason = "empty target";
+    return result;
+  }
+  const double res = g.resolution_m;
+  const int nl = static_cast<int>(std::round(options.linear_window_m / res));
+  const int na = static_cast<int>(std::floor(options.angular_window_rad / options.angular_step_rad + 1e-9));
+  const int side = 2 * nl + 1;
+  const int num_angles = 2 * na + 1;
+  std::vector<float> scores(static_cast<std::size_t>(num_angles) * side * side, 0.0f);
+
+  for (int a = 0; a < num_angles; ++a) {
+    Pose2 pose = initial_map_from_base;
+    pose.yaw = WrapAngle(initial_map_from_base.yaw + (a - na) * options.angular_step_rad);
+    float* vol = &scores[static_cast<std::size_t>(a) * side * side];
+    for (const Eigen::Vector2d& p : points_in_base) {
+      const Eigen::Vector2d m = pose * p;
+      const int cx = static_cast<int>(std::floor((m.x() - g.origin_x_m) / res));
+      const int cy = static_cast<int>(std::floor((m.y() - g.origin_y_m) / res));
+      // Offsets dx with 0 <= cx + dx < width.
+      const int dx0 = std::max(-nl, -cx), dx1 = std::min(nl, g.width - 1 - cx);
+      if (dx0 > dx1) continue;
+      for (int dy = -nl; dy <= nl; ++dy) {
+        const int r = cy + dy;
+        if (r < 0 || r >= g.height) continue;
+        const float* row = &target.score[static_cast<std::size_t>(r) * g.width];
+        float* out = &vol[(dy + nl) * side + nl];
+        for (int dx = dx0; dx <= dx1; ++dx) out[dx] += row[cx + dx];
+      }
+    }
+  }
+
+  const float inv_n = 1.0f / static_cast<float>(result.num_points);
+  std::size_t best = 0;
+  for (std::size_t k = 1; k < scores.size(); ++k) {
+    if (scores[k] > scores[best]) best = k;
+  }
+  const int best_a = static_cast<int>(best / (side * side));
+  const int best_dy = static_cast<int>((best / side) % side) - nl;
+  const int best_dx = static_cast<int>(best % side) - nl;
+  float second = 0.0f;
+  const double sep_cells = options.separation_m / res;
+  for (int a = 0; a < num_angles; ++a) {
+    const bool far_yaw = std::abs(a - best_a) * options.angular_step_rad > options.separation_rad;
+    for (int dy = -nl; dy <= nl; ++dy) {
+      for (int dx = -nl; dx <= nl; ++dx) {
+        if (!far_yaw && std::hypot(dx - best_dx, dy - best_dy) <= sep_cells) continue;
+        second = std::max(second, scores[(static_cast<std::size_t>(a) * side + dy + nl) * side + dx + nl]);
+      }
+    }
+  }
+  result.score = scores[best] * inv_n;
+  result.second_score = second * inv_n;
+  result.map_from_base.x = initial_map_from_base.x + best_dx * res;
+  result.map_from_base.y = initial_map_from_base.y + best_dy * res;
+  result.map_from_base.yaw = WrapAngle(initial_map_from_base.yaw + (best_a - na) * options.angular_step_rad);
+  if (result.score < options.min_score) {
+    result.reason = "score " + std::to_string(result.score) + " < " + std::to_string(options.min_score);
+  } else if (result.second_score > options.max_second_ratio * result.score) {
+    result.reason = "ambiguous: second-best " + std::to_string(result.second_score) + " vs best " +
+                    std::to_string(result.score);
+  } else {
+    result.accepted = true;
+  }
+  return result;
+}
+
+}  // namespace monoplane

@@ -1,0 +1,64 @@
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "mapping/grid_fusion.h"
+#include "perception/geometry/occupancy_grid.h"
+#include "perception/geometry/pose2.h"
+#include "perception/geometry/tiled_grid.h"
+
+namespace monoplane {
+
+// A dense patch of the map frame that scans are scored against: per cell a smoothed occupancy
+// score in [0, 1] (1 on cells the map holds occupied, falling off with a Gaussian).
+struct MatchTarget {
+  GridGeometry geometry;      // map frame
+  std::vector<float> score;   // geometry.NumCells() values, row-major, row 0 = lowest y
+};
+
+// Builds the target over region_lo..region_hi (map frame, metres) from a global grid: occupied
+// where the probability is >= occupied_probability.
+MatchTarget MakeMatchTarget(const TiledGrid& grid, const Eigen::Vector2d& region_lo,
+                            const Eigen::Vector2d& region_hi, double smoothing_sigma_m,
+                            double occupied_probability = 0.65);
+
+// The occupied cell centres of a local map (its frame), at most max_points of them (an even
+// deterministic subsample).
+std::vector<Eigen::Vector2d> OccupiedPoints(const OccupancyGrid& local_map, int max_points);
+
+// Correlative scan-to-map matching (Olson 2009; Cartographer's RealTimeCorrelativeScanMatcher):
+// exhaustive search over x, y (steps of one target cell) and yaw around an initial pose, scoring
+// the mean target score under the scan's occupied points. Verified with a score threshold and a
+// uniqueness test: the best score must beat the best score of any pose well separated from it
+// (a corridor of identical doors gives several equally good poses and is rejected).
+struct ScanMatchOptions {
+  double linear_window_m = 1.0;      // search +- this in x and y, >= 0
+  double angular_window_rad = 0.20;  // search +- this in yaw, >= 0
+  double angular_step_rad = 0.0175;  // > 0 (1 degree)
+  double smoothing_sigma_m = 0.05;   // target blur, >= 0
+  int max_points = 400;              // occupied scan points used, >= 1
+  int min_points = 30;               // fewer occupied points: no match attempted, >= 1
+  double min_score = 0.5;            // accept only scores >= this, in [0, 1]
+  double max_second_ratio = 0.85;    // accept only second / best <= this, in (0, 1]
+  double separation_m = 0.3;         // "well separated": farther than this in x, y ...  > 0
+  double separation_rad = 0.1;       // ... or than this in yaw, > 0
+
+  bool IsValid(std::string* error) const;
+};
+
+struct ScanMatchResult {
+  bool accepted = false;
+  Pose2 map_from_base;        // the best pose (also when rejected)
+  double score = 0;           // best score
+  double second_score = 0;    // best score of poses well separated from the best
+  int num_points = 0;
+  std::string reason;         // why rejected
+};
+
+ScanMatchResult MatchScan(const std::vector<Eigen::Vector2d>& points_in_base, const MatchTarget& target,
+                          const Pose2& initial_map_from_base, const ScanMatchOptions& options);
+
+}  // namespace monoplane

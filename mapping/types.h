@@ -1,0 +1,83 @@
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "perception/frame_types.h"
+#include "perception/geometry/occupancy_grid.h"
+#include "perception/geometry/pose2.h"
+#include "perception/geometry/timestamp.h"
+
+namespace monoplane {
+
+// What the mapping layer needs from one frame of the detector (copied from
+// SequenceDetector::Output plus the frame's stamp; see MakeFrameObservation in
+// mapping/frame_observation.h). A plain value.
+struct FrameObservation {
+  TimestampNs stamp_ns = 0;
+  Pose2 odom_from_base;  // dead-reckoned pose of this frame (odom = base frame at the first frame)
+  GroundMotion step;     // previous good frame -> this frame, with its quality
+  std::vector<FeatureObservation> features;  // corners tracked into this frame (undistorted px)
+  // The detector's result for this frame; false for the first frame or an unusable image, in which
+  // case local_map and obstacle_points_in_base are empty and the frame cannot be a keyframe.
+  bool has_result = false;
+  OccupancyGrid local_map;  // current base frame, cells -1 / 0 / 100
+  std::vector<Eigen::Vector3f> obstacle_points_in_base;  // z = height above the floor, metres
+};
+
+// A keyframe as the mapper keeps it; everything needed to rebuild the maps after a correction and
+// to save and reload a map.
+struct Keyframe {
+  int id = 0;                 // 0, 1, 2, ... in insertion order (saved keyframes keep their ids)
+  TimestampNs stamp_ns = 0;
+  Pose2 odom_from_base;       // raw dead-reckoned pose
+  Pose2 map_from_base;        // optimised pose; map = base frame of the first frame of the first run
+  double path_length_m = 0;   // travelled distance (odometry) from the start of its run
+  OccupancyGrid local_map;    // as observed, in this keyframe's base frame
+  std::vector<Eigen::Vector3f> obstacle_points_in_base;
+  std::vector<FeatureObservation> features;
+  bool from_saved_map = false;  // loaded at construction: fixed, never optimised
+};
+
+// One frame of the trajectory, with the latest correction applied.
+struct TrajectoryPoint {
+  TimestampNs stamp_ns = 0;
+  Pose2 odom_from_base;
+  Pose2 map_from_base;
+  int keyframe_id = -1;  // the keyframe this frame hangs off (-1 before the first keyframe)
+};
+
+// A loop closure attempt: the current keyframe matched against older ones.
+struct LoopClosureEvent {
+  int keyframe_id = 0;        // the current keyframe
+  int anchor_id = 0;          // the older keyframe the constraint is attached to
+  Pose2 anchor_from_current;  // the matched relative pose
+  double score = 0;           // best match score in [0, 1]
+  double second_score = 0;    // best score well separated from the best one
+  bool accepted = false;
+  std::string reason;         // why it was rejected (empty when accepted)
+};
+
+// The result of localising a new run in a saved map.
+struct LocalizationResult {
+  bool success = false;
+  Pose2 map_from_base;  // of the first keyframe (the initial guess when unsuccessful)
+  double score = 0;
+  double second_score = 0;
+  std::string message;
+};
+
+struct MapperCounters {
+  int frames = 0;
+  int keyframes = 0;                 // created in this run
+  int window_optimizations = 0;
+  int loop_closure_attempts = 0;     // keyframes that had candidates and were matched
+  int loop_closures_accepted = 0;
+  int loop_closures_rejected = 0;
+  int map_rebuilds = 0;
+};
+
+}  // namespace monoplane
