@@ -60,7 +60,7 @@ TEST(LocalMapStreamTest, ThreeReliableSubscribersReceiveEveryFrameAt15HzFor30s) 
     ASSERT_NE(subscribers.back(), nullptr) << error;
     EXPECT_EQ(subscribers.back()->Endpoint().reliability, "reliable");
   }
-  ASSERT_EQ(publisher->MatchedLocalMapReaders(), kSubscribers);
+  ASSERT_EQ(publisher->MatchedReaders(MapPublisher::Topic::kLocalMap), kSubscribers);
 
   std::vector<Received> received(kSubscribers);
   std::vector<std::thread> threads;

@@ -105,7 +105,7 @@ struct MapPublisher::Impl {
   dds_entity_t participant = 0;
   dds_entity_t writers[kNumEndpoints] = {};
   PublishStats stats[kNumEndpoints];
-  dds_entity_t map_match_waitset = 0;  // triggers when rt/map readers come or go
+  dds_entity_t match_waitsets[kNumEndpoints] = {};  // trigger when readers come or go
 
   ~Impl() { DeleteEntity(participant); }
 
@@ -188,14 +188,16 @@ std::unique_ptr<MapPublisher> MapPublisher::Create(const Options& options, std::
       return nullptr;
     }
   }
-  impl->map_match_waitset = dds_create_waitset(impl->participant);
-  dds_set_status_mask(impl->writers[kMap], DDS_PUBLICATION_MATCHED_STATUS);
-  const dds_return_t rc = impl->map_match_waitset < 0
-                              ? impl->map_match_waitset
-                              : dds_waitset_attach(impl->map_match_waitset, impl->writers[kMap], 0);
-  if (rc < 0) {
-    if (error) *error = DdsError(rc, "watching rt/map readers");
-    return nullptr;
+  for (int i = 0; i < kNumEndpoints; ++i) {
+    impl->match_waitsets[i] = dds_create_waitset(impl->participant);
+    dds_set_status_mask(impl->writers[i], DDS_PUBLICATION_MATCHED_STATUS);
+    const dds_return_t rc = impl->match_waitsets[i] < 0
+                                ? impl->match_waitsets[i]
+                                : dds_waitset_attach(impl->match_waitsets[i], impl->writers[i], 0);
+    if (rc < 0) {
+      if (error) *error = DdsError(rc, "watching matched readers");
+      return nullptr;
+    }
   }
   return std::unique_ptr<MapPublisher>(new MapPublisher(std::move(impl)));
 }
@@ -286,24 +288,27 @@ PublishStats MapPublisher::tf_stats() const { return impl_->stats[kTf]; }
 PublishStats MapPublisher::local_map_stats() const { return impl_->stats[kLocalMap]; }
 
 namespace {
-int MatchedReaders(dds_entity_t writer) {
+int CountMatched(dds_entity_t writer) {
   dds_publication_matched_status_t status;
   if (dds_get_publication_matched_status(writer, &status) < 0) return 0;
   return static_cast<int>(status.current_count);
 }
 }  // namespace
 
-int MapPublisher::MatchedLocalMapReaders() const { return MatchedReaders(impl_->writers[kLocalMap]); }
-int MapPublisher::MatchedMapReaders() const { return MatchedReaders(impl_->writers[kMap]); }
+int MapPublisher::MatchedReaders(Topic topic) const {
+  return CountMatched(impl_->writers[static_cast<int>(topic)]);
+}
 
-bool MapPublisher::WaitForMapReaders(const std::function<bool(int)>& done, double timeout_s) const {
+bool MapPublisher::WaitForReaders(Topic topic, const std::function<bool(int)>& done,
+                                  double timeout_s) const {
+  const int i = static_cast<int>(topic);
   const dds_time_t deadline =
       dds_time() + static_cast<dds_duration_t>(std::max(0.0, timeout_s) * 1e9);
   while (true) {
     // Reading the status resets its trigger, so the wait below wakes on the next change only.
-    if (done(MatchedReaders(impl_->writers[kMap]))) return true;
+    if (done(CountMatched(impl_->writers[i]))) return true;
     if (dds_time() >= deadline) return false;
-    if (dds_waitset_wait_until(impl_->map_match_waitset, nullptr, 0, deadline) < 0) return false;
+    if (dds_waitset_wait_until(impl_->match_waitsets[i], nullptr, 0, deadline) < 0) return false;
   }
 }
 

@@ -112,12 +112,13 @@ class MapPublisher {
   PublishStats tf_stats() const;
   PublishStats local_map_stats() const;
 
-  // How many readers are currently matched to the writer of rt/monoplane/local_map (and rt/map).
-  int MatchedLocalMapReaders() const;
-  int MatchedMapReaders() const;
-  // Waits (on DDS match events) up to timeout_s until `done(number of matched rt/map readers)`
-  // holds; returns whether it did.
-  bool WaitForMapReaders(const std::function<bool(int)>& done, double timeout_s) const;
+  // The topics of this publisher.
+  enum class Topic { kMap = 0, kMapUpdates, kOdom, kTf, kLocalMap };
+  // How many readers are currently matched to the writer of `topic`.
+  int MatchedReaders(Topic topic) const;
+  // Waits (on DDS match events, no polling) up to timeout_s until `done(number of matched readers
+  // of topic)` holds; returns whether it did.
+  bool WaitForReaders(Topic topic, const std::function<bool(int)>& done, double timeout_s) const;
 
  private:
   struct Impl;

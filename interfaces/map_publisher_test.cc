@@ -281,7 +281,7 @@ TEST(MapPublisherTest, StalledReaderDoesNotStallPublishing) {
   std::string error;
   auto healthy = MapSubscriber::Create(options, "rt/stall/monoplane/local_map", &error);
   ASSERT_NE(healthy, nullptr) << error;
-  ASSERT_EQ(publisher->MatchedLocalMapReaders(), 2);
+  ASSERT_EQ(publisher->MatchedReaders(MapPublisher::Topic::kLocalMap), 2);
 
   constexpr int kMessages = 40;
   const OccupancyGrid local = TestGrid(160, 160, -4.0, -4.0, 4);

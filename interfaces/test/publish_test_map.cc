@@ -38,6 +38,6 @@ int main(int argc, char** argv) {
     return 1;
   }
   // Stay until a reader has come and gone (the echo under test), at most 30 s.
-  if (!publisher->WaitForMapReaders([](int n) { return n > 0; }, 30.0)) return 1;
-  return publisher->WaitForMapReaders([](int n) { return n == 0; }, 30.0) ? 0 : 1;
+  if (!publisher->WaitForReaders(MapPublisher::Topic::kMap, [](int n) { return n > 0; }, 30.0)) return 1;
+  return publisher->WaitForReaders(MapPublisher::Topic::kMap, [](int n) { return n == 0; }, 30.0) ? 0 : 1;
 }
