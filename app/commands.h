@@ -13,5 +13,6 @@ inline constexpr int kExitInterrupted = 130;
 // Each command registers its subcommand; the callback stores the exit code in *exit_code.
 void RegisterCheckCalibCommand(CLI::App* app, int* exit_code);
 void RegisterEchoCommand(CLI::App* app, int* exit_code);  // app/echo_command.cc
+void RegisterMapCommands(CLI::App* app, int* exit_code);  // app/map_commands.cc: info, query, export
 
 }  // namespace monoplane::app

@@ -14,6 +14,7 @@ int main(int argc, char** argv) {
   int exit_code = kExitOk;
   RegisterCheckCalibCommand(&app, &exit_code);
   RegisterEchoCommand(&app, &exit_code);
+  RegisterMapCommands(&app, &exit_code);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
