@@ -244,6 +244,35 @@ TEST(MapPublisherTest, MapLocalMapUpdateOdomAndTfRoundTrip) {
   EXPECT_FALSE(tf_sub->Take(0.0).has_value());
 }
 
+TEST(MapPublisherTest, TiledGridIsPublishedAsItsTrinaryGrid) {
+  auto publisher = MakePublisher("tiled");
+  ASSERT_NE(publisher, nullptr);
+  auto map_sub = MakeSubscriber("map", "tiled");
+  ASSERT_NE(map_sub, nullptr);
+  TiledGrid tiled(0.05);
+  // Observed cells on both sides of a tile border: occupied, free and in-between (unknown).
+  const Eigen::Vector2i occupied(-3, 2), free(255, 256), uncertain(256, 2);
+  tiled.TileAt(occupied).log_odds[TiledGrid::IndexInTile(occupied)] = 2.0f;
+  tiled.TileAt(occupied).last_seen_ns[TiledGrid::IndexInTile(occupied)] = 1;
+  tiled.TileAt(free).log_odds[TiledGrid::IndexInTile(free)] = -2.0f;
+  tiled.TileAt(free).last_seen_ns[TiledGrid::IndexInTile(free)] = 1;
+  tiled.TileAt(uncertain).log_odds[TiledGrid::IndexInTile(uncertain)] = 0.1f;
+  tiled.TileAt(uncertain).last_seen_ns[TiledGrid::IndexInTile(uncertain)] = 1;
+  std::string error;
+  ASSERT_EQ(publisher->PublishMap(tiled, 7, TrinaryThresholds{}, &error), PublishStatus::kSent) << error;
+  auto got = map_sub->Take(10.0, &error);
+  ASSERT_TRUE(got) << error;
+  const GridGeometry& g = got->grid.geometry;
+  EXPECT_EQ(g.width, 256 - (-3) + 1);
+  EXPECT_EQ(g.height, 256 - 2 + 1);
+  EXPECT_NEAR(g.origin_x_m, -0.15, 1e-12);
+  EXPECT_NEAR(g.origin_y_m, 0.10, 1e-12);
+  EXPECT_EQ(got->grid.At(0, 0), kCellOccupied);
+  EXPECT_EQ(got->grid.At(255 + 3, 256 - 2), kCellFree);
+  EXPECT_EQ(got->grid.At(256 + 3, 0), kCellUnknown);
+  EXPECT_EQ(got->grid.cells, ToOccupancyGrid(tiled).cells);
+}
+
 TEST(MapPublisherTest, RejectsInconsistentGrids) {
   auto publisher = MakePublisher("bad");
   ASSERT_NE(publisher, nullptr);
