@@ -18,13 +18,15 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kEps = 1e-9;
 
 // Surface ids for edge detection: 0 sky, 1 floor, 2 + 2k drop k bottom, 3 + 2k drop k wall,
-// kShapeIdBase + j shape j.
+// kShapeIdBase + j scene shape j (obstacles, then movers).
 constexpr int kShapeIdBase = 1 << 20;
 
 // A shape prepared for ray casting in the world frame.
 struct Prepared {
   Shape shape;
   std::uint8_t label = kLabelObstacle;
+  int id = 0;  // surface id of the scene shape this (piece of a) shape belongs to
+  Eigen::Vector3d uv_offset{0, 0, 0};  // box pieces: offset of the piece inside the whole box
   Eigen::Vector3d center3;  // box: centre of the box; cylinder: footprint centre at z = 0;
                             // sphere: centre
   double cos_yaw = 1.0, sin_yaw = 0.0;
@@ -107,7 +109,7 @@ bool IntersectBox(const Prepared& p, const Eigen::Vector3d& d, Hit* hit) {
   if (axis < 0 || t_near <= kEps || t_near >= hit->t) return false;
   Eigen::Vector3d nl = Eigen::Vector3d::Zero();
   nl[axis] = dl[axis] > 0 ? -1.0 : 1.0;
-  const Eigen::Vector3d q = ol + t_near * dl + h;  // 0..size inside the box
+  const Eigen::Vector3d q = ol + t_near * dl + h + p.uv_offset;  // 0..size inside the whole box
   hit->t = t_near;
   hit->normal = {p.cos_yaw * nl.x() - p.sin_yaw * nl.y(), p.sin_yaw * nl.x() + p.cos_yaw * nl.y(), nl.z()};
   hit->uv = axis == 0 ? Eigen::Vector2d(q.y(), q.z())
@@ -217,11 +219,11 @@ struct SceneRenderer::Impl {
   std::vector<Eigen::Vector3d> rays;  // camera frame, z = 1, per pixel centre (distorted image)
   std::vector<MipTexture> textures;   // by material index (plain placeholder for unused ones)
   std::vector<Prepared> statics;
-  std::vector<double> decal_cos, decal_sin;
+  std::vector<double> decal_cos, decal_sin, decal_radius;
   // Per tile: the cone of its rays in the camera frame.
   int tiles_x = 0, tiles_y = 0;
   std::vector<Eigen::Vector3d> tile_axis;
-  std::vector<double> tile_half_angle;
+  std::vector<double> tile_half_angle, tile_cos_half, tile_sin_half;
 
   Impl(const Scene& s, const CameraCalibration& calibration)
       : scene(s), camera(calibration), width(calibration.intrinsics.width),
@@ -258,10 +260,37 @@ struct SceneRenderer::Impl {
       textures.push_back(used[m] ? BakeMaterial(static_cast<Material>(m), s.seed)
                                  : MipTexture(cv::Mat1f(1, 1, 0.5f), 0.002));
     }
-    for (const auto& o : s.obstacles) statics.push_back(Prepare(o, kLabelObstacle));
+    // Long boxes (walls, table tops) are cut into pieces of at most kMaxPieceM so that the tile
+    // culling by bounding spheres stays tight; the pieces keep the shape's id and texture.
+    for (std::size_t j = 0; j < s.obstacles.size(); ++j) {
+      const Shape& o = s.obstacles[j];
+      const int id = kShapeIdBase + static_cast<int>(j);
+      if (o.type != ShapeType::kBox) {
+        statics.push_back(Prepare(o, kLabelObstacle));
+        statics.back().id = id;
+        continue;
+      }
+      constexpr double kMaxPieceM = 1.0;
+      const int nx = std::max(1, static_cast<int>(std::ceil(o.size.x() / kMaxPieceM)));
+      const int ny = std::max(1, static_cast<int>(std::ceil(o.size.y() / kMaxPieceM)));
+      const Pose2 world_from_box{o.center.x(), o.center.y(), o.yaw_rad};
+      for (int ix = 0; ix < nx; ++ix) {
+        for (int iy = 0; iy < ny; ++iy) {
+          Shape piece = o;
+          piece.size.x() = o.size.x() / nx;
+          piece.size.y() = o.size.y() / ny;
+          piece.center = world_from_box * Eigen::Vector2d(-o.size.x() / 2 + (ix + 0.5) * piece.size.x(),
+                                                          -o.size.y() / 2 + (iy + 0.5) * piece.size.y());
+          statics.push_back(Prepare(piece, kLabelObstacle));
+          statics.back().id = id;
+          statics.back().uv_offset = {ix * piece.size.x(), iy * piece.size.y(), 0.0};
+        }
+      }
+    }
     for (const auto& d : s.decals) {
       decal_cos.push_back(std::cos(d.yaw_rad));
       decal_sin.push_back(std::sin(d.yaw_rad));
+      decal_radius.push_back(d.size.norm() / 2 + (d.rows > 0 ? 2 * d.square_m : 0.0));
     }
     // Tile cones.
     tiles_x = (width + kTile - 1) / kTile;
@@ -282,6 +311,8 @@ struct SceneRenderer::Impl {
         tile_axis.push_back(axis);
         // Margin: one pixel's angle, for the supersamples that reach half a pixel outside.
         tile_half_angle.push_back(half + 2.0 / calibration.intrinsics.fx);
+        tile_cos_half.push_back(std::cos(tile_half_angle.back()));
+        tile_sin_half.push_back(std::sin(tile_half_angle.back()));
       }
     }
   }
@@ -316,7 +347,10 @@ struct SceneRenderer::Impl {
     f.world_from_camera_r = world_from_camera.linear();
     f.origin = world_from_camera.translation();
     f.shapes = statics;
-    for (const auto& m : scene.movers) f.shapes.push_back(Prepare(MoverShapeAt(m, time_s), kLabelMoving));
+    for (std::size_t k = 0; k < scene.movers.size(); ++k) {
+      f.shapes.push_back(Prepare(MoverShapeAt(scene.movers[k], time_s), kLabelMoving));
+      f.shapes.back().id = kShapeIdBase + static_cast<int>(scene.obstacles.size() + k);
+    }
     for (auto& shape : f.shapes) shape.SetOrigin(f.origin);
     f.tile_shapes.assign(tile_axis.size(), {});
     const Eigen::Matrix3d camera_from_world_r = f.world_from_camera_r.transpose();
@@ -328,10 +362,15 @@ struct SceneRenderer::Impl {
         continue;
       }
       const Eigen::Vector3d dir = v / dist;
-      const double spread = std::asin(std::min(1.0, r / dist));
+      // angle(dir, axis) <= half + spread, compared through cosines (no trigonometry per pair).
+      const double sin_s = std::min(1.0, r / dist), cos_s = std::sqrt(1.0 - sin_s * sin_s);
       for (std::size_t t = 0; t < tile_axis.size(); ++t) {
-        const double angle = std::acos(std::clamp(dir.dot(tile_axis[t]), -1.0, 1.0));
-        if (angle <= tile_half_angle[t] + spread) f.tile_shapes[t].push_back(static_cast<int>(j));
+        const double cos_h = tile_cos_half[t], sin_h = tile_sin_half[t];
+        // half + spread < pi here (half < pi / 2 for any pinhole tile, spread < pi / 2 outside the
+        // sphere), where the cosine is monotonic.
+        if (dir.dot(tile_axis[t]) >= cos_h * cos_s - sin_h * sin_s) {
+          f.tile_shapes[t].push_back(static_cast<int>(j));
+        }
       }
     }
     return f;
@@ -343,7 +382,7 @@ struct SceneRenderer::Impl {
     const Eigen::Vector3d& o = f.origin;
     for (int j : candidates) {
       if (Intersect(f.shapes[j], d, &hit)) {
-        hit.id = kShapeIdBase + j;
+        hit.id = f.shapes[j].id;
         hit.label = f.shapes[j].label;
         hit.surface = &f.shapes[j].shape.surface;
         hit.floor_plane = false;
@@ -435,7 +474,7 @@ struct SceneRenderer::Impl {
       const Decal& decal = scene.decals[k];
       const double c = decal_cos[k], s = decal_sin[k];
       const Eigen::Vector2d rel = p - decal.center;
-      const double half_diag = decal.size.norm() / 2 + wx + wy + (decal.rows > 0 ? 2 * decal.square_m : 0);
+      const double half_diag = decal_radius[k] + wx + wy;
       if (rel.squaredNorm() > half_diag * half_diag) continue;
       auto to_local = [&](const Eigen::Vector2d& v) { return Eigen::Vector2d(c * v.x() + s * v.y(), -s * v.x() + c * v.y()); };
       const Eigen::Vector2d q = to_local(rel), lu = to_local(du), lv = to_local(dv);

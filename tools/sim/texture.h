@@ -1,6 +1,8 @@
 #pragma once
 
 #include <algorithm>
+#include <bit>
+#include <cstdint>
 #include <cmath>
 #include <vector>
 
@@ -23,7 +25,7 @@ class MipTexture {
   int num_levels() const { return static_cast<int>(levels_.size()); }
 
   // Albedo at a point in pattern metres for a footprint (pixel extent on the surface): the
-  // footprint's long axis `major_m` (a 2-D vector) and its short extent `minor_m`. Up to four
+  // footprint's long axis `major_m` (a 2-D vector) and its short extent `minor_m`. Up to three
   // trilinear probes along the long axis (anisotropic filtering).
   float Sample(const Eigen::Vector2d& point_m, const Eigen::Vector2d& major_m, double minor_m) const;
   // Isotropic trilinear sample.
@@ -44,10 +46,12 @@ namespace texture_internal {
 
 // log2 for positive finite x, good to about 0.01 (enough to pick a mip level).
 inline double FastLog2(double x) {
-  int exponent = 0;
-  const double m = 2.0 * std::frexp(x, &exponent);  // x = m 2^(e - 1), m in [1, 2)
+  // Exponent and mantissa straight from the IEEE-754 bits: x = m 2^e with m in [1, 2).
+  const std::uint64_t bits = std::bit_cast<std::uint64_t>(x);
+  const int exponent = static_cast<int>((bits >> 52) & 0x7ff) - 1023;
+  const double m = std::bit_cast<double>((bits & 0x000fffffffffffffull) | 0x3ff0000000000000ull);
   const double t = m - 1.0;
-  return exponent - 1 + t * (1.3465 - 0.3465 * t);
+  return exponent + t * (1.3465 - 0.3465 * t);
 }
 
 // A large multiple of every level size, so that texel coordinates become positive before the
@@ -94,7 +98,8 @@ inline float MipTexture::Sample(const Eigen::Vector2d& point_m, const Eigen::Vec
                          double minor_m) const {
   const double inv = 1.0 / texel_m_;
   const double major = major_m.norm() * inv, minor = std::max(minor_m * inv, 1e-6);
-  const int n = std::clamp(static_cast<int>(std::ceil(major / minor)), 1, 4);
+  // Probes along the long axis; the level is chosen so that the probes together cover it.
+  const int n = std::clamp(static_cast<int>(major / minor + 0.5), 1, 3);
   const double lod = texture_internal::FastLog2(std::max(minor, major / n));
   const double u = point_m.x() * inv, v = point_m.y() * inv;
   if (n == 1) return Trilinear(u, v, lod);
