@@ -33,8 +33,8 @@ class MipTexture {
 
  private:
   // Bilinear lookup at texel coordinates of one level (wraps around).
-  float Bilinear(int level, double u, double v) const;
-  float Trilinear(double u, double v, double lod) const;
+  float Bilinear(int level, float u, float v) const;
+  float Trilinear(float u, float v, double lod) const;
 
   std::vector<cv::Mat1f> levels_;
   std::vector<const float*> data_;  // level pixels, row-major
@@ -54,21 +54,18 @@ inline double FastLog2(double x) {
   return exponent + t * (1.3465 - 0.3465 * t);
 }
 
-// A large multiple of every level size, so that texel coordinates become positive before the
-// integer truncation (cheaper than floor).
-constexpr double kWrapOffset = 1 << 22;
-
 }  // namespace texture_internal
 
-inline float MipTexture::Bilinear(int level, double u, double v) const {
+inline float MipTexture::Bilinear(int level, float u, float v) const {
   const int shift = shift_[level];
   const int mask = (1 << shift) - 1;
-  u += texture_internal::kWrapOffset - 0.5;
-  v += texture_internal::kWrapOffset - 0.5;
-  const long iu = static_cast<long>(u), iv = static_cast<long>(v);
-  const float ax = static_cast<float>(u - static_cast<double>(iu));
-  const float ay = static_cast<float>(v - static_cast<double>(iv));
-  const int x0 = static_cast<int>(iu) & mask, y0 = static_cast<int>(iv) & mask;
+  u -= 0.5f;
+  v -= 0.5f;
+  int iu = static_cast<int>(u), iv = static_cast<int>(v);
+  iu -= u < static_cast<float>(iu);  // floor for negative coordinates
+  iv -= v < static_cast<float>(iv);
+  const float ax = u - static_cast<float>(iu), ay = v - static_cast<float>(iv);
+  const int x0 = iu & mask, y0 = iv & mask;
   const int x1 = (x0 + 1) & mask, y1 = (y0 + 1) & mask;
   const float* r0 = data_[level] + (y0 << shift);
   const float* r1 = data_[level] + (y1 << shift);
@@ -77,13 +74,13 @@ inline float MipTexture::Bilinear(int level, double u, double v) const {
   return a + ay * (b - a);
 }
 
-inline float MipTexture::Trilinear(double u, double v, double lod) const {
+inline float MipTexture::Trilinear(float u, float v, double lod) const {
   const int last = num_levels() - 1;
   if (lod <= 0) return Bilinear(0, u, v);
   if (lod >= last) return data_[last][0];
   const int l = static_cast<int>(lod);
   const float f = static_cast<float>(lod - l);
-  const double s0 = 1.0 / (1 << l), s1 = 0.5 * s0;
+  const float s0 = 1.0f / static_cast<float>(1 << l), s1 = 0.5f * s0;
   const float a = Bilinear(l, u * s0, v * s0);
   const float b = Bilinear(l + 1, u * s1, v * s1);
   return a + f * (b - a);
@@ -91,7 +88,8 @@ inline float MipTexture::Trilinear(double u, double v, double lod) const {
 
 inline float MipTexture::SampleIso(const Eigen::Vector2d& point_m, double footprint_m) const {
   const double inv = 1.0 / texel_m_;
-  return Trilinear(point_m.x() * inv, point_m.y() * inv, texture_internal::FastLog2(std::max(footprint_m * inv, 1e-6)));
+  return Trilinear(static_cast<float>(point_m.x() * inv), static_cast<float>(point_m.y() * inv),
+                   texture_internal::FastLog2(std::max(footprint_m * inv, 1e-6)));
 }
 
 inline float MipTexture::Sample(const Eigen::Vector2d& point_m, const Eigen::Vector2d& major_m,
@@ -101,12 +99,14 @@ inline float MipTexture::Sample(const Eigen::Vector2d& point_m, const Eigen::Vec
   // Probes along the long axis; the level is chosen so that the probes together cover it.
   const int n = std::clamp(static_cast<int>(major / minor + 0.5), 1, 3);
   const double lod = texture_internal::FastLog2(std::max(minor, major / n));
-  const double u = point_m.x() * inv, v = point_m.y() * inv;
+  const float u = static_cast<float>(point_m.x() * inv), v = static_cast<float>(point_m.y() * inv);
   if (n == 1) return Trilinear(u, v, lod);
+  const float step_u = static_cast<float>(major_m.x() * inv / n), step_v = static_cast<float>(major_m.y() * inv / n);
+  const float start = 0.5f - 0.5f * static_cast<float>(n);
   float sum = 0.0f;
   for (int i = 0; i < n; ++i) {
-    const double a = (i + 0.5) / n - 0.5;
-    sum += Trilinear(u + a * major_m.x() * inv, v + a * major_m.y() * inv, lod);
+    const float a = start + static_cast<float>(i);
+    sum += Trilinear(u + a * step_u, v + a * step_v, lod);
   }
   return sum / static_cast<float>(n);
 }
