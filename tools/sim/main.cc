@@ -15,9 +15,13 @@ int main(int argc, char** argv) {
   long long seed = -1;
   app.add_option("scene", scene_path, "scene YAML file (schema: tools/sim/README.md)")->required();
   app.add_option("--out", out_dir, "output folder (created)")->required();
-  app.add_option("--frames", frames, "number of frames (default: the scene's)")->check(CLI::PositiveNumber);
-  app.add_option("--seed", seed, "random seed (default: the scene's)")->check(CLI::NonNegativeNumber);
-  CLI11_PARSE(app, argc, argv);
+  app.add_option("--frames", frames, "number of frames (default: the scene's)")->check(CLI::Range(1, 1000000));
+  app.add_option("--seed", seed, "random seed (default: the scene's)")->check(CLI::Range(0LL, 4294967295LL));
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e) == 0 ? 0 : 2;  // --help: 0; bad arguments: 2
+  }
 
   monoplane::sim::Scene scene;
   std::string error;
