@@ -176,11 +176,12 @@ bool IntersectSphere(const Prepared& p, const Eigen::Vector3d& d, Hit* hit) {
   return true;
 }
 
-bool Intersect(const Prepared& p, const Eigen::Vector3d& d, Hit* hit) {
+// d_norm2 = |d|^2.
+bool Intersect(const Prepared& p, const Eigen::Vector3d& d, double d_norm2, Hit* hit) {
   // Bounding sphere first: most rays of a tile miss most of its candidates.
   const double b = p.bound_oc.dot(d);
   if (p.bound_c > 0 && b > 0) return false;  // outside the sphere and moving away
-  const double a = d.squaredNorm();
+  const double a = d_norm2;
   const double disc = b * b - a * p.bound_c;
   if (disc < 0) return false;
   switch (p.shape.type) {
@@ -380,8 +381,9 @@ struct SceneRenderer::Impl {
   Hit Trace(const Frame& f, const std::vector<int>& candidates, const Eigen::Vector3d& d) const {
     Hit hit;
     const Eigen::Vector3d& o = f.origin;
+    const double d_norm2 = d.squaredNorm();
     for (int j : candidates) {
-      if (Intersect(f.shapes[j], d, &hit)) {
+      if (Intersect(f.shapes[j], d, d_norm2, &hit)) {
         hit.id = f.shapes[j].id;
         hit.label = f.shapes[j].label;
         hit.surface = &f.shapes[j].shape.surface;
