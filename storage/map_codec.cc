@@ -6,12 +6,14 @@
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <zlib.h>
 
 namespace monoplane {
 namespace {
 
 constexpr int kTileCells = TiledGrid::kTileSize * TiledGrid::kTileSize;
 constexpr std::int64_t kNsPerMs = 1000000;
+constexpr uLong kTileBytes = 4 * 2 * kTileCells;  // four 16-bit planes
 
 std::uint16_t QuantiseSigned(double value, double scale) {
   const double q = std::clamp(std::round(value * scale), -32767.0, 32767.0);
@@ -93,7 +95,9 @@ bool DecodeLocalMapCells(const std::uint8_t* data, std::size_t size, OccupancyGr
   return true;
 }
 
-bool EncodeTile(const TiledGrid::Tile& tile, int png_compression, EncodedTile* encoded,
+// The four 16-bit planes of a tile, each stored low bytes first then high bytes (byte planes
+// compress far better than interleaved words), deflated by zlib.
+bool EncodeTile(const TiledGrid::Tile& tile, int compression_level, EncodedTile* encoded,
                 std::string* error) {
   if (tile.log_odds.size() != kTileCells || tile.height_m.size() != kTileCells ||
       tile.last_seen_ns.size() != kTileCells) {
@@ -121,41 +125,55 @@ bool EncodeTile(const TiledGrid::Tile& tile, int png_compression, EncodedTile* e
   }
   if (!encoded->has_data) return true;
   encoded->base_ns = base == std::numeric_limits<TimestampNs>::max() ? 0 : base;
-  cv::Mat image(TiledGrid::kTileSize, TiledGrid::kTileSize, CV_16UC4);
-  auto* px = image.ptr<std::uint16_t>(0);
-  for (int k = 0; k < kTileCells; ++k, px += 4) {
-    px[0] = QuantiseSigned(tile.log_odds[k], 1.0 / kLogOddsQuantum);
-    px[1] = std::isnan(tile.height_m[k]) ? 0 : QuantiseSigned(tile.height_m[k], 1000.0);
+  std::vector<std::uint8_t> raw(kTileBytes);
+  auto put = [&](int plane, int k, std::uint16_t v) {
+    raw[static_cast<std::size_t>(2 * plane) * kTileCells + k] = static_cast<std::uint8_t>(v & 0xFF);
+    raw[static_cast<std::size_t>(2 * plane + 1) * kTileCells + k] = static_cast<std::uint8_t>(v >> 8);
+  };
+  for (int k = 0; k < kTileCells; ++k) {
+    put(0, k, QuantiseSigned(tile.log_odds[k], 1.0 / kLogOddsQuantum));
+    put(1, k, std::isnan(tile.height_m[k]) ? 0 : QuantiseSigned(tile.height_m[k], 1000.0));
     std::uint32_t seen = 0;
     if (tile.last_seen_ns[k] != 0) {
       const std::int64_t ms = (tile.last_seen_ns[k] - encoded->base_ns) / kNsPerMs;
       seen = static_cast<std::uint32_t>(std::min<std::int64_t>(ms, 0xFFFFFFFEll) + 1);
     }
-    px[2] = static_cast<std::uint16_t>(seen & 0xFFFF);
-    px[3] = static_cast<std::uint16_t>(seen >> 16);
+    put(2, k, static_cast<std::uint16_t>(seen & 0xFFFF));
+    put(3, k, static_cast<std::uint16_t>(seen >> 16));
   }
-  return EncodePng(image, png_compression, &encoded->png, error);
+  uLongf size = compressBound(kTileBytes);
+  encoded->data.resize(size);
+  if (compress2(encoded->data.data(), &size, raw.data(), kTileBytes, compression_level) != Z_OK) {
+    *error = "zlib compression failed";
+    return false;
+  }
+  encoded->data.resize(size);
+  return true;
 }
 
 bool DecodeTile(const std::uint8_t* data, std::size_t size, TimestampNs base_ns,
                 TiledGrid::Tile* tile, std::string* error) {
-  cv::Mat image;
-  if (!DecodePng(data, size, &image, error)) return false;
-  if (image.type() != CV_16UC4 || image.cols != TiledGrid::kTileSize ||
-      image.rows != TiledGrid::kTileSize || !image.isContinuous()) {
-    *error = "tile blob is not a 256x256 16-bit 4-channel PNG";
+  std::vector<std::uint8_t> raw(kTileBytes);
+  uLongf raw_size = kTileBytes;
+  if (uncompress(raw.data(), &raw_size, data, static_cast<uLong>(size)) != Z_OK ||
+      raw_size != kTileBytes) {
+    *error = "tile blob does not inflate to 4 planes of 256x256 16-bit cells";
     return false;
   }
+  auto get = [&](int plane, int k) {
+    return static_cast<std::uint16_t>(raw[static_cast<std::size_t>(2 * plane) * kTileCells + k] |
+                                      (raw[static_cast<std::size_t>(2 * plane + 1) * kTileCells + k] << 8));
+  };
   tile->log_odds.resize(kTileCells);
   tile->height_m.resize(kTileCells);
   tile->last_seen_ns.resize(kTileCells);
-  const auto* px = image.ptr<std::uint16_t>(0);
-  for (int k = 0; k < kTileCells; ++k, px += 4) {
-    tile->log_odds[k] = static_cast<float>((static_cast<int>(px[0]) - 32768) * kLogOddsQuantum);
-    tile->height_m[k] = px[1] == 0 ? std::numeric_limits<float>::quiet_NaN()
-                                   : static_cast<float>((static_cast<int>(px[1]) - 32768) * 1e-3);
-    const std::uint32_t seen = static_cast<std::uint32_t>(px[2]) |
-                               (static_cast<std::uint32_t>(px[3]) << 16);
+  for (int k = 0; k < kTileCells; ++k) {
+    const std::uint16_t l = get(0, k), h = get(1, k);
+    tile->log_odds[k] = static_cast<float>((static_cast<int>(l) - 32768) * kLogOddsQuantum);
+    tile->height_m[k] = h == 0 ? std::numeric_limits<float>::quiet_NaN()
+                               : static_cast<float>((static_cast<int>(h) - 32768) * 1e-3);
+    const std::uint32_t seen = static_cast<std::uint32_t>(get(2, k)) |
+                               (static_cast<std::uint32_t>(get(3, k)) << 16);
     tile->last_seen_ns[k] = seen == 0 ? 0 : base_ns + static_cast<std::int64_t>(seen - 1) * kNsPerMs;
   }
   return true;

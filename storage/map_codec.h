@@ -10,8 +10,8 @@
 
 namespace monoplane {
 
-// Compressed forms of the map records the database stores as blobs (PNG through OpenCV, so any
-// PNG reader can inspect a blob).
+// Compressed forms of the map records the database stores as blobs: local maps as PNG (any
+// image viewer shows them), grid tiles as zlib-deflated planes.
 
 // A local map as an 8-bit grey PNG: cells 0..100 as is, unknown (-1) as 255.
 bool EncodeLocalMapCells(const OccupancyGrid& grid, int png_compression,
@@ -20,18 +20,20 @@ bool EncodeLocalMapCells(const OccupancyGrid& grid, int png_compression,
 bool DecodeLocalMapCells(const std::uint8_t* data, std::size_t size, OccupancyGrid* grid,
                          std::string* error);
 
-// A tile of the global grid as a 16-bit 4-channel PNG of kTileSize^2 pixels. Per cell:
-// ch0 log-odds * 1000 + 32768 (int16 quantised, step 0.001), ch1 height mm + 32768 (0 = none),
-// ch2/ch3 last seen as milliseconds after base_ns + 1 (low/high 16 bits; 0 = never).
+// A tile of the global grid as four planes of kTileSize^2 uint16 (row-major, lowest y first),
+// each plane stored as its low bytes then its high bytes, the whole deflated with zlib
+// (encoding "zplanes16x4"). Planes: 0 log-odds * 1000 + 32768 (int16 quantised, step 0.001),
+// 1 height mm + 32768 (0 = none), 2/3 last seen as milliseconds after base_ns + 1 (low/high
+// 16 bits; 0 = never).
 struct EncodedTile {
-  std::vector<std::uint8_t> png;
+  std::vector<std::uint8_t> data;  // the compressed blob
   bool has_data = false;         // any cell observed; tiles without data are not stored
   TimestampNs base_ns = 0;       // the earliest last-seen stamp in the tile
   TimestampNs last_seen_ns = 0;  // the latest
   int min_col = 0, min_row = 0, max_col = -1, max_row = -1;  // observed cells, within the tile
 };
 inline constexpr double kLogOddsQuantum = 0.001;
-bool EncodeTile(const TiledGrid::Tile& tile, int png_compression, EncodedTile* encoded,
+bool EncodeTile(const TiledGrid::Tile& tile, int compression_level, EncodedTile* encoded,
                 std::string* error);
 bool DecodeTile(const std::uint8_t* data, std::size_t size, TimestampNs base_ns,
                 TiledGrid::Tile* tile, std::string* error);

@@ -53,8 +53,8 @@ bool MapDatabase::Options::IsValid(std::string* error) const {
              ". Violated constraint: >= 0";
     return false;
   }
-  if (png_compression < 0 || png_compression > 9) {
-    *error = "MapDatabase::Options::png_compression = " + std::to_string(png_compression) +
+  if (compression_level < 0 || compression_level > 9) {
+    *error = "MapDatabase::Options::compression_level = " + std::to_string(compression_level) +
              ". Violated constraint: 0..9";
     return false;
   }
@@ -594,7 +594,7 @@ StorageStatus MapDatabase::WriteKeyframe(std::int64_t run_id, const FrameRecord&
   Impl& d = *impl_;
   std::vector<std::uint8_t> png;
   std::string error;
-  if (!EncodeLocalMapCells(local_map_in_base, d.options.png_compression, &png, &error)) {
+  if (!EncodeLocalMapCells(local_map_in_base, d.options.compression_level, &png, &error)) {
     return d.Error(StorageErrorKind::kInvalidArgument, std::string(kContext) + ": " + error);
   }
   FrameRecord keyframe = frame;
@@ -661,7 +661,7 @@ StorageStatus MapDatabase::WriteGridTiles(std::int64_t run_id, const TiledGrid& 
     EncodedTile e;
     const auto it = grid.tiles().find(key);
     std::string error;
-    if (it != grid.tiles().end() && !EncodeTile(it->second, d.options.png_compression, &e, &error)) {
+    if (it != grid.tiles().end() && !EncodeTile(it->second, d.options.compression_level, &e, &error)) {
       return d.Error(StorageErrorKind::kInvalidArgument, std::string(kContext) + ": " + error);
     }
     encoded.emplace_back(key, std::move(e));
@@ -672,7 +672,7 @@ StorageStatus MapDatabase::WriteGridTiles(std::int64_t run_id, const TiledGrid& 
     StorageStatus s2 = d.Prepare(
         "INSERT OR REPLACE INTO grid_tiles (tx, ty, resolution_m, tile_size, run_id, base_ns, "
         "last_seen_ns, min_i, min_j, max_i, max_j, encoding, data) "
-        "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, 'png16x4', ?)",
+        "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, 'zplanes16x4', ?)",
         &put, kContext);
     if (s2.ok()) s2 = d.Prepare("DELETE FROM grid_tiles WHERE tx = ? AND ty = ?", &del, kContext);
     for (std::size_t i = 0; i < encoded.size() && s2.ok(); ++i) {
@@ -692,7 +692,7 @@ StorageStatus MapDatabase::WriteGridTiles(std::int64_t run_id, const TiledGrid& 
                                        std::int64_t{key.second} * kN + e.max_row};
         if (s2.ok()) s2 = d.BindDouble(s, 3, grid.resolution_m(), kContext);
         for (int k = 0; k < 8 && s2.ok(); ++k) s2 = d.BindInt(s, 4 + k, values[k], kContext);
-        if (s2.ok()) s2 = d.BindBlob(s, 12, e.png.data(), e.png.size(), kContext);
+        if (s2.ok()) s2 = d.BindBlob(s, 12, e.data.data(), e.data.size(), kContext);
       }
       if (s2.ok()) s2 = d.StepDone(s, kContext);
     }
@@ -887,17 +887,42 @@ StorageStatus MapDatabase::LoadTilesInBox(const Eigen::Vector2d& min_m, const Ei
   }
   const TiledGrid::TileKey lo = TiledGrid::TileOf(cache->CellOf(min_m.cwiseMin(max_m)));
   const TiledGrid::TileKey hi = TiledGrid::TileOf(cache->CellOf(min_m.cwiseMax(max_m)));
-  Statement s;
+  // Warm: every tile of the box is cached, nothing to ask.
+  bool all_cached = true;
+  for (int tx = lo.first; tx <= hi.first && all_cached; ++tx) {
+    for (int ty = lo.second; ty <= hi.second && all_cached; ++ty) {
+      all_cached = cache->tiles().count({tx, ty}) != 0;
+    }
+  }
+  if (all_cached) return {};
+  // Which stored tiles are missing from the cache (keys only, from the index), then their blobs.
+  Statement keys, blob;
   StorageStatus st = impl_->Prepare(
-      "SELECT tx, ty, base_ns, data FROM grid_tiles WHERE tx BETWEEN ? AND ? AND ty BETWEEN ? AND ?",
-      &s, kContext);
+      "SELECT tx, ty FROM grid_tiles WHERE tx BETWEEN ? AND ? AND ty BETWEEN ? AND ?", &keys,
+      kContext);
   const int bounds[] = {lo.first, hi.first, lo.second, hi.second};
-  for (int k = 0; k < 4 && st.ok(); ++k) st = impl_->BindInt(s, k + 1, bounds[k], kContext);
-  if (!st.ok()) return st;
-  return impl_->ForEachRow(s, kContext, [&](sqlite3_stmt* row) {
-    const TiledGrid::TileKey key(sqlite3_column_int(row, 0), sqlite3_column_int(row, 1));
-    return cache->tiles().count(key) != 0 ? StorageStatus() : impl_->DecodeTileRow(s, cache);
-  });
+  for (int k = 0; k < 4 && st.ok(); ++k) st = impl_->BindInt(keys, k + 1, bounds[k], kContext);
+  std::vector<TiledGrid::TileKey> missing;
+  if (st.ok()) {
+    st = impl_->ForEachRow(keys, kContext, [&](sqlite3_stmt* row) {
+      const TiledGrid::TileKey key(sqlite3_column_int(row, 0), sqlite3_column_int(row, 1));
+      if (cache->tiles().count(key) == 0) missing.push_back(key);
+      return StorageStatus();
+    });
+  }
+  if (st.ok() && !missing.empty()) {
+    st = impl_->Prepare("SELECT tx, ty, base_ns, data FROM grid_tiles WHERE tx = ? AND ty = ?",
+                        &blob, kContext);
+  }
+  for (std::size_t i = 0; i < missing.size() && st.ok(); ++i) {
+    sqlite3_reset(blob.get());
+    st = impl_->BindInt(blob, 1, missing[i].first, kContext);
+    if (st.ok()) st = impl_->BindInt(blob, 2, missing[i].second, kContext);
+    if (st.ok()) {
+      st = impl_->ForEachRow(blob, kContext, [&](sqlite3_stmt*) { return impl_->DecodeTileRow(blob, cache); });
+    }
+  }
+  return st;
 }
 
 StorageStatus MapDatabase::ReadOctomap(StoredOctomap* octomap) {

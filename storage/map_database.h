@@ -108,7 +108,7 @@ class MapDatabase {
     bool synchronous_full = false; // fsync every commit (survives power loss); false: survives
                                    // process crashes, and is much faster
     std::int64_t max_page_count = 0;  // cap on the file size in pages (tests, quotas); 0 = none
-    int png_compression = 1;       // zlib level of the tile and local-map PNGs, 0..9
+    int compression_level = 1;       // zlib level of the tile blobs and local-map PNGs, 0..9
 
     bool IsValid(std::string* error) const;
   };

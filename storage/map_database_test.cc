@@ -462,9 +462,9 @@ TEST(MapDatabase, OptionsAreValidated) {
   MapDatabase::Options options;
   std::string error;
   EXPECT_TRUE(options.IsValid(&error));
-  options.png_compression = 12;
+  options.compression_level = 12;
   EXPECT_FALSE(options.IsValid(&error));
-  EXPECT_EQ(error, "MapDatabase::Options::png_compression = 12. Violated constraint: 0..9");
+  EXPECT_EQ(error, "MapDatabase::Options::compression_level = 12. Violated constraint: 0..9");
   std::unique_ptr<MapDatabase> db;
   EXPECT_EQ(MapDatabase::Open(":memory:", OpenMode::kCreate, &db, options).kind(),
             StorageErrorKind::kInvalidArgument);
