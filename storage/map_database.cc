@@ -63,6 +63,9 @@ bool MapDatabase::Options::IsValid(std::string* error) const {
 
 namespace {
 
+// How grid_tiles.data is encoded (see map_codec.h).
+constexpr const char* kTileEncoding = "zplanes16x4";
+
 // "MONP" in the SQLite header's application_id field marks a monoplane map.
 constexpr std::int32_t kApplicationId = 0x4D4F4E50;
 
@@ -330,6 +333,11 @@ struct MapDatabase::Impl {
     const TimestampNs base_ns = sqlite3_column_int64(s.get(), 2);
     const auto* data = static_cast<const std::uint8_t*>(sqlite3_column_blob(s.get(), 3));
     const std::size_t size = static_cast<std::size_t>(sqlite3_column_bytes(s.get(), 3));
+    const auto* encoding = sqlite3_column_text(s.get(), 4);
+    if (encoding == nullptr || std::strcmp(reinterpret_cast<const char*>(encoding), kTileEncoding) != 0) {
+      return Error(StorageErrorKind::kCorrupt, "tile (" + std::to_string(tx) + ", " +
+                                                   std::to_string(ty) + ") has an unknown encoding");
+    }
     std::string error;
     TiledGrid::Tile& tile = grid->mutable_tiles()[{tx, ty}];
     if (data == nullptr || !DecodeTile(data, size, base_ns, &tile, &error)) {
@@ -868,7 +876,7 @@ StorageStatus MapDatabase::LoadTiledGrid(TiledGrid* grid) {
   if (!st.ok()) return st;
   *grid = TiledGrid(impl_->grid_resolution_m.value_or(grid->resolution_m()));
   Statement s;
-  st = impl_->Prepare("SELECT tx, ty, base_ns, data FROM grid_tiles", &s, kContext);
+  st = impl_->Prepare("SELECT tx, ty, base_ns, data, encoding FROM grid_tiles", &s, kContext);
   if (!st.ok()) return st;
   return impl_->ForEachRow(s, kContext, [&](sqlite3_stmt*) { return impl_->DecodeTileRow(s, grid); });
 }
@@ -911,7 +919,7 @@ StorageStatus MapDatabase::LoadTilesInBox(const Eigen::Vector2d& min_m, const Ei
     });
   }
   if (st.ok() && !missing.empty()) {
-    st = impl_->Prepare("SELECT tx, ty, base_ns, data FROM grid_tiles WHERE tx = ? AND ty = ?",
+    st = impl_->Prepare("SELECT tx, ty, base_ns, data, encoding FROM grid_tiles WHERE tx = ? AND ty = ?",
                         &blob, kContext);
   }
   for (std::size_t i = 0; i < missing.size() && st.ok(); ++i) {

@@ -352,6 +352,22 @@ TEST(MapDatabase, RefusesTruncatedAndCorruptFiles) {
   EXPECT_EQ(testing::ReadFileBytes(corrupt), damaged);
 }
 
+TEST(MapDatabase, DamagedTileBlobIsReportedAsCorrupt) {
+  TempDir dir;
+  const std::string path = dir.File("map.db");
+  MakeSmallMap(path);
+  RawExec(path, "UPDATE grid_tiles SET data = x'789c0001020304' WHERE tx = 0 AND ty = 0");
+  auto db = MustOpen(path, OpenMode::kReadOnly);
+  ASSERT_TRUE(db);
+  TiledGrid grid;
+  const StorageStatus st = db->LoadTiledGrid(&grid);
+  EXPECT_EQ(st.kind(), StorageErrorKind::kCorrupt);
+  EXPECT_EQ(st.message().rfind(path + ": tile (0, 0) is damaged", 0), 0u) << st.message();
+  TiledGrid cache;
+  EXPECT_TRUE(db->LoadTilesInBox({-16.0, 0.0}, {-15.0, 1.0}, &cache).ok());  // the other tile
+  EXPECT_EQ(db->LoadTilesInBox({0.0, 0.0}, {0.1, 0.1}, &cache).kind(), StorageErrorKind::kCorrupt);
+}
+
 TEST(MapDatabase, RefusesANewerSchemaWithItsVersion) {
   TempDir dir;
   const std::string path = dir.File("map.db");
