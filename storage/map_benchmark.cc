@@ -21,12 +21,13 @@ namespace {
 constexpr int kCells = 2000;
 constexpr double kRes = 0.05;
 
-// A synthetic building: free floor, walls every 5 m with doors, furniture blobs, unobserved rooms.
+// A synthetic building as a mapper would leave it: free floor, walls every 5 m with doors, furniture
+// blobs, unvisited rooms. Log-odds are sums of n fixed updates (n = 1..8), heights per blob, and
+// cells seen in passes: one stamp per 20 x 20 block plus whole frames (66 ms) within the pass.
 TiledGrid MakeBigGrid() {
   TiledGrid grid(kRes);
   std::mt19937 rng(42);
-  std::uniform_real_distribution<float> noise(-0.3f, 0.3f);
-  std::uniform_int_distribution<int> stamp_ms(0, 3600 * 1000);
+  std::uniform_int_distribution<int> hits(1, 8), frame(0, 30);
   for (int j = 0; j < kCells; ++j) {
     for (int i = 0; i < kCells; ++i) {
       const int room_i = i / 100, room_j = j / 100;
@@ -34,9 +35,10 @@ TiledGrid MakeBigGrid() {
       const bool wall = (i % 100 < 3 || j % 100 < 3) && !(i % 100 > 40 && i % 100 < 60) &&
                         !(j % 100 > 40 && j % 100 < 60);
       const bool blob = ((i / 10) * 13 + (j / 10) * 7) % 37 == 0;
-      const float l = wall || blob ? 2.5f + noise(rng) : -2.0f + noise(rng);
-      testing::MarkCell(&grid, {i, j}, l, wall || blob ? 0.5f + noise(rng) : std::nanf(""),
-                        1700000000000000000ll + stamp_ms(rng) * 1000000ll);
+      const float l = wall || blob ? 0.85f * hits(rng) : -0.4f * hits(rng);
+      const float h = wall ? 1.0f : blob ? 0.1f * ((i / 10 + j / 10) % 8) + 0.05f : std::nanf("");
+      const TimestampNs pass_ns = 1700000000000000000ll + ((i / 20) * 97 + (j / 20) * 31) % 3600 * 1000000000ll;
+      testing::MarkCell(&grid, {i, j}, l, h, pass_ns + frame(rng) * 66000000ll);
     }
   }
   return grid;
