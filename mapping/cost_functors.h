@@ -65,7 +65,9 @@ struct CameraFixed {
   }
 };
 
-// Projects a map-frame point seen from pose with the camera; false when it is behind the camera.
+// Projects a map-frame point seen from pose with the camera; false when it is behind the camera
+// (the pixel is still written, with the depth clamped to kMinDepthM, so that an optimiser step that
+// moves a point behind the camera gets a large finite residual instead of a failed evaluation).
 // Same convention as CameraCalibration::BaseFromCamera: Rz(yaw) Ry(pitch) B Rz(roll).
 template <typename T>
 bool ProjectMapPoint(const CameraFixed& cam, const T* pose, const T* camera, const T* point_in_map,
@@ -88,10 +90,11 @@ bool ProjectMapPoint(const CameraFixed& cam, const T* pose, const T* camera, con
   const Eigen::Matrix<T, 3, 3> base_from_camera = rz * ry * b * rr;
   const Eigen::Matrix<T, 3, 1> t(T(cam.mount_x_m), T(cam.mount_y_m), camera[2]);
   const Eigen::Matrix<T, 3, 1> p_cam = base_from_camera.transpose() * (p_base - t);
-  if (!(p_cam.z() > T(1e-6))) return false;
-  pixel[0] = T(cam.fx) * p_cam.x() / p_cam.z() + T(cam.cx);
-  pixel[1] = T(cam.fy) * p_cam.y() / p_cam.z() + T(cam.cy);
-  return true;
+  constexpr double kMinDepthM = 0.05;
+  const T z = p_cam.z() > T(kMinDepthM) ? p_cam.z() : T(kMinDepthM);
+  pixel[0] = T(cam.fx) * p_cam.x() / z + T(cam.cx);
+  pixel[1] = T(cam.fy) * p_cam.y() / z + T(cam.cy);
+  return p_cam.z() > T(kMinDepthM);
 }
 
 // Pixel error of a map-frame point, divided by the pixel sigma.
@@ -99,7 +102,7 @@ template <typename T>
 bool ReprojectionResidual(const CameraFixed& cam, const T* pose, const T* camera, const T* point_in_map,
                           double u, double v, double inv_sigma, T* residual) {
   T pixel[2];
-  if (!ProjectMapPoint(cam, pose, camera, point_in_map, pixel)) return false;
+  ProjectMapPoint(cam, pose, camera, point_in_map, pixel);  // clamped depth behind the camera
   residual[0] = (pixel[0] - T(u)) * T(inv_sigma);
   residual[1] = (pixel[1] - T(v)) * T(inv_sigma);
   return true;

@@ -52,8 +52,8 @@ class Mapper {
     // Loop closure: match a new keyframe's local map against older keyframes near it.
     bool loop_closure = true;
     double loop_min_travel_m = 5.0;        // path length between candidate and current, >= 0
-    double loop_candidate_radius_m = 3.0;  // candidates within this of the current estimate, > 0
-    int loop_max_candidates = 30;          // nearest candidates fused into the target, >= 1
+    double loop_candidate_radius_m = 5.0;  // candidates within this of the current estimate, > 0
+    int loop_max_candidates = 40;          // nearest candidates fused into the target, >= 1
     int loop_min_interval_keyframes = 3;   // keyframes between accepted closures, >= 0
     double loop_sigma_xy_m = 0.05;         // loop constraint noise, > 0
     double loop_sigma_yaw_rad = 0.02;      // > 0
@@ -78,6 +78,9 @@ class Mapper {
       ScanMatchOptions o;
       o.linear_window_m = 2.0;
       o.angular_window_rad = 0.5;
+      // One match against a whole saved map over a wide window has more near-alternatives than a
+      // loop closure; later loop closures against the saved keyframes verify it again.
+      o.max_second_ratio = 0.92;
       return o;
     }
   };

@@ -1,1 +1,247 @@
+#include "mapping/mapper.h"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+
 #include <gtest/gtest.h>
+
+#include "mapping/testing/synthetic_world.h"
+
+namespace monoplane {
+namespace {
+
+using testing::Ate;
+using testing::PathLength;
+
+std::vector<Pose2> SquareLoop() {
+  return testing::PathThrough({{0, 0, 0}, {4, 0, M_PI / 2}, {4, 4, M_PI}, {0, 4, -M_PI / 2}, {0, 0, 0}, {2.5, 0, 0}},
+                              0.05, 0.1);
+}
+
+int FrameOfStamp(TimestampNs stamp_ns) { return static_cast<int>((stamp_ns - 1'000'000'000) / 100'000'000); }
+
+std::vector<Pose2> Estimates(const Mapper& mapper) {
+  std::vector<Pose2> out;
+  for (const TrajectoryPoint& p : mapper.Trajectory()) out.push_back(p.map_from_base);
+  return out;
+}
+
+std::vector<Pose2> Odometry(const testing::SyntheticRun& run) {
+  std::vector<Pose2> out;
+  for (const FrameObservation& f : run.frames) out.push_back(f.odom_from_base);
+  return out;
+}
+
+// Accepted closures whose relative pose is more than 0.2 m off the truth.
+int FalseClosures(const Mapper& mapper, const testing::SyntheticRun& run) {
+  std::map<int, Pose2> truth_of_id;
+  for (const Keyframe& k : mapper.keyframes()) truth_of_id[k.id] = run.truth[FrameOfStamp(k.stamp_ns)];
+  int wrong = 0;
+  for (const LoopClosureEvent& e : mapper.loop_closures()) {
+    if (!e.accepted) continue;
+    const Pose2 truth = truth_of_id[e.anchor_id].Inverse() * truth_of_id[e.keyframe_id];
+    if ((truth.Translation() - e.anchor_from_current.Translation()).norm() > 0.2) ++wrong;
+  }
+  return wrong;
+}
+
+void PrintClosures(const Mapper& mapper, const testing::SyntheticRun& run) {
+  std::map<int, Pose2> truth_of_id;
+  for (const Keyframe& k : mapper.keyframes()) truth_of_id[k.id] = run.truth[FrameOfStamp(k.stamp_ns)];
+  for (const LoopClosureEvent& e : mapper.loop_closures()) {
+    const Pose2 truth = truth_of_id[e.anchor_id].Inverse() * truth_of_id[e.keyframe_id];
+    std::printf("  keyframe %d anchor %d score %.3f second %.3f error %.3f m %s\n", e.keyframe_id, e.anchor_id,
+                e.score, e.second_score, (truth.Translation() - e.anchor_from_current.Translation()).norm(),
+                e.accepted ? "accepted" : e.reason.c_str());
+  }
+}
+
+struct LoopFixture {
+  testing::SyntheticRun run;
+  Mapper mapper;
+  LoopFixture(bool features, const Mapper::Options& options)
+      : run(testing::MakeRun(testing::SquareLoopWorld(), SquareLoop(), testing::TestCamera(), [&] {
+          testing::RunOptions o;
+          o.features = features;
+          return o;
+        }())),
+        mapper(options, testing::TestCamera()) {
+    for (const FrameObservation& f : run.frames) mapper.AddFrame(f);
+  }
+};
+
+// The square loop with odometry alone (loop closure does all the work), computed once.
+const LoopFixture& OdometryLoop() {
+  static const LoopFixture fixture(/*features=*/false, Mapper::Options());
+  return fixture;
+}
+
+// The square loop with tracked features; every accepted closure rebuilds the maps.
+LoopFixture& FeatureLoop() {
+  static LoopFixture fixture(/*features=*/true, [] {
+    Mapper::Options o;
+    o.rebuild_min_change_m = 0.0;
+    o.rebuild_min_change_rad = 0.0;
+    return o;
+  }());
+  return fixture;
+}
+
+void ExpectLoopClosed(const LoopFixture& fx) {
+  const Mapper& mapper = fx.mapper;
+  const double path = PathLength(fx.run.truth);
+  const double dead_reckoning = Ate(Odometry(fx.run), fx.run.truth);
+  const double optimised = Ate(Estimates(mapper), fx.run.truth);
+  std::printf("path %.2f m, keyframes %d, closures accepted %d rejected %d, ATE dead reckoning %.3f m, "
+              "optimised %.3f m\n",
+              path, mapper.counters().keyframes, mapper.counters().loop_closures_accepted,
+              mapper.counters().loop_closures_rejected, dead_reckoning, optimised);
+  PrintClosures(mapper, fx.run);
+  EXPECT_GE(mapper.counters().loop_closures_accepted, 1);
+  EXPECT_EQ(FalseClosures(mapper, fx.run), 0);
+  EXPECT_LT(optimised, 0.01 * path);
+  EXPECT_LT(optimised, 0.5 * dead_reckoning);
+  ASSERT_EQ(mapper.Trajectory().size(), fx.run.frames.size());
+}
+
+TEST(Mapper, SquareLoopClosesWithOdometryAlone) {
+  ExpectLoopClosed(OdometryLoop());
+  EXPECT_GE(OdometryLoop().mapper.counters().map_rebuilds, 1);
+}
+
+TEST(Mapper, SquareLoopClosesWithFeatureWindow) {
+  const LoopFixture& fx = FeatureLoop();
+  ExpectLoopClosed(fx);
+  EXPECT_GT(fx.mapper.counters().window_optimizations, 10);
+
+  // Keyframes: ids in order, local maps kept, raw odometry kept.
+  const auto& keyframes = fx.mapper.keyframes();
+  ASSERT_EQ(static_cast<int>(keyframes.size()), fx.mapper.counters().keyframes);
+  for (std::size_t i = 0; i < keyframes.size(); ++i) {
+    EXPECT_EQ(keyframes[i].id, static_cast<int>(i));
+    EXPECT_EQ(keyframes[i].local_map.geometry.width, 160);
+  }
+}
+
+TEST(Mapper, RebuiltGridMatchesTheGridAtTruePoses) {
+  LoopFixture& fx = FeatureLoop();
+  ASSERT_GE(fx.mapper.counters().map_rebuilds, 1);
+  TiledGrid truth_grid(0.05);
+  for (const Keyframe& k : fx.mapper.keyframes()) {
+    FuseLocalMap(k.local_map, k.obstacle_points_in_base, fx.run.truth[FrameOfStamp(k.stamp_ns)], k.stamp_ns,
+                 LogOddsOptions(), &truth_grid);
+  }
+  const OccupancyGrid expected = ToOccupancyGrid(truth_grid);
+  const TiledGrid& grid = fx.mapper.grid();
+  int both_known = 0, agree = 0, occupied = 0, occupied_near_truth = 0;
+  auto trinary = [](float l) { return l >= 0.619f ? 1 : (l <= -1.0986f ? 0 : -1); };
+  for (const auto& [key, tile] : grid.tiles()) {
+    for (int k = 0; k < TiledGrid::kTileSize * TiledGrid::kTileSize; ++k) {
+      const Eigen::Vector2i cell(key.first * TiledGrid::kTileSize + k % TiledGrid::kTileSize,
+                                 key.second * TiledGrid::kTileSize + k / TiledGrid::kTileSize);
+      const int mine = trinary(tile.log_odds[k]);
+      const int theirs = trinary(truth_grid.LogOdds(cell));
+      if (mine >= 0 && theirs >= 0) {
+        ++both_known;
+        agree += mine == theirs ? 1 : 0;
+      }
+      if (mine == 1) {
+        ++occupied;
+        bool near = false;
+        for (int dy = -1; dy <= 1 && !near; ++dy) {
+          for (int dx = -1; dx <= 1 && !near; ++dx) near = trinary(truth_grid.LogOdds(cell + Eigen::Vector2i(dx, dy))) == 1;
+        }
+        occupied_near_truth += near ? 1 : 0;
+      }
+    }
+  }
+  std::printf("cells known in both %d, agreement %.4f, occupied %d, within one cell of truth %.4f\n", both_known,
+              static_cast<double>(agree) / both_known, occupied, static_cast<double>(occupied_near_truth) / occupied);
+  ASSERT_GT(both_known, 10000);
+  EXPECT_GT(static_cast<double>(agree) / both_known, 0.97);
+  ASSERT_GT(occupied, 500);
+  EXPECT_GT(static_cast<double>(occupied_near_truth) / occupied, 0.9);
+  EXPECT_GT(expected.geometry.width, 0);
+
+  // Changed tiles: all of them once, then none until the next change.
+  Mapper& mapper = fx.mapper;
+  const auto changed = mapper.TakeChangedTiles();
+  EXPECT_EQ(changed.size(), grid.tiles().size());
+  EXPECT_TRUE(mapper.TakeChangedTiles().empty());
+}
+
+TEST(Mapper, CorridorOfRepeatingDoorsDoesNotCloseFalsely) {
+  const double kPeriod = 1.2;
+  const testing::SyntheticWorld world = testing::CorridorWorld(16.0, kPeriod);
+  const std::vector<Pose2> path = testing::PathThrough({{0, 0, 0}, {13, 0, M_PI}, {1, 0, M_PI}}, 0.05, 0.1);
+  testing::RunOptions options;
+  options.features = false;
+  testing::SyntheticRun run = testing::MakeRun(world, path, testing::TestCamera(), options);
+  // A wheel slip of half a door period during the turn: on the way back the odometry is off by
+  // exactly the distance that makes two door alignments equally likely.
+  bool turned = false;
+  for (std::size_t i = 0; i < run.frames.size(); ++i) {
+    if (!turned && std::abs(run.truth[i].yaw) > 3.0) turned = true;
+    if (turned) run.frames[i].odom_from_base = Pose2{0.5 * kPeriod, 0.0, 0.0} * run.frames[i].odom_from_base;
+  }
+  Mapper mapper(Mapper::Options(), testing::TestCamera());
+  for (const FrameObservation& f : run.frames) mapper.AddFrame(f);
+  const MapperCounters& c = mapper.counters();
+  std::printf("attempts %d accepted %d rejected %d\n", c.loop_closure_attempts, c.loop_closures_accepted,
+              c.loop_closures_rejected);
+  EXPECT_GT(c.loop_closure_attempts, 5);
+  EXPECT_GT(c.loop_closures_rejected, 0);
+  EXPECT_EQ(FalseClosures(mapper, run), 0);
+  int ambiguous = 0;
+  PrintClosures(mapper, run);
+  for (const LoopClosureEvent& e : mapper.loop_closures()) ambiguous += e.reason.find("ambiguous") != std::string::npos;
+  EXPECT_GT(ambiguous, 0);
+}
+
+TEST(Mapper, ExtendsASavedMapAfterLocalising) {
+  const LoopFixture& first = OdometryLoop();
+  const std::vector<Pose2> path = testing::PathThrough({{0, 0, 0}, {1.5, 0, 0}}, 0.05, 0.1);
+  testing::RunOptions options;
+  options.features = false;
+  options.seed = 11;
+  const testing::SyntheticRun second = testing::MakeRun(testing::SquareLoopWorld(), path, testing::TestCamera(), options);
+
+  // The second run starts at the map origin; the guess is off by (0.4, -0.3) m and 0.1 rad.
+  const Pose2 guess{0.4, -0.3, 0.1};
+  Mapper mapper(Mapper::Options(), testing::TestCamera(), first.mapper.grid(), first.mapper.keyframes(), guess);
+  for (const FrameObservation& f : second.frames) mapper.AddFrame(f);
+  ASSERT_TRUE(mapper.localization().has_value());
+  const LocalizationResult& loc = *mapper.localization();
+  EXPECT_TRUE(loc.success) << loc.message;
+  const Pose2 truth_first_keyframe = second.truth[FrameOfStamp(mapper.keyframes()[first.mapper.keyframes().size()].stamp_ns)];
+  EXPECT_NEAR(loc.map_from_base.x, truth_first_keyframe.x, 0.1);
+  EXPECT_NEAR(loc.map_from_base.y, truth_first_keyframe.y, 0.1);
+  EXPECT_NEAR(loc.map_from_base.yaw, truth_first_keyframe.yaw, 0.03);
+  EXPECT_NEAR(mapper.CurrentPose().x, second.truth.back().x, 0.1);
+  EXPECT_GT(mapper.keyframes().size(), first.mapper.keyframes().size());
+  EXPECT_GT(mapper.keyframes().back().id, first.mapper.keyframes().back().id);
+
+  // Far outside the saved map: no localisation.
+  Mapper lost(Mapper::Options(), testing::TestCamera(), first.mapper.grid(), first.mapper.keyframes(),
+              Pose2{30.0, 30.0, 0.0});
+  for (const FrameObservation& f : second.frames) lost.AddFrame(f);
+  EXPECT_FALSE(lost.localization()->success);
+}
+
+TEST(Mapper, OptionsNameTheKey) {
+  Mapper::Options o;
+  std::string error;
+  EXPECT_TRUE(o.IsValid(&error)) << error;
+  o.window_size = 1;
+  EXPECT_FALSE(o.IsValid(&error));
+  EXPECT_NE(error.find("window_size"), std::string::npos);
+  o = Mapper::Options();
+  o.loop_match.min_score = 2.0;
+  EXPECT_FALSE(o.IsValid(&error));
+  EXPECT_NE(error.find("loop_match"), std::string::npos);
+  EXPECT_NE(error.find("min_score"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace monoplane

@@ -17,6 +17,7 @@ bool ScanMatchOptions::IsValid(std::string* error) const {
   if (!(smoothing_sigma_m >= 0)) return fail("smoothing_sigma_m", smoothing_sigma_m, ">= 0");
   if (max_points < 1) return fail("max_points", max_points, ">= 1");
   if (min_points < 1) return fail("min_points", min_points, ">= 1");
+  if (!(min_overlap > 0 && min_overlap <= 1)) return fail("min_overlap", min_overlap, "in (0, 1]");
   if (!(min_score >= 0 && min_score <= 1)) return fail("min_score", min_score, "in [0, 1]");
   if (!(max_second_ratio > 0 && max_second_ratio <= 1)) {
     return fail("max_second_ratio", max_second_ratio, "in (0, 1]");
@@ -39,6 +40,7 @@ MatchTarget MakeMatchTarget(const TiledGrid& grid, const Eigen::Vector2d& region
   g.width = std::max(0, hi.x() - lo.x() + 1);
   g.height = std::max(0, hi.y() - lo.y() + 1);
   target.score.assign(g.NumCells(), 0.0f);
+  target.known.assign(g.NumCells(), 0.0f);
   if (g.NumCells() == 0) return target;
 
   const float occupied_log_odds =
@@ -61,8 +63,18 @@ MatchTarget MakeMatchTarget(const TiledGrid& grid, const Eigen::Vector2d& region
     const int j0 = std::max(ty0, lo.y()), j1 = std::min(ty0 + TiledGrid::kTileSize - 1, hi.y());
     for (int j = j0; j <= j1; ++j) {
       for (int i = i0; i <= i1; ++i) {
-        if (tile.log_odds[(j - ty0) * TiledGrid::kTileSize + (i - tx0)] < occupied_log_odds) continue;
+        const int index = (j - ty0) * TiledGrid::kTileSize + (i - tx0);
         const int col = i - lo.x(), row = j - lo.y();
+        if (tile.log_odds[index] != 0.0f || tile.last_seen_ns[index] != 0) {
+          // Known, with a one-cell margin (an occupied cell's neighbours behind it are unseen).
+          for (int dy = -1; dy <= 1; ++dy) {
+            for (int dx = -1; dx <= 1; ++dx) {
+              const int r = row + dy, c = col + dx;
+              if (r >= 0 && r < g.height && c >= 0 && c < g.width) target.known[static_cast<std::size_t>(r) * g.width + c] = 1.0f;
+            }
+          }
+        }
+        if (tile.log_odds[index] < occupied_log_odds) continue;
         // Max of Gaussians: an isolated occupied cell scores 1 at its centre.
         for (int dy = -radius; dy <= radius; ++dy) {
           const int r = row + dy;
@@ -117,11 +129,13 @@ ScanMatchResult MatchScan(const std::vector<Eigen::Vector2d>& points_in_base, co
   const int side = 2 * nl + 1;
   const int num_angles = 2 * na + 1;
   std::vector<float> scores(static_cast<std::size_t>(num_angles) * side * side, 0.0f);
+  std::vector<float> overlap(scores.size(), 0.0f);
 
   for (int a = 0; a < num_angles; ++a) {
     Pose2 pose = initial_map_from_base;
     pose.yaw = WrapAngle(initial_map_from_base.yaw + (a - na) * options.angular_step_rad);
     float* vol = &scores[static_cast<std::size_t>(a) * side * side];
+    float* vol_known = &overlap[static_cast<std::size_t>(a) * side * side];
     for (const Eigen::Vector2d& p : points_in_base) {
       const Eigen::Vector2d m = pose * p;
       const int cx = static_cast<int>(std::floor((m.x() - g.origin_x_m) / res));
@@ -133,13 +147,20 @@ ScanMatchResult MatchScan(const std::vector<Eigen::Vector2d>& points_in_base, co
         const int r = cy + dy;
         if (r < 0 || r >= g.height) continue;
         const float* row = &target.score[static_cast<std::size_t>(r) * g.width];
+        const float* row_known = &target.known[static_cast<std::size_t>(r) * g.width];
         float* out = &vol[(dy + nl) * side + nl];
-        for (int dx = dx0; dx <= dx1; ++dx) out[dx] += row[cx + dx];
+        float* out_known = &vol_known[(dy + nl) * side + nl];
+        for (int dx = dx0; dx <= dx1; ++dx) {
+          out[dx] += row[cx + dx];
+          out_known[dx] += row_known[cx + dx];
+        }
       }
     }
   }
 
-  const float inv_n = 1.0f / static_cast<float>(result.num_points);
+  // Normalise: mean over the points on known target cells, but over at least min_overlap of all.
+  const float min_count = static_cast<float>(options.min_overlap * result.num_points);
+  for (std::size_t k = 0; k < scores.size(); ++k) scores[k] /= std::max(overlap[k], min_count);
   std::size_t best = 0;
   for (std::size_t k = 1; k < scores.size(); ++k) {
     if (scores[k] > scores[best]) best = k;
@@ -147,6 +168,29 @@ ScanMatchResult MatchScan(const std::vector<Eigen::Vector2d>& points_in_base, co
   const int best_a = static_cast<int>(best / (side * side));
   const int best_dy = static_cast<int>((best / side) % side) - nl;
   const int best_dx = static_cast<int>(best % side) - nl;
+  // The second-best *peak*: a local maximum of the score volume (>= its 26 neighbours) outside
+  // the neighbourhood of the best pose. Points on the flank of the best peak (e.g. sliding along a
+  // long wall) are not peaks; a second door alignment is.
+  auto at = [&](int a, int dy, int dx) {
+    return scores[(static_cast<std::size_t>(a) * side + dy + nl) * side + dx + nl];
+  };
+  auto is_peak = [&](int a, int dy, int dx) {
+    const float v = at(a, dy, dx);
+    for (int da = -1; da <= 1; ++da) {
+      const int aa = a + da;
+      if (aa < 0 || aa >= num_angles) continue;
+      for (int ey = -1; ey <= 1; ++ey) {
+        const int yy = dy + ey;
+        if (yy < -nl || yy > nl) continue;
+        for (int ex = -1; ex <= 1; ++ex) {
+          const int xx = dx + ex;
+          if (xx < -nl || xx > nl || (da == 0 && ey == 0 && ex == 0)) continue;
+          if (at(aa, yy, xx) > v) return false;
+        }
+      }
+    }
+    return true;
+  };
   float second = 0.0f;
   const double sep_cells = options.separation_m / res;
   for (int a = 0; a < num_angles; ++a) {
@@ -154,16 +198,26 @@ ScanMatchResult MatchScan(const std::vector<Eigen::Vector2d>& points_in_base, co
     for (int dy = -nl; dy <= nl; ++dy) {
       for (int dx = -nl; dx <= nl; ++dx) {
         if (!far_yaw && std::hypot(dx - best_dx, dy - best_dy) <= sep_cells) continue;
-        second = std::max(second, scores[(static_cast<std::size_t>(a) * side + dy + nl) * side + dx + nl]);
+        const float v = at(a, dy, dx);
+        if (v > second && is_peak(a, dy, dx)) {
+          second = v;
+          result.second_map_from_base = {initial_map_from_base.x + dx * res, initial_map_from_base.y + dy * res,
+                                         WrapAngle(initial_map_from_base.yaw + (a - na) * options.angular_step_rad)};
+        }
       }
     }
   }
-  result.score = scores[best] * inv_n;
-  result.second_score = second * inv_n;
+  result.score = scores[best];
+  result.second_score = second;
   result.map_from_base.x = initial_map_from_base.x + best_dx * res;
   result.map_from_base.y = initial_map_from_base.y + best_dy * res;
   result.map_from_base.yaw = WrapAngle(initial_map_from_base.yaw + (best_a - na) * options.angular_step_rad);
-  if (result.score < options.min_score) {
+  const bool on_border = std::abs(best_dx) == nl || std::abs(best_dy) == nl ||
+                         (na > 0 && (best_a == 0 || best_a == num_angles - 1));
+  if (on_border) {
+    // The optimum may lie outside the window: a periodic structure could alias into it.
+    result.reason = "best pose on the border of the search window";
+  } else if (result.score < options.min_score) {
     result.reason = "score " + std::to_string(result.score) + " < " + std::to_string(options.min_score);
   } else if (result.second_score > options.max_second_ratio * result.score) {
     result.reason = "ambiguous: second-best " + std::to_string(result.second_score) + " vs best " +

@@ -17,6 +17,7 @@ namespace monoplane {
 struct MatchTarget {
   GridGeometry geometry;      // map frame
   std::vector<float> score;   // geometry.NumCells() values, row-major, row 0 = lowest y
+  std::vector<float> known;   // 1 where the map observed the cell (or a neighbour), else 0
 };
 
 // Builds the target over region_lo..region_hi (map frame, metres) from a global grid: occupied
@@ -31,19 +32,24 @@ std::vector<Eigen::Vector2d> OccupiedPoints(const OccupancyGrid& local_map, int 
 
 // Correlative scan-to-map matching (Olson 2009; Cartographer's RealTimeCorrelativeScanMatcher):
 // exhaustive search over x, y (steps of one target cell) and yaw around an initial pose, scoring
-// the mean target score under the scan's occupied points. Verified with a score threshold and a
-// uniqueness test: the best score must beat the best score of any pose well separated from it
-// (a corridor of identical doors gives several equally good poses and is rejected).
+// the target score under the scan's occupied points, averaged over the points that land on known
+// target cells (but over at least min_overlap of all points, so a small overlap scores low). Verified with a score threshold and a
+// uniqueness test: the best score must beat the second-best peak (local maximum of the score over
+// x, y, yaw) well separated from it (a corridor of identical doors gives several equally good
+// peaks and is rejected; sliding along one long wall is a flank, not a peak). A best pose on the
+// border of the window is rejected too (the optimum may lie outside).
 struct ScanMatchOptions {
-  double linear_window_m = 1.0;      // search +- this in x and y, >= 0
+  double linear_window_m = 1.5;      // search +- this in x and y, >= 0; keep it over a repeating
+                                     // structure's period (doors) so that aliases show as peaks
   double angular_window_rad = 0.20;  // search +- this in yaw, >= 0
   double angular_step_rad = 0.0175;  // > 0 (1 degree)
   double smoothing_sigma_m = 0.05;   // target blur, >= 0
   int max_points = 400;              // occupied scan points used, >= 1
   int min_points = 30;               // fewer occupied points: no match attempted, >= 1
-  double min_score = 0.5;            // accept only scores >= this, in [0, 1]
-  double max_second_ratio = 0.85;    // accept only second / best <= this, in (0, 1]
-  double separation_m = 0.3;         // "well separated": farther than this in x, y ...  > 0
+  double min_overlap = 0.8;          // see above, in (0, 1]
+  double min_score = 0.8;            // accept only scores >= this, in [0, 1]
+  double max_second_ratio = 0.75;    // accept only second / best <= this, in (0, 1]
+  double separation_m = 0.5;         // "well separated": farther than this in x, y ...  > 0
   double separation_rad = 0.1;       // ... or than this in yaw, > 0
 
   bool IsValid(std::string* error) const;
@@ -53,7 +59,8 @@ struct ScanMatchResult {
   bool accepted = false;
   Pose2 map_from_base;        // the best pose (also when rejected)
   double score = 0;           // best score
-  double second_score = 0;    // best score of poses well separated from the best
+  double second_score = 0;    // best score of the peaks well separated from the best
+  Pose2 second_map_from_base; // where that peak is
   int num_points = 0;
   std::string reason;         // why rejected
 };

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <random>
 
 #include "perception/geometry/camera_model.h"
@@ -98,25 +99,32 @@ GridGeometry LocalMapGeometry() {
 OccupancyGrid RenderLocalMap(const SyntheticWorld& world, const Pose2& world_from_base, const RenderOptions& options) {
   OccupancyGrid map(LocalMapGeometry(), kCellUnknown);
   const GridGeometry& g = map.geometry;
-  const Eigen::Vector2d eye = world_from_base.Translation();
+  // Polar ray casting: the distance of the first obstacle along each ray of the field of view.
+  const double kRayStep = 0.0025;
+  const int num_rays = static_cast<int>(std::ceil(2.0 * options.fov_half_rad / kRayStep)) + 1;
+  std::vector<double> hit(num_rays, std::numeric_limits<double>::infinity());
+  for (int k = 0; k < num_rays; ++k) {
+    const double angle = -options.fov_half_rad + k * kRayStep;
+    const Eigen::Vector2d dir(std::cos(angle), std::sin(angle));
+    for (double s = 0.0; s <= options.max_range_m + g.resolution_m; s += 0.01) {
+      if (world.Occupied(world_from_base * Eigen::Vector2d(s * dir))) {
+        hit[k] = s;
+        break;
+      }
+    }
+  }
   for (int row = 0; row < g.height; ++row) {
     for (int col = 0; col < g.width; ++col) {
       const Eigen::Vector2d b = g.CellCenter(col, row);
       const double r = b.norm();
       if (r < options.min_range_m || r > options.max_range_m) continue;
-      if (std::abs(std::atan2(b.y(), b.x())) > options.fov_half_rad) continue;
-      const Eigen::Vector2d w = world_from_base * b;
-      // Hidden behind an obstacle nearer than this cell?
-      bool hidden = false;
-      const Eigen::Vector2d dir = (w - eye) / r;
-      for (double s = 0.0; s < r - 0.5 * g.resolution_m; s += 0.02) {
-        if (world.Occupied(eye + s * dir)) {
-          hidden = true;
-          break;
-        }
-      }
-      if (hidden) continue;
-      map.At(col, row) = world.Occupied(w) ? kCellOccupied : kCellFree;
+      const double angle = std::atan2(b.y(), b.x());
+      if (std::abs(angle) > options.fov_half_rad) continue;
+      const int k = static_cast<int>(std::lround((angle + options.fov_half_rad) / kRayStep));
+      // Hidden behind an obstacle nearer than this cell (its own obstacle may start up to half a
+      // diagonal before its centre)?
+      if (r > hit[std::clamp(k, 0, num_rays - 1)] + 1.2 * g.resolution_m) continue;
+      map.At(col, row) = world.Occupied(world_from_base * b) ? kCellOccupied : kCellFree;
     }
   }
   return map;

@@ -85,7 +85,7 @@ std::vector<Pose2> PathThrough(const std::vector<Pose2>& waypoints, double step_
 struct RunOptions {
   DriftModel drift;
   bool features = true;          // simulate tracked features on the floor and on boxes
-  int num_floor_landmarks = 3000;
+  int num_floor_landmarks = 800;
   double pixel_noise_px = 0.5;
   std::uint32_t seed = 7;
   RenderOptions render;
