@@ -137,6 +137,37 @@ struct PointReprojectionFunctor {
   double u_, v_, inv_sigma_;
 };
 
+// Reprojection error with the camera fixed (no camera block): camera_from_base and K precomputed,
+// which makes each evaluation several times cheaper. kDim = 2: floor landmark (x, y, z = 0);
+// kDim = 3: off-floor landmark (x, y, z).
+template <int kDim>
+struct FixedCameraReprojectionFunctor {
+  FixedCameraReprojectionFunctor(const Eigen::Matrix3d& k, const Eigen::Matrix3d& camera_from_base_rotation,
+                                 const Eigen::Vector3d& camera_from_base_translation, double u, double v,
+                                 double sigma_px)
+      : k_(k), r_(camera_from_base_rotation), t_(camera_from_base_translation), u_(u), v_(v),
+        inv_sigma_(1.0 / sigma_px) {}
+
+  template <typename T>
+  bool operator()(const T* pose, const T* point_in_map, T* residual) const {
+    using std::cos;
+    using std::sin;
+    const T c = cos(pose[2]), s = sin(pose[2]);
+    const T mx = point_in_map[0] - pose[0], my = point_in_map[1] - pose[1];
+    const Eigen::Matrix<T, 3, 1> p_base(c * mx + s * my, -s * mx + c * my, kDim == 3 ? point_in_map[kDim - 1] : T(0));
+    const Eigen::Matrix<T, 3, 1> p_cam = r_.cast<T>() * p_base + t_.cast<T>();
+    constexpr double kMinDepthM = 0.05;
+    const T z = p_cam.z() > T(kMinDepthM) ? p_cam.z() : T(kMinDepthM);
+    residual[0] = (T(k_(0, 0)) * p_cam.x() / z + T(k_(0, 2)) - T(u_)) * T(inv_sigma_);
+    residual[1] = (T(k_(1, 1)) * p_cam.y() / z + T(k_(1, 2)) - T(v_)) * T(inv_sigma_);
+    return true;
+  }
+
+  Eigen::Matrix3d k_, r_;
+  Eigen::Vector3d t_;
+  double u_, v_, inv_sigma_;
+};
+
 // Prior on the refinable mount parameters (from the calibration).
 struct CameraPriorFunctor {
   CameraPriorFunctor(double pitch_rad, double roll_rad, double height_m, double sigma_angle_rad,

@@ -112,6 +112,40 @@ TEST(CostFunctors, PointReprojectionDerivatives) {
   ExpectDerivativesMatch(cost, {pose, point, camera});
 }
 
+TEST(CostFunctors, FixedCameraReprojectionMatchesAndHasRightDerivatives) {
+  const CameraCalibration calib = Camera();
+  const CameraModel model(calib);
+  const cost::CameraFixed fixed = cost::CameraFixed::From(calib);
+  double camera[3] = {calib.mount.pitch_deg * M_PI / 180, calib.mount.roll_deg * M_PI / 180, calib.mount.height_m};
+  double pose[3] = {0.3, -0.2, 0.25}, point[3] = {2.2, 0.4, 0.35}, floor[2] = {2.0, -0.3};
+  const Eigen::Matrix3d r = model.camera_from_base().linear();
+  const Eigen::Vector3d t = model.camera_from_base().translation();
+  ceres::AutoDiffCostFunction<cost::FixedCameraReprojectionFunctor<3>, 2, 3, 3> fixed3(
+      new cost::FixedCameraReprojectionFunctor<3>(model.K(), r, t, 250.0, 260.0, 0.8));
+  ceres::AutoDiffCostFunction<cost::FixedCameraReprojectionFunctor<2>, 2, 3, 2> fixed2(
+      new cost::FixedCameraReprojectionFunctor<2>(model.K(), r, t, 330.0, 300.0, 1.2));
+  ExpectDerivativesMatch(fixed3, {pose, point});
+  ExpectDerivativesMatch(fixed2, {pose, floor});
+  // Same residuals as the functors with a camera block.
+  ceres::AutoDiffCostFunction<cost::PointReprojectionFunctor, 2, 3, 3, 3> full3(
+      new cost::PointReprojectionFunctor(fixed, 250.0, 260.0, 0.8));
+  ceres::AutoDiffCostFunction<cost::FloorReprojectionFunctor, 2, 3, 2, 3> full2(
+      new cost::FloorReprojectionFunctor(fixed, 330.0, 300.0, 1.2));
+  double a[2], b[2];
+  const double* p3[2] = {pose, point};
+  const double* q3[3] = {pose, point, camera};
+  ASSERT_TRUE(fixed3.Evaluate(p3, a, nullptr));
+  ASSERT_TRUE(full3.Evaluate(q3, b, nullptr));
+  EXPECT_NEAR(a[0], b[0], 1e-9);
+  EXPECT_NEAR(a[1], b[1], 1e-9);
+  const double* p2[2] = {pose, floor};
+  const double* q2[3] = {pose, floor, camera};
+  ASSERT_TRUE(fixed2.Evaluate(p2, a, nullptr));
+  ASSERT_TRUE(full2.Evaluate(q2, b, nullptr));
+  EXPECT_NEAR(a[0], b[0], 1e-9);
+  EXPECT_NEAR(a[1], b[1], 1e-9);
+}
+
 TEST(CostFunctors, CameraPriorDerivativesAndValue) {
   ceres::AutoDiffCostFunction<cost::CameraPriorFunctor, 3, 3> cost(
       new cost::CameraPriorFunctor(0.3, 0.0, 0.5, 0.01, 0.02));

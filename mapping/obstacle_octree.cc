@@ -19,6 +19,7 @@ bool ObstacleOctree::Options::IsValid(std::string* error) const {
   if (!(prob_miss > 0 && prob_miss < 0.5)) {
     return fail("prob_miss = " + std::to_string(prob_miss) + ": must be in (0, 0.5)");
   }
+  if (free_ray_stride < 1) return fail("free_ray_stride = " + std::to_string(free_ray_stride) + ": must be >= 1");
   return true;
 }
 
@@ -44,14 +45,27 @@ void ObstacleOctree::Insert(const std::vector<Eigen::Vector3f>& points_in_base, 
     return octomap::point3d(static_cast<float>(c * x - s * y + map_from_base.x),
                             static_cast<float>(s * x + c * y + map_from_base.y), static_cast<float>(z));
   };
-  octomap::Pointcloud cloud;
-  cloud.reserve(points_in_base.size());
-  for (const Eigen::Vector3f& p : points_in_base) cloud.push_back(to_map(p.x(), p.y(), p.z()));
   const octomap::point3d origin =
       to_map(camera_centre_in_base.x(), camera_centre_in_base.y(), camera_centre_in_base.z());
-  // discretize: one ray per end voxel, which bounds the cost by the number of distinct voxels.
-  impl_->tree.insertPointCloud(cloud, origin, impl_->options.max_range_m, /*lazy_eval=*/false,
-                               /*discretize=*/true);
+  octomap::OcTree& tree = impl_->tree;
+  // As OccupancyOcTreeBase::computeUpdate with discretisation: each voxel gets at most one update
+  // per insertion, hits win over misses.
+  octomap::KeySet occupied, free;
+  octomap::KeyRay ray;
+  const double max_range = impl_->options.max_range_m;
+  for (std::size_t k = 0; k < points_in_base.size(); ++k) {
+    const Eigen::Vector3f& p = points_in_base[k];
+    const octomap::point3d end = to_map(p.x(), p.y(), p.z());
+    if ((end - origin).norm() > max_range) continue;
+    octomap::OcTreeKey key;
+    if (tree.coordToKeyChecked(end, key)) occupied.insert(key);
+    if (k % static_cast<std::size_t>(impl_->options.free_ray_stride) != 0) continue;
+    if (tree.computeRayKeys(origin, end, ray)) free.insert(ray.begin(), ray.end());
+  }
+  for (const octomap::OcTreeKey& key : free) {
+    if (!occupied.count(key)) tree.updateNode(key, false);
+  }
+  for (const octomap::OcTreeKey& key : occupied) tree.updateNode(key, true);
 }
 
 void ObstacleOctree::Clear() { impl_->tree.clear(); }

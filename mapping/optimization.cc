@@ -159,17 +159,31 @@ WindowResult AdjustWindow(const std::vector<WindowKeyframe>& keyframes,
       const double* pose = poses[o.keyframe].data();
       if (!cost::ProjectMapPoint(fixed_camera, pose, camera.data(), landmark->data(), pixel)) continue;
       ceres::LossFunction* loss = new ceres::HuberLoss(options.huber_sigmas);
-      if (is_floor) {
-        problem.AddResidualBlock(new ceres::AutoDiffCostFunction<cost::FloorReprojectionFunctor, 2, 3, 2, 3>(
-                                     new cost::FloorReprojectionFunctor(fixed_camera, o.pixel.x(), o.pixel.y(),
-                                                                        options.pixel_sigma_px)),
-                                 loss, poses[o.keyframe].data(), landmark->data(), camera.data());
+      ceres::CostFunction* cost_function = nullptr;
+      std::vector<double*> blocks = {poses[o.keyframe].data(), landmark->data()};
+      if (!options.refine_camera) {
+        const Eigen::Matrix3d r = model.camera_from_base().linear();
+        const Eigen::Vector3d t = model.camera_from_base().translation();
+        if (is_floor) {
+          cost_function = new ceres::AutoDiffCostFunction<cost::FixedCameraReprojectionFunctor<2>, 2, 3, 2>(
+              new cost::FixedCameraReprojectionFunctor<2>(model.K(), r, t, o.pixel.x(), o.pixel.y(),
+                                                          options.pixel_sigma_px));
+        } else {
+          cost_function = new ceres::AutoDiffCostFunction<cost::FixedCameraReprojectionFunctor<3>, 2, 3, 3>(
+              new cost::FixedCameraReprojectionFunctor<3>(model.K(), r, t, o.pixel.x(), o.pixel.y(),
+                                                          options.pixel_sigma_px));
+        }
       } else {
-        problem.AddResidualBlock(new ceres::AutoDiffCostFunction<cost::PointReprojectionFunctor, 2, 3, 3, 3>(
-                                     new cost::PointReprojectionFunctor(fixed_camera, o.pixel.x(), o.pixel.y(),
-                                                                        options.pixel_sigma_px)),
-                                 loss, poses[o.keyframe].data(), landmark->data(), camera.data());
+        blocks.push_back(camera.data());
+        if (is_floor) {
+          cost_function = new ceres::AutoDiffCostFunction<cost::FloorReprojectionFunctor, 2, 3, 2, 3>(
+              new cost::FloorReprojectionFunctor(fixed_camera, o.pixel.x(), o.pixel.y(), options.pixel_sigma_px));
+        } else {
+          cost_function = new ceres::AutoDiffCostFunction<cost::PointReprojectionFunctor, 2, 3, 3, 3>(
+              new cost::PointReprojectionFunctor(fixed_camera, o.pixel.x(), o.pixel.y(), options.pixel_sigma_px));
+        }
       }
+      problem.AddResidualBlock(cost_function, loss, blocks);
       ++added;
     }
     if (added == 0) continue;
@@ -203,8 +217,14 @@ WindowResult AdjustWindow(const std::vector<WindowKeyframe>& keyframes,
     return result;
   }
   ceres::Solver::Options solver;
-  solver.linear_solver_type = ceres::DENSE_SCHUR;
+  // Few poses, many landmarks: eliminate the landmarks (Schur complement); the reduced system is
+  // at most 3 * window + 3 wide.
+  solver.linear_solver_type = ceres::IsSparseLinearAlgebraLibraryTypeAvailable(ceres::SUITE_SPARSE) ||
+                                      ceres::IsSparseLinearAlgebraLibraryTypeAvailable(ceres::EIGEN_SPARSE)
+                                  ? ceres::SPARSE_SCHUR
+                                  : ceres::DENSE_SCHUR;
   solver.max_num_iterations = options.max_iterations;
+  solver.function_tolerance = options.function_tolerance;
   solver.num_threads = 1;
   ceres::Solver::Summary summary;
   ceres::Solve(solver, &problem, &summary);

@@ -48,7 +48,8 @@ struct WindowOptions {
   double pixel_sigma_px = 1.0;          // feature noise, > 0
   double huber_sigmas = 2.0;            // Huber loss on reprojection, in sigmas, > 0
   int min_observations = 2;             // keyframes that must see a track, >= 2
-  int max_iterations = 20;              // >= 1
+  int max_iterations = 10;              // >= 1
+  double function_tolerance = 1e-4;     // relative cost change that stops Ceres, > 0
   double max_point_height_m = 3.0;      // off-floor landmarks above this are dropped, > 0
   double max_landmark_range_m = 10.0;   // landmarks farther from the first view are dropped, > 0
   // Online refinement of the camera's pitch, roll and height, with a prior from the calibration.
