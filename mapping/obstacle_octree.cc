@@ -1,6 +1,8 @@
 #include "mapping/obstacle_octree.h"
 
+#include <map>
 #include <sstream>
+#include <utility>
 
 #include <octomap/OcTree.h>
 
@@ -53,13 +55,19 @@ void ObstacleOctree::Insert(const std::vector<Eigen::Vector3f>& points_in_base, 
   octomap::KeySet occupied, free;
   octomap::KeyRay ray;
   const double max_range = impl_->options.max_range_m;
-  for (std::size_t k = 0; k < points_in_base.size(); ++k) {
-    const Eigen::Vector3f& p = points_in_base[k];
+  std::map<std::pair<octomap::key_type, octomap::key_type>, octomap::point3d> column_tops;
+  for (const Eigen::Vector3f& p : points_in_base) {
     const octomap::point3d end = to_map(p.x(), p.y(), p.z());
     if ((end - origin).norm() > max_range) continue;
     octomap::OcTreeKey key;
-    if (tree.coordToKeyChecked(end, key)) occupied.insert(key);
-    if (k % static_cast<std::size_t>(impl_->options.free_ray_stride) != 0) continue;
+    if (!tree.coordToKeyChecked(end, key)) continue;
+    occupied.insert(key);
+    auto [it, inserted] = column_tops.emplace(std::make_pair(key[0], key[1]), end);
+    if (!inserted && end.z() > it->second.z()) it->second = end;
+  }
+  std::size_t column = 0;
+  for (const auto& [xy, end] : column_tops) {
+    if (column++ % static_cast<std::size_t>(impl_->options.free_ray_stride) != 0) continue;
     if (tree.computeRayKeys(origin, end, ray)) free.insert(ray.begin(), ray.end());
   }
   for (const octomap::OcTreeKey& key : free) {

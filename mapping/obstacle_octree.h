@@ -21,9 +21,10 @@ class ObstacleOctree {
     double max_range_m = 8.0;    // rays longer than this are not inserted, > 0
     double prob_hit = 0.7;       // OctoMap sensor model, in (0.5, 1)
     double prob_miss = 0.4;      // in (0, 0.5)
-    // Free space is carved along the rays to every free_ray_stride-th point (rays to neighbouring
-    // points of one obstacle cross nearly the same voxels); every point is inserted as a hit. >= 1
-    int free_ray_stride = 4;
+    // Free space is carved along one ray per occupied voxel column (to its highest point; rays to
+    // the points below it cross nearly the same voxels), for every free_ray_stride-th column.
+    // Every point is inserted as a hit. >= 1
+    int free_ray_stride = 3;
 
     bool IsValid(std::string* error) const;
   };
