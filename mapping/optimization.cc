@@ -46,8 +46,8 @@ bool PoseGraphOptions::IsValid(std::string* error) const {
     if (error) *error = "PoseGraphOptions::max_iterations = " + std::to_string(max_iterations) + ": must be >= 1";
     return false;
   }
-  if (!(cauchy_scale > 0)) {
-    if (error) *error = "PoseGraphOptions::cauchy_scale = " + std::to_string(cauchy_scale) + ": must be > 0";
+  if (!(huber_scale > 0)) {
+    if (error) *error = "PoseGraphOptions::huber_scale = " + std::to_string(huber_scale) + ": must be > 0";
     return false;
   }
   return true;
@@ -78,7 +78,7 @@ OptimizationSummary OptimizePoseGraph(const std::vector<PoseGraphEdge>& edges, c
   for (const PoseGraphEdge& e : edges) {
     if (e.from < 0 || e.to < 0 || e.from >= n || e.to >= n) continue;
     AddEdge(e, params[e.from].data(), params[e.to].data(),
-            e.robust ? new ceres::CauchyLoss(options.cauchy_scale) : nullptr, &problem);
+            e.robust ? new ceres::HuberLoss(options.huber_scale) : nullptr, &problem);
   }
   for (int i = 0; i < n; ++i) {
     if (i < static_cast<int>(fixed.size()) && fixed[i] && problem.HasParameterBlock(params[i].data())) {

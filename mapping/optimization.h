@@ -16,12 +16,15 @@ struct PoseGraphEdge {
   Pose2 from_T_to;
   double sigma_xy_m = 0.05;     // > 0
   double sigma_yaw_rad = 0.02;  // > 0
-  bool robust = false;          // Cauchy loss (loop closures), else plain squares
+  bool robust = false;          // Huber loss (loop closures), else plain squares
 };
 
 struct PoseGraphOptions {
   int max_iterations = 50;      // Ceres iterations, >= 1
-  double cauchy_scale = 1.0;    // loss scale in sigmas for robust edges, > 0
+  // Huber scale in sigmas for robust edges, > 0. Huber (convex) rather than Cauchy: a correct loop
+  // closure after long drift starts many sigmas off, and a redescending loss would let the
+  // odometry win and leave the loop open.
+  double huber_scale = 3.0;
 
   bool IsValid(std::string* error) const;
 };
