@@ -12,9 +12,11 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", std::string("monoplane ") + MONOPLANE_VERSION);
   app.require_subcommand(0, 1);
   int exit_code = kExitOk;
+  RegisterRunCommand(&app, &exit_code);
   RegisterCheckCalibCommand(&app, &exit_code);
   RegisterEchoCommand(&app, &exit_code);
   RegisterMapCommands(&app, &exit_code);
+  RegisterServeCommand(&app, &exit_code);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

@@ -369,11 +369,11 @@ void Mapper::Rebuild() {
   }
 }
 
-std::vector<TrajectoryPoint> Mapper::Trajectory() const {
-  std::vector<TrajectoryPoint> out;
+std::vector<FramePose> Mapper::Trajectory() const {
+  std::vector<FramePose> out;
   out.reserve(frames_.size());
   for (const FrameRecord& f : frames_) {
-    TrajectoryPoint p;
+    FramePose p;
     p.stamp_ns = f.stamp_ns;
     p.odom_from_base = f.odom_from_base;
     if (f.keyframe_index >= 0) {

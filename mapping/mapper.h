@@ -106,7 +106,7 @@ class Mapper {
 
   // Outputs.
   const std::vector<Keyframe>& keyframes() const { return keyframes_; }
-  std::vector<TrajectoryPoint> Trajectory() const;  // every frame, latest correction applied
+  std::vector<FramePose> Trajectory() const;  // every frame, latest correction applied
   Pose2 CurrentPose() const;
   const TiledGrid& grid() const { return grid_; }
   // Keys of the tiles changed since the last call (for storage and DDS), then forgets them.

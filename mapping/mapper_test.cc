@@ -23,7 +23,7 @@ int FrameOfStamp(TimestampNs stamp_ns) { return static_cast<int>((stamp_ns - 1'0
 
 std::vector<Pose2> Estimates(const Mapper& mapper) {
   std::vector<Pose2> out;
-  for (const TrajectoryPoint& p : mapper.Trajectory()) out.push_back(p.map_from_base);
+  for (const FramePose& p : mapper.Trajectory()) out.push_back(p.map_from_base);
   return out;
 }
 

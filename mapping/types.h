@@ -43,7 +43,7 @@ struct Keyframe {
 };
 
 // One frame of the trajectory, with the latest correction applied.
-struct TrajectoryPoint {
+struct FramePose {
   TimestampNs stamp_ns = 0;
   Pose2 odom_from_base;
   Pose2 map_from_base;

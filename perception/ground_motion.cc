@@ -126,19 +126,26 @@ Pose2 RefinePlanarMotion(const CameraModel& camera, const std::vector<Eigen::Vec
   return t;
 }
 
+namespace {
+
+// The prior motion when there is one (kFallback), else kFailed; counters of `result` are kept.
+GroundMotion Fallback(const std::optional<Pose2>& prior, GroundMotion result) {
+  if (prior) {
+    result.status = GroundMotion::Status::kFallback;
+    result.base2_from_base1 = *prior;
+  } else {
+    result.status = GroundMotion::Status::kFailed;
+  }
+  return result;
+}
+
+}  // namespace
+
 GroundMotion EstimateGroundMotion(const cv::Mat& image1, const cv::Mat& image2,
                                   const CameraModel& camera, const GroundMotionOptions& options,
                                   const std::optional<Pose2>& prior) {
   GroundMotion result;
-  auto fallback = [&]() {
-    if (prior) {
-      result.status = GroundMotion::Status::kFallback;
-      result.base2_from_base1 = *prior;
-    } else {
-      result.status = GroundMotion::Status::kFailed;
-    }
-    return result;
-  };
+  auto fallback = [&]() { return Fallback(prior, result); };
   if (image1.empty() || image2.empty() || image1.size() != image2.size() ||
       image1.type() != CV_8U || image2.type() != CV_8U) {
     return fallback();
@@ -170,16 +177,40 @@ GroundMotion EstimateGroundMotion(const cv::Mat& image1, const cv::Mat& image2,
   cv::calcOpticalFlowPyrLK(image2, image1, corners2, back, status_bwd, err, window,
                            options.lk_levels, criteria, cv::OPTFLOW_USE_INITIAL_FLOW);
 
-  std::vector<Eigen::Vector2d> floor1, pixels2;
+  std::vector<Eigen::Vector2d> pixels1, pixels2;
   for (std::size_t i = 0; i < corners1.size(); ++i) {
     if (!status_fwd[i] || !status_bwd[i]) continue;
     const double fb = std::hypot(back[i].x - corners1[i].x, back[i].y - corners1[i].y);
     if (fb > options.forward_backward_max_px) continue;
-    ++result.num_tracked;
-    const auto f1 = camera.PixelToFloor({corners1[i].x, corners1[i].y});
-    if (!f1) continue;
-    floor1.push_back(*f1);
+    pixels1.emplace_back(corners1[i].x, corners1[i].y);
     pixels2.emplace_back(corners2[i].x, corners2[i].y);
+  }
+  GroundMotion fit = FitGroundMotion(pixels1, pixels2, camera, options, prior);
+  fit.num_tracked = static_cast<int>(pixels1.size());
+  return fit;
+}
+
+GroundMotion FitGroundMotion(const std::vector<Eigen::Vector2d>& pixels1,
+                             const std::vector<Eigen::Vector2d>& pixels2_all,
+                             const CameraModel& camera, const GroundMotionOptions& options,
+                             const std::optional<Pose2>& prior, std::vector<char>* inlier_mask) {
+  GroundMotion result;
+  result.num_tracked = static_cast<int>(pixels1.size());
+  if (inlier_mask) inlier_mask->assign(pixels1.size(), 0);
+  auto fallback = [&]() { return Fallback(prior, result); };
+  // Candidates: points whose first position lies in the floor strip.
+  std::vector<Eigen::Vector2d> floor1, pixels2;
+  std::vector<int> index;
+  const double w = options.strip_half_width_m;
+  for (std::size_t i = 0; i < pixels1.size(); ++i) {
+    const auto f1 = camera.PixelToFloor(pixels1[i]);
+    if (!f1 || f1->x() < options.strip_min_x_m || f1->x() > options.strip_max_x_m ||
+        std::abs(f1->y()) > w) {
+      continue;
+    }
+    floor1.push_back(*f1);
+    pixels2.push_back(pixels2_all[i]);
+    index.push_back(static_cast<int>(i));
   }
   result.num_floor_candidates = static_cast<int>(floor1.size());
   const int n = result.num_floor_candidates;
@@ -196,45 +227,37 @@ GroundMotion EstimateGroundMotion(const cv::Mat& image1, const cv::Mat& image2,
   std::mt19937 rng(options.seed);
   std::uniform_int_distribution<int> pick(0, n - 1);
   const double threshold2 = options.inlier_threshold_px * options.inlier_threshold_px;
-  std::vector<int> best_inliers;
   auto count_inliers = [&](const Pose2& t, std::vector<int>* inliers) {
     inliers->clear();
     for (int i = 0; i < n; ++i) {
       if ((Project(g, t, floor1[i]) - pixels2[i]).squaredNorm() < threshold2) inliers->push_back(i);
     }
   };
-  std::vector<int> inliers;
-  if (prior) {
-    count_inliers(*prior, &inliers);
-    best_inliers = inliers;
-  }
+  std::vector<int> inliers, best_inliers;
+  Pose2 best = prior.value_or(Pose2{});
+  if (prior) count_inliers(*prior, &best_inliers);
   for (int it = 0; it < options.ransac_iterations; ++it) {
     const int a = pick(rng), b = pick(rng);
     if (a == b || !floor2[a].allFinite() || !floor2[b].allFinite()) continue;
     const auto t = TwoPointMotion(floor1[a], floor1[b], floor2[a], floor2[b]);
     if (!t) continue;
     count_inliers(*t, &inliers);
-    if (inliers.size() > best_inliers.size()) best_inliers = inliers;
+    if (inliers.size() > best_inliers.size()) {
+      best_inliers = inliers;
+      best = *t;
+    }
+    // Enough evidence: stop early when almost everything agrees.
+    if (best_inliers.size() > 0.9 * n && it >= 20) break;
   }
   if (static_cast<int>(best_inliers.size()) < options.min_inliers) return fallback();
 
-  // Refine on the inliers, then once more on the inliers of the refined motion.
-  Pose2 t = prior.value_or(Pose2{});
-  {
+  // Refine on the inliers, twice re-selecting them.
+  Pose2 t = best;
+  for (int round = 0; round < 3; ++round) {
+    if (round > 0) count_inliers(t, &best_inliers);
+    if (static_cast<int>(best_inliers.size()) < options.min_inliers) return fallback();
     std::vector<Eigen::Vector2d> a, b;
     for (int i : best_inliers) {
-      a.push_back(floor1[i]);
-      b.push_back(pixels2[i]);
-    }
-    const auto seed_motion = TwoPointMotion(a.front(), a.back(), floor2[best_inliers.front()],
-                                            floor2[best_inliers.back()]);
-    t = RefinePlanarMotion(camera, a, b, seed_motion.value_or(t));
-  }
-  for (int round = 0; round < 2; ++round) {
-    count_inliers(t, &inliers);
-    if (static_cast<int>(inliers.size()) < options.min_inliers) return fallback();
-    std::vector<Eigen::Vector2d> a, b;
-    for (int i : inliers) {
       a.push_back(floor1[i]);
       b.push_back(pixels2[i]);
     }
@@ -247,7 +270,10 @@ GroundMotion EstimateGroundMotion(const cv::Mat& image1, const cv::Mat& image2,
     return fallback();
   }
   double sum2 = 0.0;
-  for (int i : inliers) sum2 += (Project(g, t, floor1[i]) - pixels2[i]).squaredNorm();
+  for (int i : inliers) {
+    sum2 += (Project(g, t, floor1[i]) - pixels2[i]).squaredNorm();
+    if (inlier_mask) (*inlier_mask)[index[i]] = 1;
+  }
   result.rms_residual_px = std::sqrt(sum2 / result.num_inliers);
   result.base2_from_base1 = t;
   result.status = GroundMotion::Status::kOk;

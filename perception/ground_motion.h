@@ -45,6 +45,15 @@ GroundMotion EstimateGroundMotion(const cv::Mat& image1, const cv::Mat& image2,
                                   const CameraModel& camera, const GroundMotionOptions& options,
                                   const std::optional<Pose2>& prior = std::nullopt);
 
+// The fit alone, from point correspondences (undistorted pixels in image 1 and image 2, e.g.
+// feature tracks): RANSAC over 2-point planar motions on the points whose image-1 floor position
+// lies in the strip, then least-squares refinement. `inlier_mask` (optional) marks the inliers.
+GroundMotion FitGroundMotion(const std::vector<Eigen::Vector2d>& pixels1,
+                             const std::vector<Eigen::Vector2d>& pixels2,
+                             const CameraModel& camera, const GroundMotionOptions& options,
+                             const std::optional<Pose2>& prior = std::nullopt,
+                             std::vector<char>* inlier_mask = nullptr);
+
 // The image region (CV_8U mask, 255 inside) whose floor points lie in the options' strip.
 cv::Mat FloorStripMask(const CameraModel& camera, const GroundMotionOptions& options);
 

@@ -133,10 +133,6 @@ void AggregateBySegment(const cv::Mat& segments, const std::vector<Sample>& samp
   }
 }
 
-bool CameraSeesFloor(const CameraModel& camera, const Eigen::Vector2d& pixel) {
-  return camera.PixelToFloor(pixel).has_value();
-}
-
 Eigen::Vector2d CameraCentreXyInOdom(const CameraModel& camera, const Pose2& odom_from_base) {
   return odom_from_base * camera.CameraCentreInBase().head<2>();
 }
@@ -436,7 +432,8 @@ SequenceDetector::SequenceDetector(const CameraCalibration& calibration,
 SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, TimestampNs stamp_ns) {
   Output out;
   const DetectorOptions& options = detector_.options();
-  const CameraIntrinsics& in = detector_.camera().calibration().intrinsics;
+  const CameraModel& camera = detector_.camera();
+  const CameraIntrinsics& in = camera.calibration().intrinsics;
   cv::Mat prepared = detector_.Prepare(image, &out.message);
   if (prepared.empty()) {
     out.odom_from_base = odom_from_base_;
@@ -444,22 +441,27 @@ SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, Timesta
   }
   out.image_ok = true;
   if (history_.empty()) {
-    history_.push_back({prepared, odom_from_base_, stamp_ns});
     out.odom_from_base = odom_from_base_;
-    out.features = TrackFeatures(cv::Mat(), prepared, out.step);
-    tracks_ = out.features;
+    out.features = AddNewCorners(prepared, {});
+    history_.push_back({prepared, odom_from_base_, stamp_ns, out.features});
     return out;
   }
   const Frame& previous = history_.back();
-  out.step = EstimateGroundMotion(previous.image, prepared, detector_.camera(),
-                                  options.ground_motion, last_step_);
+  // 1. Track the corners of the previous frame; the floor's motion between the frames is fitted to
+  //    the tracks in the floor strip (the paper's ground motion).
+  std::vector<Eigen::Vector2d> before, after;
+  std::vector<FeatureObservation> tracked = TrackFeatures(previous, prepared, &before, &after);
+  std::vector<char> inlier;
+  out.step = FitGroundMotion(before, after, camera, options.ground_motion, last_step_, &inlier);
+  for (std::size_t i = 0; i < tracked.size(); ++i) {
+    tracked[i].floor_inlier = out.step.status == GroundMotion::Status::kOk && inlier[i];
+  }
   if (out.step.status != GroundMotion::Status::kFailed) {
     odom_from_base_ = previous.odom_from_base * out.step.base2_from_base1.Inverse();
     if (out.step.status == GroundMotion::Status::kOk) last_step_ = out.step.base2_from_base1;
   }
   out.odom_from_base = odom_from_base_;
-  out.features = TrackFeatures(previous.image, prepared, out.step);
-  tracks_ = out.features;
+  out.features = AddNewCorners(prepared, std::move(tracked));
 
   const cv::Size size(in.width, in.height);
   if (out.step.status == GroundMotion::Status::kFailed) {
@@ -467,11 +469,11 @@ SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, Timesta
                                "no floor motion from the previous frame");
     out.result->motion = out.step;
   } else {
-    // The newest earlier frame far enough away for parallax.
-    const Eigen::Vector2d c_now = CameraCentreXyInOdom(detector_.camera(), odom_from_base_);
+    // 2. The newest earlier frame far enough away for parallax.
+    const Eigen::Vector2d c_now = CameraCentreXyInOdom(camera, odom_from_base_);
     const Frame* reference = nullptr;
     for (auto it = history_.rbegin(); it != history_.rend(); ++it) {
-      const Eigen::Vector2d c = CameraCentreXyInOdom(detector_.camera(), it->odom_from_base);
+      const Eigen::Vector2d c = CameraCentreXyInOdom(camera, it->odom_from_base);
       if ((c_now - c).norm() >= options.pair_selection.min_baseline_m) {
         reference = &*it;
         break;
@@ -482,9 +484,19 @@ SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, Timesta
                                  "the camera has not moved enough for parallax");
       out.result->motion = out.step;
     } else {
+      // 3. The pair's motion, fitted directly to the tracks both frames share (no drift from
+      //    chaining); the chained odometry is the prior and the fallback.
       const Pose2 prior = odom_from_base_.Inverse() * reference->odom_from_base;
-      GroundMotion motion = EstimateGroundMotion(reference->image, prepared, detector_.camera(),
-                                                 options.ground_motion, prior);
+      std::vector<Eigen::Vector2d> p_ref, p_cur;
+      auto a = reference->features.begin();
+      for (const FeatureObservation& f : out.features) {
+        while (a != reference->features.end() && a->track_id < f.track_id) ++a;
+        if (a != reference->features.end() && a->track_id == f.track_id) {
+          p_ref.push_back(a->pixel);
+          p_cur.push_back(f.pixel);
+        }
+      }
+      GroundMotion motion = FitGroundMotion(p_ref, p_cur, camera, options.ground_motion, prior);
       if (motion.status == GroundMotion::Status::kFailed) {
         motion.status = GroundMotion::Status::kFallback;
         motion.base2_from_base1 = prior;
@@ -492,70 +504,77 @@ SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, Timesta
       out.result = detector_.Detect(reference->image, prepared, motion);
     }
   }
-  history_.push_back({prepared, odom_from_base_, stamp_ns});
+  history_.push_back({prepared, odom_from_base_, stamp_ns, out.features});
   while (static_cast<int>(history_.size()) > options.pair_selection.max_history) {
     history_.pop_front();
   }
   return out;
 }
 
-std::vector<FeatureObservation> SequenceDetector::TrackFeatures(const cv::Mat& previous,
-                                                                const cv::Mat& current,
-                                                                const GroundMotion& step) {
+std::vector<FeatureObservation> SequenceDetector::TrackFeatures(
+    const Frame& previous, const cv::Mat& current, std::vector<Eigen::Vector2d>* before,
+    std::vector<Eigen::Vector2d>* after) const {
   const GroundMotionOptions& gm = detector_.options().ground_motion;
   std::vector<FeatureObservation> tracked;
-  if (!previous.empty() && !tracks_.empty()) {
-    std::vector<cv::Point2f> p0, p1, back;
-    for (const auto& f : tracks_) p0.emplace_back(static_cast<float>(f.pixel.x()), static_cast<float>(f.pixel.y()));
-    p1 = p0;
-    int flags = 0;
-    if (step.status != GroundMotion::Status::kFailed) {
-      const Eigen::Matrix3d h = FloorHomography(detector_.camera(), step.base2_from_base1);
-      for (auto& c : p1) {
-        const Eigen::Vector2d p = ApplyHomography(h, {c.x, c.y});
-        c = cv::Point2f(static_cast<float>(p.x()), static_cast<float>(p.y()));
-      }
-      flags = cv::OPTFLOW_USE_INITIAL_FLOW;
-    }
-    std::vector<uchar> st1, st2;
-    std::vector<float> err;
-    const cv::Size window(gm.lk_window_px, gm.lk_window_px);
-    const cv::TermCriteria criteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 30, 0.01);
-    cv::calcOpticalFlowPyrLK(previous, current, p0, p1, st1, err, window, gm.lk_levels, criteria, flags);
-    back = p0;
-    cv::calcOpticalFlowPyrLK(current, previous, p1, back, st2, err, window, gm.lk_levels, criteria,
-                             cv::OPTFLOW_USE_INITIAL_FLOW);
-    const Eigen::Matrix3d h = FloorHomography(detector_.camera(), step.base2_from_base1);
-    for (std::size_t i = 0; i < p0.size(); ++i) {
-      if (!st1[i] || !st2[i]) continue;
-      if (std::hypot(back[i].x - p0[i].x, back[i].y - p0[i].y) > gm.forward_backward_max_px) continue;
-      if (p1[i].x < 0 || p1[i].y < 0 || p1[i].x > current.cols - 1 || p1[i].y > current.rows - 1) continue;
-      FeatureObservation f;
-      f.track_id = tracks_[i].track_id;
-      f.pixel = Eigen::Vector2d(p1[i].x, p1[i].y);
-      f.floor_inlier = step.status == GroundMotion::Status::kOk &&
-                       CameraSeesFloor(detector_.camera(), tracks_[i].pixel) &&
-                       (ApplyHomography(h, tracks_[i].pixel) - f.pixel).norm() < gm.inlier_threshold_px;
-      tracked.push_back(f);
-    }
+  if (previous.features.empty()) return tracked;
+  std::vector<cv::Point2f> p0, p1, back;
+  for (const auto& f : previous.features) {
+    p0.emplace_back(static_cast<float>(f.pixel.x()), static_cast<float>(f.pixel.y()));
   }
-  // Top up with new corners away from the tracked ones.
+  p1 = p0;
+  int flags = 0;
+  if (last_step_) {
+    // Seed with where the floor moved last time: most corners are on the floor.
+    const Eigen::Matrix3d h = FloorHomography(detector_.camera(), *last_step_);
+    for (auto& c : p1) {
+      const Eigen::Vector2d p = ApplyHomography(h, {c.x, c.y});
+      if (p.allFinite()) c = cv::Point2f(static_cast<float>(p.x()), static_cast<float>(p.y()));
+    }
+    flags = cv::OPTFLOW_USE_INITIAL_FLOW;
+  }
+  std::vector<uchar> st1, st2;
+  std::vector<float> err;
+  const cv::Size window(gm.lk_window_px, gm.lk_window_px);
+  const cv::TermCriteria criteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 20, 0.02);
+  cv::calcOpticalFlowPyrLK(previous.image, current, p0, p1, st1, err, window, gm.lk_levels,
+                           criteria, flags);
+  back = p0;
+  cv::calcOpticalFlowPyrLK(current, previous.image, p1, back, st2, err, window, gm.lk_levels,
+                           criteria, cv::OPTFLOW_USE_INITIAL_FLOW);
+  for (std::size_t i = 0; i < p0.size(); ++i) {
+    if (!st1[i] || !st2[i]) continue;
+    if (std::hypot(back[i].x - p0[i].x, back[i].y - p0[i].y) > gm.forward_backward_max_px) continue;
+    if (p1[i].x < 0 || p1[i].y < 0 || p1[i].x > current.cols - 1 || p1[i].y > current.rows - 1) {
+      continue;
+    }
+    FeatureObservation f;
+    f.track_id = previous.features[i].track_id;
+    f.pixel = Eigen::Vector2d(p1[i].x, p1[i].y);
+    tracked.push_back(f);
+    before->push_back(previous.features[i].pixel);
+    after->push_back(f.pixel);
+  }
+  return tracked;
+}
+
+std::vector<FeatureObservation> SequenceDetector::AddNewCorners(
+    const cv::Mat& current, std::vector<FeatureObservation> tracked) {
+  const GroundMotionOptions& gm = detector_.options().ground_motion;
   const int wanted = gm.max_corners;
-  if (static_cast<int>(tracked.size()) < wanted * 3 / 4) {
-    cv::Mat mask(current.size(), CV_8U, cv::Scalar(255));
-    for (const auto& f : tracked) {
-      cv::circle(mask, cv::Point(static_cast<int>(f.pixel.x()), static_cast<int>(f.pixel.y())),
-                 static_cast<int>(gm.corner_min_distance_px), cv::Scalar(0), -1);
-    }
-    std::vector<cv::Point2f> corners;
-    cv::goodFeaturesToTrack(current, corners, wanted - static_cast<int>(tracked.size()),
-                            gm.corner_quality, gm.corner_min_distance_px, mask, 3, false);
-    for (const auto& c : corners) {
-      FeatureObservation f;
-      f.track_id = next_track_id_++;
-      f.pixel = Eigen::Vector2d(c.x, c.y);
-      tracked.push_back(f);
-    }
+  if (static_cast<int>(tracked.size()) >= wanted * 3 / 4) return tracked;
+  cv::Mat mask(current.size(), CV_8U, cv::Scalar(255));
+  for (const auto& f : tracked) {
+    cv::circle(mask, cv::Point(static_cast<int>(f.pixel.x()), static_cast<int>(f.pixel.y())),
+               static_cast<int>(gm.corner_min_distance_px), cv::Scalar(0), -1);
+  }
+  std::vector<cv::Point2f> corners;
+  cv::goodFeaturesToTrack(current, corners, wanted - static_cast<int>(tracked.size()),
+                          gm.corner_quality, gm.corner_min_distance_px, mask, 3, false);
+  for (const auto& c : corners) {
+    FeatureObservation f;
+    f.track_id = next_track_id_++;
+    f.pixel = Eigen::Vector2d(c.x, c.y);
+    tracked.push_back(f);  // ids grow, so the list stays sorted by id
   }
   return tracked;
 }

@@ -127,15 +127,21 @@ class SequenceDetector {
     cv::Mat image;
     Pose2 odom_from_base;
     TimestampNs stamp_ns;
+    std::vector<FeatureObservation> features;  // sorted by track id
   };
-  std::vector<FeatureObservation> TrackFeatures(const cv::Mat& previous, const cv::Mat& current,
-                                                const GroundMotion& step);
+  // The previous frame's corners tracked into `current` (forward-backward checked), with their
+  // positions before and after for the motion fit.
+  std::vector<FeatureObservation> TrackFeatures(const Frame& previous, const cv::Mat& current,
+                                                std::vector<Eigen::Vector2d>* before,
+                                                std::vector<Eigen::Vector2d>* after) const;
+  // Tops the tracks up with new Shi-Tomasi corners away from the tracked ones.
+  std::vector<FeatureObservation> AddNewCorners(const cv::Mat& current,
+                                                std::vector<FeatureObservation> tracked);
 
   ObstacleDetector detector_;
   std::deque<Frame> history_;
   std::optional<Pose2> last_step_;
   Pose2 odom_from_base_;
-  std::vector<FeatureObservation> tracks_;  // in the previous frame
   std::int64_t next_track_id_ = 0;
 };
 

@@ -4,6 +4,7 @@
 #include <vector>
 
 #include <opencv2/imgproc.hpp>
+#include <opencv2/video/tracking.hpp>
 
 namespace monoplane {
 namespace {
@@ -14,6 +15,79 @@ Eigen::Matrix3d HomographyAtLevel(const Eigen::Matrix3d& h, int level) {
   const Eigen::Matrix3d s = Eigen::Vector3d(f, f, 1.0).asDiagonal();
   const Eigen::Matrix3d s_inv = Eigen::Vector3d(1.0 / f, 1.0 / f, 1.0).asDiagonal();
   return s * h * s_inv;
+}
+
+// The baseline: unconstrained dense optical flow (image 2 -> image 1), then each pixel's flow is
+// split into the zero disparity along the epipolar line and the part across it.
+ZeroDisparityField FarnebackField(const cv::Mat& image1, const cv::Mat& image2,
+                                  const CameraModel& camera, const Pose2& base2_from_base1,
+                                  const ZeroDisparityOptions& options, const Eigen::Vector3d& epipole) {
+  ZeroDisparityField field;
+  const int level = options.finest_level;
+  field.level = level;
+  field.scale = 1 << level;
+  std::vector<cv::Mat> pyr1, pyr2;
+  cv::buildPyramid(image1, pyr1, level);
+  cv::buildPyramid(image2, pyr2, level);
+  const cv::Mat& i1 = pyr1[level];
+  const cv::Mat& i2 = pyr2[level];
+  cv::Mat flow;
+  cv::calcOpticalFlowFarneback(i2, i1, flow, 0.5, options.num_levels, options.window_px * 2 + 1, 3,
+                               5, 1.1, 0);
+  const int rows = i2.rows, cols = i2.cols;
+  const Eigen::Matrix3d h = HomographyAtLevel(FloorHomography(camera, base2_from_base1), level);
+  const double f = 1.0 / field.scale;
+  const Eigen::Vector3d e(epipole.x() * f, epipole.y() * f, epipole.z());
+  field.s_px.create(rows, cols, CV_32F);
+  field.perpendicular_px.create(rows, cols, CV_32F);
+  field.ux.create(rows, cols, CV_32F);
+  field.uy.create(rows, cols, CV_32F);
+  cv::Mat map_x(rows, cols, CV_32F), map_y(rows, cols, CV_32F);
+  for (int y = 0; y < rows; ++y) {
+    for (int x = 0; x < cols; ++x) {
+      const cv::Point2f fl = flow.at<cv::Point2f>(y, x);
+      map_x.at<float>(y, x) = x + fl.x;
+      map_y.at<float>(y, x) = y + fl.y;
+      const Eigen::Vector2d floor_pred = ApplyHomography(h, {x + fl.x, y + fl.y});
+      const Eigen::Vector2d offset = Eigen::Vector2d(x, y) - floor_pred;
+      Eigen::Vector2d u(e.x() - e.z() * x, e.y() - e.z() * y);
+      u = u.norm() > 0 ? u.normalized() : Eigen::Vector2d(0, 0);
+      field.ux.at<float>(y, x) = static_cast<float>(u.x());
+      field.uy.at<float>(y, x) = static_cast<float>(u.y());
+      field.s_px.at<float>(y, x) = static_cast<float>(offset.dot(u) * field.scale);
+      field.perpendicular_px.at<float>(y, x) =
+          static_cast<float>((offset.y() * u.x() - offset.x() * u.y()) * field.scale);
+    }
+  }
+  // Confidence as for the epipolar method: texture along u, residual after warping by the flow.
+  cv::Mat warped, gx, gy, i2f;
+  cv::remap(i1, warped, map_x, map_y, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
+  warped.convertTo(warped, CV_32F);
+  i2.convertTo(i2f, CV_32F);
+  cv::Sobel(i2f, gx, CV_32F, 1, 0, 3, 1.0 / 8.0);
+  cv::Sobel(i2f, gy, CV_32F, 0, 1, 3, 1.0 / 8.0);
+  const cv::Size box(options.window_px, options.window_px);
+  cv::Mat gu = gx.mul(field.ux) + gy.mul(field.uy);
+  cv::Mat gp = gy.mul(field.ux) - gx.mul(field.uy);
+  cv::boxFilter(gu.mul(gu), field.texture, CV_32F, box);
+  cv::Mat spp;
+  cv::boxFilter(gp.mul(gp), spp, CV_32F, box);
+  cv::Mat mean2, mean_w;
+  cv::boxFilter(i2f, mean2, CV_32F, box);
+  cv::boxFilter(warped, mean_w, CV_32F, box);
+  cv::Mat d = cv::abs((i2f - mean2) - (warped - mean_w));
+  cv::boxFilter(d, field.residual, CV_32F, box);
+  field.sigma_px.create(rows, cols, CV_32F);
+  field.perpendicular_sigma_px.create(rows, cols, CV_32F);
+  const float area = static_cast<float>(options.window_px * options.window_px);
+  for (int y = 0; y < rows; ++y) {
+    for (int x = 0; x < cols; ++x) {
+      const float noise = std::max(1.25f * field.residual.at<float>(y, x), 1.0f);
+      field.sigma_px.at<float>(y, x) = noise / std::sqrt(area * std::max(field.texture.at<float>(y, x), 1e-6f)) * static_cast<float>(field.scale);
+      field.perpendicular_sigma_px.at<float>(y, x) = noise / std::sqrt(area * std::max(spp.at<float>(y, x), 1e-6f)) * static_cast<float>(field.scale);
+    }
+  }
+  return field;
 }
 
 }  // namespace
@@ -52,6 +126,11 @@ ZeroDisparityField ComputeZeroDisparity(const cv::Mat& image1, const cv::Mat& im
 
   const Eigen::Vector3d epipole = EpipoleInImage2(camera, base2_from_base1);
   const double baseline = (camera.K().inverse() * epipole).norm();
+  if (options.method == ZeroDisparityOptions::Method::kFarneback) {
+    field = FarnebackField(image1, image2, camera, base2_from_base1, options, epipole);
+    field.has_parallax = baseline > 1e-6;
+    return field;
+  }
   field.has_parallax = baseline > 1e-6;
 
   std::vector<cv::Mat> pyr1, pyr2;

@@ -10,6 +10,11 @@ namespace monoplane {
 
 // Options for the dense zero-disparity search (the paper's step 3).
 struct ZeroDisparityOptions {
+  // kEpipolar: the paper's search along the epipolar lines (coarse-to-fine Gauss-Newton on image
+  // 2 against image 1 warped by the floor homography). kFarneback: the baseline the benchmark
+  // compares with, OpenCV's dense Farneback optical flow projected onto the epipolar direction.
+  enum class Method { kEpipolar, kFarneback };
+  Method method = Method::kEpipolar;
   // Finest pyramid level the search runs at (0 = input resolution, 1 = half, ...), in [0, 3].
   int finest_level = 1;
   // Number of pyramid levels searched coarse to fine, from the finest upward, in [1, 6].

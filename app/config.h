@@ -1,0 +1,92 @@
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "app/input_source.h"
+#include "interfaces/map_publisher.h"
+#include "mapping/mapper.h"
+#include "perception/geometry/pose2.h"
+#include "perception/obstacle_detector.h"
+#include "storage/map_database.h"
+
+namespace monoplane::app {
+
+// What `monoplane run` writes besides the map.
+struct OutputOptions {
+  int panels_every = 1;  // write panels/NNNNNN.jpg every N-th frame with --frames-out (>= 1)
+  bool IsValid(std::string* error) const;
+};
+
+// How `monoplane run` publishes over DDS with --publish.
+struct PublishOptions {
+  interfaces::MapPublisher::Options publisher;
+  double map_period_s = 1.0;  // the global map goes out at most this often (stamps), s (>= 0)
+  bool IsValid(std::string* error) const;
+};
+
+// Where a run that extends a saved map starts: the map pose of its first frame, the guess that
+// localisation in the saved map starts from (Mapper::Options::localization_match sets the window).
+struct StartOptions {
+  double x_m = 0.0, y_m = 0.0, yaw_rad = 0.0;
+  Pose2 pose() const { return Pose2{x_m, y_m, yaw_rad}; }
+};
+
+// Every option of every module, settable from one YAML file (--config).
+struct AppConfig {
+  DetectorOptions detector;
+  InputOptions input;
+  OutputOptions output;
+  Mapper::Options mapping;
+  StartOptions start;
+  MapDatabase::Options storage;
+  PublishOptions dds;
+};
+
+// Binds "section.key" names to option fields, for parsing YAML and for dumping the defaults.
+// Keys not in the table are rejected with their name.
+class OptionTable {
+ public:
+  explicit OptionTable(AppConfig* config);
+
+  // Applies a YAML document (sections of keys). On failure names the key and the reason.
+  bool Apply(const std::string& yaml_text, std::string* error);
+  // The effective options as YAML with a comment per key.
+  std::string Dump() const;
+
+ private:
+  struct Entry {
+    std::string section, key, comment;
+    std::function<bool(const std::string& value, std::string* error)> set;
+    std::function<std::string()> get;
+  };
+  void AddDouble(const std::string& section, const std::string& key, double* target,
+                 const std::string& comment);
+  void AddInt(const std::string& section, const std::string& key, int* target,
+              const std::string& comment);
+  void AddUnsigned(const std::string& section, const std::string& key, unsigned* target,
+                   const std::string& comment);
+  void AddFloat(const std::string& section, const std::string& key, float* target,
+                const std::string& comment);
+  void AddBool(const std::string& section, const std::string& key, bool* target,
+               const std::string& comment);
+  void AddString(const std::string& section, const std::string& key, std::string* target,
+                 const std::string& comment);
+  void AddInt64(const std::string& section, const std::string& key, std::int64_t* target,
+                const std::string& comment);
+  void AddChoice(const std::string& section, const std::string& key, int* target,
+                 const std::vector<std::string>& names, const std::string& comment);
+
+  std::vector<Entry> entries_;
+  int aggregation_ = 0;
+  AppConfig* config_;
+};
+
+// Reads a config file into *config (starting from its current values) and validates every
+// module's options. Errors name the file, the key and the reason.
+bool LoadConfigFile(const std::string& path, AppConfig* config, std::string* error);
+bool ValidateConfig(const AppConfig& config, std::string* error);
+
+}  // namespace monoplane::app

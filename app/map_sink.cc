@@ -1,0 +1,399 @@
+// The end of `monoplane run`: mapping on the caller's thread; the map database and DDS on a writer
+// thread fed by a bounded queue (back-pressure: mapping waits when the writer is 32 jobs behind).
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <functional>
+#include <mutex>
+#include <thread>
+
+#include <spdlog/spdlog.h>
+
+#include "app/bounded_queue.h"
+#include "app/run_pipeline.h"
+#include "app/version.h"
+#include "interfaces/map_publisher.h"
+#include "mapping/frame_observation.h"
+#include "mapping/mapper.h"
+#include "storage/map_database.h"
+
+namespace monoplane::app {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double MsSince(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+TimestampNs WallClockNs() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(
+             std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+// A copy of the given tiles, for the writer thread (the mapper keeps changing its grid).
+TiledGrid CopyTiles(const TiledGrid& grid, const std::set<TiledGrid::TileKey>& keys) {
+  TiledGrid copy(grid.resolution_m());
+  for (const auto& key : keys) {
+    const auto it = grid.tiles().find(key);
+    if (it != grid.tiles().end()) copy.mutable_tiles().emplace(key, it->second);
+  }
+  return copy;
+}
+
+// Loads the keyframes of a saved map (poses, local maps) for the mapper to extend it.
+StorageStatus LoadSavedKeyframes(MapDatabase* db, std::vector<Keyframe>* keyframes) {
+  std::vector<monoplane::TrajectoryPoint> trajectory;
+  StorageStatus status = db->ReadTrajectory(std::nullopt, PoseSource::kOptimised, &trajectory);
+  if (!status.ok()) return status;
+  std::int64_t run = -1;
+  double path = 0;
+  std::optional<Pose2> previous;
+  for (const auto& point : trajectory) {
+    if (point.run_id != run) {
+      run = point.run_id;
+      path = 0;
+      previous.reset();
+    }
+    if (previous) path += (point.map_from_base.Translation() - previous->Translation()).norm();
+    previous = point.map_from_base;
+    if (!point.is_keyframe) continue;
+    Keyframe k;
+    k.id = static_cast<int>(keyframes->size());
+    k.stamp_ns = point.stamp_ns;
+    k.odom_from_base = point.map_from_base;
+    k.map_from_base = point.map_from_base;
+    k.path_length_m = path;
+    k.from_saved_map = true;
+    status = db->ReadLocalMap(point.run_id, point.index, &k.local_map);
+    if (status.kind() == StorageErrorKind::kNotFound) continue;
+    if (!status.ok()) return status;
+    keyframes->push_back(std::move(k));
+  }
+  return StorageStatus();
+}
+
+}  // namespace
+
+struct MapSink::Impl {
+  using Job = std::function<bool(std::string* error)>;
+
+  Impl(const CameraCalibration& c, const RunRequest& r, RunSummary* s)
+      : calibration(c), request(r), summary(s) {}
+
+  CameraCalibration calibration;
+  const RunRequest& request;
+  RunSummary* summary;
+
+  std::unique_ptr<Mapper> mapper;
+  std::unique_ptr<MapDatabase> db;
+  bool created_file = false;
+  std::int64_t run_id = -1;
+  std::unique_ptr<interfaces::MapPublisher> publisher;
+
+  // Writer thread.
+  BoundedQueue<Job> jobs{32};
+  std::thread writer;
+  std::mutex mutex;
+  std::string writer_error;  // first failure, guarded by mutex
+  std::atomic<bool> writer_failed{false};
+  std::atomic<double> storage_ms{0.0};
+
+  // Mapping-thread state.
+  std::vector<FrameRecord> pending_frames;  // not yet handed to the writer
+  std::vector<std::int64_t> frame_indices;  // input index of every frame given to the mapper
+  std::optional<Pose2> last_odom;
+  TimestampNs last_map_stamp = 0;
+  bool map_published = false;
+
+  void Enqueue(Job job) {
+    if (!writer.joinable()) {
+      std::string error;
+      if (!job(&error)) Fail(error);
+      return;
+    }
+    jobs.Push(std::move(job));
+  }
+  void Fail(const std::string& error) {
+    std::lock_guard<std::mutex> lock(mutex);
+    if (!writer_failed) writer_error = error;
+    writer_failed = true;
+  }
+  void WriterLoop() {
+    while (auto job = jobs.Pop()) {
+      if (writer_failed) continue;  // drain; the first error is reported
+      const auto t0 = Clock::now();
+      std::string error;
+      if (!(*job)(&error)) Fail(error);
+      storage_ms = storage_ms + MsSince(t0);
+    }
+  }
+
+  // Storage jobs (no-ops without a map file).
+  void FlushFrames() {
+    if (!db || pending_frames.empty()) return;
+    Enqueue([this, frames = std::move(pending_frames)](std::string* error) {
+      const StorageStatus s = db->WriteFrames(run_id, frames);
+      if (!s.ok()) *error = s.message();
+      return s.ok();
+    });
+    pending_frames.clear();
+  }
+  void FlushTiles() {
+    if (!db) return;
+    const std::set<TiledGrid::TileKey> changed = mapper->TakeChangedTiles();
+    if (changed.empty()) return;
+    Enqueue([this, tiles = CopyTiles(mapper->grid(), changed),
+             keys = std::vector<TiledGrid::TileKey>(changed.begin(), changed.end())](std::string* error) {
+      const StorageStatus s = db->WriteGridTiles(run_id, tiles, keys);
+      if (!s.ok()) *error = s.message();
+      return s.ok();
+    });
+  }
+  // After a correction every frame of this run gets its optimised pose.
+  void WriteOptimisedTrajectory() {
+    if (!db) return;
+    FlushFrames();
+    const std::vector<FramePose> poses = mapper->Trajectory();
+    std::vector<FrameRecord> frames;
+    frames.reserve(poses.size());
+    for (std::size_t i = 0; i < poses.size() && i < frame_indices.size(); ++i) {
+      FrameRecord f;
+      f.index = frame_indices[i];
+      f.stamp_ns = poses[i].stamp_ns;
+      frames.push_back(f);
+    }
+    Enqueue([this, frames = std::move(frames), poses](std::string* error) mutable {
+      // The raw poses stay as first written: read them back and only set the optimised ones.
+      std::vector<monoplane::TrajectoryPoint> stored;
+      StorageStatus s = db->ReadTrajectory(run_id, PoseSource::kRaw, &stored);
+      if (!s.ok()) {
+        *error = s.message();
+        return false;
+      }
+      std::map<std::int64_t, const monoplane::TrajectoryPoint*> by_index;
+      for (const auto& p : stored) by_index[p.index] = &p;
+      for (std::size_t i = 0; i < frames.size(); ++i) {
+        const auto it = by_index.find(frames[i].index);
+        frames[i].map_from_base_raw = it != by_index.end() ? it->second->map_from_base : poses[i].map_from_base;
+        frames[i].is_keyframe = it != by_index.end() && it->second->is_keyframe;
+        frames[i].map_from_base_optimised = poses[i].map_from_base;
+      }
+      s = db->WriteFrames(run_id, frames);
+      if (!s.ok()) *error = s.message();
+      return s.ok();
+    });
+  }
+  void PublishMap(TimestampNs stamp_ns, bool force) {
+    if (!publisher) return;
+    const double period_ns = request.config.dds.map_period_s * 1e9;
+    if (!force && map_published && static_cast<double>(stamp_ns - last_map_stamp) < period_ns) return;
+    last_map_stamp = stamp_ns;
+    map_published = true;
+    Enqueue([this, grid = ToOccupancyGrid(mapper->grid()), stamp_ns](std::string* error) {
+      return publisher->PublishMap(grid, stamp_ns, error) != interfaces::PublishStatus::kError;
+    });
+  }
+};
+
+MapSink::MapSink(const CameraCalibration& calibration, const RunRequest& request,
+                 RunSummary* summary)
+    : impl_(std::make_unique<Impl>(calibration, request, summary)) {}
+
+MapSink::~MapSink() {
+  if (impl_->writer.joinable()) {
+    impl_->jobs.Close();
+    impl_->writer.join();
+  }
+}
+
+bool MapSink::Open(std::string* error) {
+  Impl& m = *impl_;
+  const AppConfig& config = m.request.config;
+  Mapper::Options mapping = config.mapping;
+  if (!m.request.map_path.empty()) {
+    namespace fs = std::filesystem;
+    std::error_code ec;
+    m.created_file = !fs::exists(m.request.map_path, ec) || fs::file_size(m.request.map_path, ec) == 0;
+    const StorageStatus s = MapDatabase::Open(m.request.map_path, OpenMode::kCreate, &m.db, config.storage);
+    if (!s.ok()) {
+      *error = s.message();
+      if (m.created_file) fs::remove(m.request.map_path, ec);
+      return false;
+    }
+  }
+  // A map that already holds a grid is extended: its keyframes are fixed and the new run is
+  // localised in it.
+  TiledGrid saved_grid;
+  std::vector<Keyframe> saved_keyframes;
+  if (m.db && m.db->grid_resolution_m()) {
+    mapping.grid_resolution_m = *m.db->grid_resolution_m();
+    StorageStatus s = m.db->LoadTiledGrid(&saved_grid);
+    if (s.ok()) s = LoadSavedKeyframes(m.db.get(), &saved_keyframes);
+    if (!s.ok()) {
+      *error = s.message();
+      return false;
+    }
+  }
+  if (!saved_keyframes.empty()) {
+    spdlog::info("extending {}: {} keyframes, localising the first keyframe near ({:.2f}, {:.2f}, {:.2f})",
+                 m.request.map_path, saved_keyframes.size(), config.start.x_m, config.start.y_m,
+                 config.start.yaw_rad);
+    m.mapper = std::make_unique<Mapper>(mapping, m.calibration, std::move(saved_grid),
+                                        std::move(saved_keyframes), config.start.pose());
+  } else {
+    m.mapper = std::make_unique<Mapper>(mapping, m.calibration);
+  }
+  if (m.db) {
+    OptionTable table(const_cast<AppConfig*>(&config));
+    const StorageStatus s = m.db->BeginRun(m.calibration, table.Dump(), MONOPLANE_VERSION,
+                                           WallClockNs(), &m.run_id);
+    if (!s.ok()) {
+      *error = s.message();
+      m.db.reset();
+      if (m.created_file) std::filesystem::remove(m.request.map_path);
+      return false;
+    }
+  }
+  if (m.request.publish) {
+    m.publisher = interfaces::MapPublisher::Create(config.dds.publisher, error);
+    if (!m.publisher) {
+      *error = "DDS: " + *error;
+      return false;
+    }
+  }
+  if (m.db || m.publisher) m.writer = std::thread([&m] { m.WriterLoop(); });
+  return true;
+}
+
+bool MapSink::Add(const InputFrame& frame, const SequenceDetector::Output& output,
+                  std::string* error) {
+  Impl& m = *impl_;
+  if (m.writer_failed) {
+    std::lock_guard<std::mutex> lock(m.mutex);
+    *error = m.writer_error;
+    return false;
+  }
+  const auto t0 = Clock::now();
+  const FrameObservation observation = MakeFrameObservation(output, frame.stamp_ns);
+  const Mapper::FrameUpdate update = m.mapper->AddFrame(observation);
+  m.frame_indices.push_back(frame.index);
+  m.summary->mapping_ms += MsSince(t0);
+
+  RunSummary& s = *m.summary;
+  if (m.last_odom) s.distance_m += (output.odom_from_base.Translation() - m.last_odom->Translation()).norm();
+  m.last_odom = output.odom_from_base;
+  s.trajectory.emplace_back(update.map_from_base, frame.stamp_ns);
+  if (update.keyframe) ++s.keyframes;
+  if (update.loop_closed) ++s.loop_closures;
+
+  FrameRecord record;
+  record.index = frame.index;
+  record.stamp_ns = frame.stamp_ns;
+  record.is_keyframe = update.keyframe;
+  record.map_from_base_raw = update.map_from_base;
+  if (m.db) {
+    if (update.keyframe) {
+      m.FlushFrames();
+      const Keyframe& k = m.mapper->keyframes().back();
+      m.Enqueue([&m, record, local_map = k.local_map](std::string* e) {
+        const StorageStatus st = m.db->WriteKeyframe(m.run_id, record, local_map);
+        if (!st.ok()) *e = st.message();
+        return st.ok();
+      });
+      m.FlushTiles();
+    } else {
+      m.pending_frames.push_back(record);
+      if (m.pending_frames.size() >= 100) m.FlushFrames();
+    }
+    if (update.loop_closed || update.map_rebuilt) {
+      m.WriteOptimisedTrajectory();
+      m.FlushTiles();
+    }
+  }
+  if (m.publisher) {
+    const Pose2 map_from_odom = update.map_from_base * output.odom_from_base.Inverse();
+    std::optional<OccupancyGrid> local_map;
+    if (output.result) local_map = output.result->local_map;
+    m.Enqueue([&m, map_from_odom, odom = output.odom_from_base, stamp = frame.stamp_ns,
+               local_map = std::move(local_map)](std::string* e) {
+      // Dropped samples (a full reader backlog) are counted by the publisher; only errors stop.
+      if (m.publisher->PublishPose(map_from_odom, odom, stamp, {}, e) == interfaces::PublishStatus::kError) return false;
+      if (local_map && m.publisher->PublishLocalMap(*local_map, stamp, e) == interfaces::PublishStatus::kError) return false;
+      return true;
+    });
+    if (update.keyframe || update.map_rebuilt) m.PublishMap(frame.stamp_ns, update.map_rebuilt);
+  }
+  return true;
+}
+
+bool MapSink::Close(std::string* error) {
+  Impl& m = *impl_;
+  RunSummary& s = *m.summary;
+  const Mapper& mapper = *m.mapper;
+  s.saved_keyframes = static_cast<int>(mapper.keyframes().size()) - mapper.counters().keyframes;
+  if (mapper.localization()) s.localization = mapper.localization()->message;
+  const OccupancyGrid grid = ToOccupancyGrid(mapper.grid());
+  const GridGeometry& g = grid.geometry;
+  if (g.width > 0) {
+    s.extent_min_m = Eigen::Vector2d(g.origin_x_m, g.origin_y_m);
+    s.extent_max_m = *s.extent_min_m + Eigen::Vector2d(g.width, g.height) * g.resolution_m;
+  }
+  if (m.db) {
+    m.FlushFrames();
+    if (mapper.counters().keyframes > 0) m.WriteOptimisedTrajectory();
+    m.FlushTiles();
+    if (mapper.counters().keyframes > 0 && m.request.config.mapping.build_octree) {
+      m.Enqueue([&m, bytes = mapper.OctomapBinary(),
+                 resolution = m.request.config.mapping.octree.resolution_m](std::string* e) {
+        const StorageStatus st = m.db->WriteOctomap(m.run_id, resolution, bytes);
+        if (!st.ok()) *e = st.message();
+        return st.ok();
+      });
+    }
+    const MapperCounters& c = mapper.counters();
+    std::map<std::string, double> stats = {
+        {"frames", c.frames},
+        {"keyframes", c.keyframes},
+        {"loop_closures_accepted", c.loop_closures_accepted},
+        {"loop_closures_rejected", c.loop_closures_rejected},
+        {"distance_m", s.distance_m},
+        {"skipped_frames", static_cast<double>(s.skipped.size())},
+        {"interrupted", s.interrupted ? 1.0 : 0.0},
+    };
+    m.Enqueue([&m, stats](std::string* e) {
+      const StorageStatus st = m.db->WriteStatistics(m.run_id, stats);
+      if (!st.ok()) *e = st.message();
+      return st.ok();
+    });
+  }
+  if (m.publisher) m.PublishMap(s.trajectory.empty() ? 0 : s.trajectory.back().second, true);
+  if (m.writer.joinable()) {
+    m.jobs.Close();
+    m.writer.join();
+  }
+  s.storage_ms = m.storage_ms;
+  bool ok = !m.writer_failed;
+  if (!ok) *error = m.writer_error;
+  if (m.db) {
+    const StorageStatus st =
+        m.db->EndRun(m.run_id, WallClockNs(), ok ? RunStatus::kFinished : RunStatus::kFailed);
+    if (ok && !st.ok()) {
+      *error = st.message();
+      ok = false;
+    }
+    if (!ok) {
+      *error += " (the map keeps what was written before; this run is marked failed)";
+    }
+  }
+  if (m.publisher) {
+    s.dds_sent = m.publisher->map_stats().sent + m.publisher->odom_stats().sent +
+                 m.publisher->local_map_stats().sent;
+    s.dds_dropped = m.publisher->map_stats().dropped + m.publisher->odom_stats().dropped +
+                    m.publisher->local_map_stats().dropped + m.publisher->tf_stats().dropped;
+  }
+  return ok;
+}
+
+}  // namespace monoplane::app

@@ -1,0 +1,217 @@
+// `monoplane run`: input -> perception -> mapping -> storage / DDS, as a pipeline of threads
+// joined by bounded queues.
+#include <atomic>
+#include <chrono>
+#include <csignal>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <thread>
+#include <unistd.h>
+
+#include <spdlog/spdlog.h>
+
+#include "app/bounded_queue.h"
+#include "app/commands.h"
+#include "app/config.h"
+#include "app/frame_outputs.h"
+#include "app/input_source.h"
+#include "app/run_pipeline.h"
+#include "perception/geometry/camera_calibration.h"
+#include "perception/obstacle_detector.h"
+
+namespace monoplane::app {
+namespace {
+
+std::atomic<bool> g_interrupted{false};
+extern "C" void OnSigint(int) { g_interrupted = true; }
+
+using Clock = std::chrono::steady_clock;
+double MsSince(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+struct DecodedFrame {
+  InputFrame frame;
+};
+
+struct PerceivedFrame {
+  InputFrame frame;
+  SequenceDetector::Output output;
+  double perception_ms = 0.0;
+};
+
+// Prints progress on a terminal as one updating line, otherwise as a log line every 100 frames.
+class Progress {
+ public:
+  Progress(int total, bool quiet) : total_(total), quiet_(quiet), tty_(isatty(STDERR_FILENO)) {}
+  void Update(int done, int obstacles_seen) {
+    if (quiet_) return;
+    const double seconds = std::chrono::duration<double>(Clock::now() - start_).count();
+    const double fps = seconds > 0 ? done / seconds : 0.0;
+    if (tty_) {
+      std::string bar;
+      if (total_ > 0) {
+        const int width = 30, filled = width * done / total_;
+        bar = "[" + std::string(filled, '#') + std::string(width - filled, '.') + "] ";
+      }
+      const double eta = total_ > 0 && fps > 0 ? (total_ - done) / fps : 0.0;
+      std::fprintf(stderr, "\r%s%d/%s frames  %.1f fps  ETA %.0f s  obstacle pixels in view %d   ",
+                   bar.c_str(), done, total_ > 0 ? std::to_string(total_).c_str() : "?", fps, eta,
+                   obstacles_seen);
+    } else if (done % 100 == 0) {
+      spdlog::info("{} frames, {:.1f} fps", done, fps);
+    }
+  }
+  void Finish() {
+    if (!quiet_ && tty_) std::fprintf(stderr, "\n");
+  }
+
+ private:
+  int total_;
+  bool quiet_, tty_;
+  Clock::time_point start_ = Clock::now();
+};
+
+}  // namespace
+
+int Run(const RunRequest& request, RunSummary* summary) {
+  g_interrupted = false;
+  std::signal(SIGINT, OnSigint);
+  std::string error;
+  auto source = OpenInput(request.input_path, request.config.input, &error);
+  if (!source) {
+    std::cerr << "monoplane run: " << error << "\n";
+    return kExitBadInput;
+  }
+  std::string calib_path = request.calib_path;
+  if (calib_path.empty()) calib_path = source->default_calibration_path();
+  if (calib_path.empty()) {
+    std::cerr << "monoplane run: " << request.input_path
+              << ": no calibration (give --calib FILE or put calib.yaml in the folder)\n";
+    return kExitBadInput;
+  }
+  CameraCalibration calibration;
+  if (!LoadCalibrationFile(calib_path, &calibration, &error)) {
+    std::cerr << "monoplane run: " << error << "\n";
+    return kExitBadInput;
+  }
+  if (!request.frames_out.empty() && !CreateFrameOutputFolders(request.frames_out, &error)) {
+    std::cerr << "monoplane run: " << error << "\n";
+    return kExitBadInput;
+  }
+  // The first readable frame decides whether the calibration fits the input.
+  auto first = source->Next();
+  while (first && first->image.empty()) {
+    summary->skipped.push_back(first->name + ": " + first->error);
+    first = source->Next();
+  }
+  if (!first) {
+    std::cerr << "monoplane run: " << request.input_path << ": no readable frame\n";
+    return kExitBadInput;
+  }
+  const CameraIntrinsics& in = calibration.intrinsics;
+  if (first->image.cols != in.width || first->image.rows != in.height) {
+    if (!request.scale_calibration) {
+      std::cerr << "monoplane run: " << first->name << ": image is " << first->image.cols << "x"
+                << first->image.rows << " but " << calib_path << " is for " << in.width << "x"
+                << in.height << " (pass --scale-calibration to scale the intrinsics)\n";
+      return kExitBadInput;
+    }
+    calibration.intrinsics = in.Scaled(first->image.cols, first->image.rows);
+  }
+
+  MapSink sink(calibration, request, summary);
+  if (!sink.Open(&error)) {
+    std::cerr << "monoplane run: " << error << "\n";
+    return kExitBadInput;
+  }
+
+  const auto when_full = source->is_live() ? BoundedQueue<DecodedFrame>::WhenFull::kDropOldest
+                                           : BoundedQueue<DecodedFrame>::WhenFull::kBlock;
+  BoundedQueue<DecodedFrame> decoded(8, when_full);
+  BoundedQueue<PerceivedFrame> perceived(8);
+  std::atomic<double> read_ms{0.0};
+
+  std::vector<std::string> reader_skipped;  // owned by the reader until it is joined
+  int frames_taken = static_cast<int>(summary->skipped.size());
+  std::thread reader([&] {
+    std::optional<InputFrame> f = std::move(first);
+    while (f && !g_interrupted) {
+      ++frames_taken;
+      if (f->image.empty()) {
+        reader_skipped.push_back(f->name + ": " + f->error);
+      } else if (!decoded.Push({std::move(*f)})) {
+        break;
+      }
+      if (request.max_frames > 0 && frames_taken >= request.max_frames) break;
+      const auto t0 = Clock::now();
+      f = source->Next();
+      read_ms = read_ms + MsSince(t0);
+    }
+    decoded.Close();
+  });
+
+  std::thread perception([&] {
+    SequenceDetector detector(calibration, request.config.detector);
+    while (auto d = decoded.Pop()) {
+      const auto t0 = Clock::now();
+      PerceivedFrame p;
+      p.output = detector.Process(d->frame.image, d->frame.stamp_ns);
+      p.perception_ms = MsSince(t0);
+      p.frame = std::move(d->frame);
+      if (!perceived.Push(std::move(p))) break;
+    }
+    perceived.Close();
+  });
+
+  Progress progress(source->size(), request.quiet);
+  bool sink_failed = false;
+  while (auto p = perceived.Pop()) {
+    summary->perception_ms += p->perception_ms;
+    if (!p->output.image_ok) {
+      summary->skipped.push_back(p->frame.name + ": " + p->output.message);
+      continue;
+    }
+    ++summary->frames_processed;
+    if (p->output.result) {
+      const FrameResult& r = *p->output.result;
+      ++summary->status_counts[static_cast<int>(r.status)];
+      if (!request.frames_out.empty()) {
+        const auto t0 = Clock::now();
+        const bool panels = p->frame.index % request.config.output.panels_every == 0;
+        if (!WriteFrameOutputs(request.frames_out, p->frame.index, p->frame.image, r, panels,
+                               &error)) {
+          std::cerr << "\nmonoplane run: " << error << "\n";
+          sink_failed = true;
+          g_interrupted = true;
+        }
+        summary->frame_outputs_ms += MsSince(t0);
+      }
+    }
+    if (!sink_failed && !sink.Add(p->frame, p->output, &error)) {
+      std::cerr << "\nmonoplane run: " << error << "\n";
+      sink_failed = true;
+      g_interrupted = true;
+    }
+    progress.Update(summary->frames_processed,
+                    p->output.result ? p->output.result->num_obstacle : 0);
+  }
+  reader.join();
+  perception.join();
+  summary->frames_read = frames_taken;
+  summary->skipped.insert(summary->skipped.end(), reader_skipped.begin(), reader_skipped.end());
+  progress.Finish();
+  summary->read_ms = read_ms;
+  summary->dropped_live_frames = decoded.dropped();
+  if (!sink.Close(&error)) {
+    std::cerr << "monoplane run: " << error << "\n";
+    sink_failed = true;
+  }
+  std::signal(SIGINT, SIG_DFL);
+  summary->interrupted = g_interrupted && !sink_failed;
+  if (sink_failed) return kExitBadInput;
+  return summary->interrupted ? kExitInterrupted : kExitOk;
+}
+
+}  // namespace monoplane::app

@@ -1,0 +1,184 @@
+// The per-frame chain at 640x480 on one core, stage by stage, and the Farneback baseline that
+// replaces the epipolar search (step 3) with OpenCV's dense optical flow. Both are scored on the
+// same rendered frames (counters obstacle_recall, floor_false, coverage).
+//
+//   build/tools/bench/bench_perception [--benchmark_filter=...]
+#include <cstdlib>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <benchmark/benchmark.h>
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "perception/ground_motion.h"
+#include "perception/obstacle_detector.h"
+#include "tools/eval/label_metrics.h"
+#include "tools/sim/renderer.h"
+#include "tools/sim/scene.h"
+
+namespace monoplane {
+namespace {
+
+// Frames of the scenes the scores use; rendered once.
+struct Data {
+  struct Pair {
+    cv::Mat reference, current;
+    sim::RenderedFrame truth;  // of the current frame
+    GroundMotion motion;
+  };
+  std::vector<Pair> pairs;
+  CameraCalibration calibration;
+};
+
+const char* kScenes[] = {"office", "low_obstacles", "newspaper_on_carpet", "corridor", "step_down"};
+
+const Data& GetData() {
+  static const Data* data = [] {
+    auto* d = new Data;
+    cv::setNumThreads(1);  // one core
+    for (const char* name : kScenes) {
+      sim::Scene scene;
+      std::string error;
+      const std::string path = std::string(MONOPLANE_SOURCE_DIR) + "/tests/data/scenes/" + name + ".yaml";
+      if (!sim::LoadSceneFile(path, &scene, &error)) {
+        std::fprintf(stderr, "bench_perception: %s\n", error.c_str());
+        std::exit(2);
+      }
+      d->calibration = scene.calibration;
+      const sim::SceneRenderer renderer(scene, scene.calibration);
+      const ObstacleDetector detector(scene.calibration, DetectorOptions{});
+      // Pairs 4 frames apart (about 0.1 m at 0.4 m/s, 15 fps) at a few points of the run.
+      for (int i = 10; i + 4 < scene.NumFrames() && i < 120; i += 25) {
+        Data::Pair p;
+        const sim::RenderedFrame a = renderer.RenderAtTime(i / scene.fps);
+        p.truth = renderer.RenderAtTime((i + 4) / scene.fps);
+        std::string why;
+        p.reference = detector.Prepare(a.image, &why);
+        p.current = detector.Prepare(p.truth.image, &why);
+        p.motion = EstimateGroundMotion(p.reference, p.current, detector.camera(),
+                                        DetectorOptions{}.ground_motion);
+        d->pairs.push_back(std::move(p));
+      }
+    }
+    return d;
+  }();
+  return *data;
+}
+
+DetectorOptions OptionsFor(int method) {
+  DetectorOptions o;
+  if (const char* level = std::getenv("MONOPLANE_BENCH_LEVEL")) {
+    o.zero_disparity.finest_level = std::atoi(level);
+    o.classification.sample_stride = o.zero_disparity.finest_level >= 2 ? 1 : 2;
+  }
+  if (const char* window = std::getenv("MONOPLANE_BENCH_WINDOW")) o.zero_disparity.window_px = std::atoi(window);
+  if (const char* it = std::getenv("MONOPLANE_BENCH_ITER")) o.zero_disparity.iterations_per_level = std::atoi(it);
+  o.zero_disparity.method = method == 0 ? ZeroDisparityOptions::Method::kEpipolar
+                                        : ZeroDisparityOptions::Method::kFarneback;
+  return o;
+}
+
+void Score(benchmark::State& state, const ObstacleDetector& detector) {
+  const Data& data = GetData();
+  eval::LabelTally tally;
+  const eval::LabelEvalOptions options;
+  for (const auto& p : data.pairs) {
+    const FrameResult r = detector.Detect(p.reference, p.current, p.motion);
+    eval::LabelFrame f{p.truth.label, p.truth.height, p.truth.depth, r.labels, r.height_mm};
+    std::string error;
+    eval::TallyLabelFrame(f, detector.camera(), options, &tally, &error);
+  }
+  const eval::LabelEvalResult result = eval::SummarizeLabels(tally, options);
+  // Within 4 m: the bands up to 4 m.
+  eval::LabelCounts near;
+  for (const auto& band : result.bands) {
+    if (band.max_distance_m > 4.0 + 1e-9) break;
+    near.gt_obstacle += band.counts.gt_obstacle;
+    near.obstacle_as_obstacle += band.counts.obstacle_as_obstacle;
+  }
+  const auto& o = result.overall;
+  state.counters["obstacle_recall_4m"] =
+      near.gt_obstacle > 0 ? static_cast<double>(near.obstacle_as_obstacle) / near.gt_obstacle : 0;
+  state.counters["floor_false"] = o.floor_false_obstacle_rate.value_or(0);
+  state.counters["coverage"] = o.coverage.value_or(0);
+  state.counters["dangerous"] = o.dangerous_rate.value_or(0);
+  state.counters["height_err_med_m"] = o.height_error_median_m.value_or(0);
+}
+
+void BM_Prepare(benchmark::State& state) {
+  const Data& data = GetData();
+  const ObstacleDetector detector(data.calibration, DetectorOptions{});
+  cv::Mat colour;
+  cv::cvtColor(data.pairs[0].current, colour, cv::COLOR_GRAY2BGR);
+  std::string error;
+  for (auto _ : state) benchmark::DoNotOptimize(detector.Prepare(colour, &error));
+}
+BENCHMARK(BM_Prepare)->Unit(benchmark::kMillisecond);
+
+void BM_GroundMotion(benchmark::State& state) {
+  const Data& data = GetData();
+  const CameraModel camera(data.calibration);
+  const auto& p = data.pairs[1];
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(EstimateGroundMotion(p.reference, p.current, camera, GroundMotionOptions{}));
+  }
+}
+BENCHMARK(BM_GroundMotion)->Unit(benchmark::kMillisecond);
+
+void BM_ZeroDisparity(benchmark::State& state) {
+  const Data& data = GetData();
+  const CameraModel camera(data.calibration);
+  const DetectorOptions options = OptionsFor(static_cast<int>(state.range(0)));
+  const auto& p = data.pairs[1];
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(ComputeZeroDisparity(p.reference, p.current, camera,
+                                                  p.motion.base2_from_base1, options.zero_disparity));
+  }
+  state.SetLabel(state.range(0) == 0 ? "epipolar" : "farneback");
+}
+BENCHMARK(BM_ZeroDisparity)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
+
+// Step 3 to 6 (zero disparity, classification, aggregation, top view), scored on the scenes.
+void BM_Detect(benchmark::State& state) {
+  const Data& data = GetData();
+  const ObstacleDetector detector(data.calibration, OptionsFor(static_cast<int>(state.range(0))));
+  const auto& p = data.pairs[1];
+  for (auto _ : state) benchmark::DoNotOptimize(detector.Detect(p.reference, p.current, p.motion));
+  state.SetLabel(state.range(0) == 0 ? "epipolar" : "farneback");
+  Score(state, detector);
+}
+BENCHMARK(BM_Detect)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
+
+// The whole per-frame chain in steady state: the sequence detector on consecutive frames
+// (odometry step, feature tracks, pair motion, detection). Time per frame.
+void BM_SequenceFrame(benchmark::State& state) {
+  sim::Scene scene;
+  std::string error;
+  sim::LoadSceneFile(std::string(MONOPLANE_SOURCE_DIR) + "/tests/data/scenes/office.yaml", &scene, &error);
+  const sim::SceneRenderer renderer(scene, scene.calibration);
+  std::vector<cv::Mat> frames;
+  for (int i = 0; i < 40; ++i) frames.push_back(renderer.RenderAtTime(i / scene.fps).image);
+  const DetectorOptions options = OptionsFor(static_cast<int>(state.range(0)));
+  std::unique_ptr<SequenceDetector> sequence;
+  std::size_t next = frames.size();
+  for (auto _ : state) {
+    if (next == frames.size()) {
+      state.PauseTiming();
+      sequence = std::make_unique<SequenceDetector>(scene.calibration, options);
+      for (next = 0; next < 8; ++next) sequence->Process(frames[next], next);  // warm up
+      state.ResumeTiming();
+    }
+    benchmark::DoNotOptimize(sequence->Process(frames[next], static_cast<TimestampNs>(next)));
+    ++next;
+  }
+  state.SetLabel(state.range(0) == 0 ? "epipolar" : "farneback");
+}
+BENCHMARK(BM_SequenceFrame)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
+
+}  // namespace
+}  // namespace monoplane
+
+BENCHMARK_MAIN();
