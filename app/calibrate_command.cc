@@ -43,6 +43,7 @@ struct MountArgs {
 
 // Prints "monoplane calibrate <command>: <message>" to stderr and returns kExitBadInput.
 int BadInput(const char* command, const std::string& message) {
+  std::fflush(stdout);  // the per-image lines before the reason
   std::cerr << "monoplane calibrate " << command << ": " << message << "\n";
   return kExitBadInput;
 }

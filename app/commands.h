@@ -12,6 +12,7 @@ inline constexpr int kExitInterrupted = 130;
 
 // Each command registers its subcommand; the callback stores the exit code in *exit_code.
 void RegisterCheckCalibCommand(CLI::App* app, int* exit_code);
+void RegisterCalibrateCommand(CLI::App* app, int* exit_code);  // app/calibrate_command.cc
 void RegisterRunCommand(CLI::App* app, int* exit_code);     // app/run_cli.cc: run, config
 void RegisterEchoCommand(CLI::App* app, int* exit_code);  // app/echo_command.cc
 void RegisterMapCommands(CLI::App* app, int* exit_code);  // app/map_commands.cc: info, query, export

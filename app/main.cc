@@ -14,6 +14,7 @@ int main(int argc, char** argv) {
   int exit_code = kExitOk;
   RegisterRunCommand(&app, &exit_code);
   RegisterCheckCalibCommand(&app, &exit_code);
+  RegisterCalibrateCommand(&app, &exit_code);
   RegisterEchoCommand(&app, &exit_code);
   RegisterMapCommands(&app, &exit_code);
   RegisterServeCommand(&app, &exit_code);

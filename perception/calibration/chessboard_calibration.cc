@@ -449,6 +449,7 @@ MountCalibrationResult CalibrateMount(
       if (height_diff > options.max_height_spread_m ||
           normal_diff > options.max_normal_spread_deg) {
         std::ostringstream out;
+        out << std::fixed;
         out.precision(3);
         out << "the board is not on the floor of view 0: camera height " << view.height_m
             << " m vs " << first.height_m << " m, floor normals " << normal_diff
