@@ -72,6 +72,7 @@ OptionTable::OptionTable(AppConfig* config) : config_(config) {
   AddDouble("classification", "max_residual", &c.max_residual, "largest alignment residual, grey levels (> 0)");
   AddDouble("classification", "moving_min_perpendicular_px", &c.moving_min_perpendicular_px, "off-epipolar motion that means moving, px (> 0)");
   AddDouble("classification", "max_range_m", &c.max_range_m, "farther points are unknown, m (> 0)");
+  AddDouble("classification", "max_footprint_sigma_ratio", &c.max_footprint_sigma_ratio, "obstacle points enter the top view when placed within 0.05 m + this x range (>= 0)");
   aggregation_ = static_cast<int>(c.aggregation);
   AddChoice("classification", "aggregation", &aggregation_, {"none", "median", "segments"},
             "how samples are combined: none, median (neighbours) or segments (superpixels)");
@@ -88,6 +89,8 @@ OptionTable::OptionTable(AppConfig* config) : config_(config) {
   PairSelectionOptions& ps = d.pair_selection;
   AddDouble("pair_selection", "min_baseline_m", &ps.min_baseline_m, "camera travel between the frames of a pair, m (> 0)");
   AddInt("pair_selection", "max_history", &ps.max_history, "frames kept to choose a reference from (>= 2)");
+  AddDouble("pair_selection", "max_rotation_rad", &ps.max_rotation_rad, "largest yaw between the frames of a pair, rad (> 0)");
+  AddInt("pair_selection", "detect_every", &ps.detect_every, "dense detection on every N-th frame, others tracked only (>= 1)");
   Mapper::Options& m = config->mapping;
   AddDouble("mapping", "keyframe_distance_m", &m.keyframe_distance_m, "travel that makes a keyframe, m (> 0)");
   AddDouble("mapping", "keyframe_rotation_rad", &m.keyframe_rotation_rad, "rotation that makes a keyframe, rad (> 0)");

@@ -106,6 +106,7 @@ struct MapSink::Impl {
   std::optional<Pose2> last_odom;
   TimestampNs last_map_stamp = 0;
   bool map_published = false;
+  std::size_t loop_events_logged = 0;
 
   void Enqueue(Job job) {
     if (!writer.joinable()) {
@@ -280,6 +281,12 @@ bool MapSink::Add(const InputFrame& frame, const SequenceDetector::Output& outpu
   const Mapper::FrameUpdate update = m.mapper->AddFrame(observation);
   m.frame_indices.push_back(frame.index);
   m.summary->mapping_ms += MsSince(t0);
+  const auto& events = m.mapper->loop_closures();
+  for (; m.loop_events_logged < events.size(); ++m.loop_events_logged) {
+    const LoopClosureEvent& e = events[m.loop_events_logged];
+    spdlog::debug("loop closure keyframe {} -> {}: score {:.3f}, second {:.3f}, {}", e.keyframe_id,
+                  e.anchor_id, e.score, e.second_score, e.accepted ? "accepted" : e.reason);
+  }
 
   RunSummary& s = *m.summary;
   if (m.last_odom) s.distance_m += (output.odom_from_base.Translation() - m.last_odom->Translation()).norm();
@@ -287,6 +294,7 @@ bool MapSink::Add(const InputFrame& frame, const SequenceDetector::Output& outpu
   s.trajectory.emplace_back(update.map_from_base, frame.stamp_ns);
   if (update.keyframe) ++s.keyframes;
   if (update.loop_closed) ++s.loop_closures;
+  s.loop_closure_attempts = m.mapper->counters().loop_closure_attempts;
 
   FrameRecord record;
   record.index = frame.index;

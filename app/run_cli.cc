@@ -141,8 +141,8 @@ void PrintSummary(const RunRequest& request, const RunSummary& s) {
   if (s.skipped.size() > 10) std::printf("    ... and %zu more\n", s.skipped.size() - 10);
   std::printf("  pairs: %d with heights, %d no parallax, %d no motion, %d bad image\n",
               s.status_counts[0], s.status_counts[1], s.status_counts[2], s.status_counts[3]);
-  std::printf("  keyframes %d, loop closures %d, distance travelled %.2f m\n", s.keyframes,
-              s.loop_closures, s.distance_m);
+  std::printf("  keyframes %d, loop closures %d (of %d attempts), distance travelled %.2f m\n",
+              s.keyframes, s.loop_closures, s.loop_closure_attempts, s.distance_m);
   if (s.saved_keyframes > 0) {
     std::printf("  extended a map of %d keyframes: %s\n", s.saved_keyframes, s.localization.c_str());
   }
@@ -154,6 +154,8 @@ void PrintSummary(const RunRequest& request, const RunSummary& s) {
     std::printf("  DDS: %lld samples sent, %lld dropped (slow readers)\n",
                 static_cast<long long>(s.dds_sent), static_cast<long long>(s.dds_dropped));
   }
+  std::printf("  wall time %.2f s, %.1f frames/s\n", s.wall_s,
+              s.wall_s > 0 ? s.frames_processed / s.wall_s : 0.0);
   const double n = std::max(1, s.frames_processed);
   std::printf("  time per frame: read %.2f ms, perception %.2f ms, outputs %.2f ms, mapping %.2f ms, storage %.2f ms\n",
               s.read_ms / n, s.perception_ms / n, s.frame_outputs_ms / n, s.mapping_ms / n,

@@ -76,6 +76,7 @@ class Progress {
 }  // namespace
 
 int Run(const RunRequest& request, RunSummary* summary) {
+  const auto run_start = Clock::now();
   g_interrupted = false;
   std::signal(SIGINT, OnSigint);
   std::string error;
@@ -209,6 +210,7 @@ int Run(const RunRequest& request, RunSummary* summary) {
     sink_failed = true;
   }
   std::signal(SIGINT, SIG_DFL);
+  summary->wall_s = MsSince(run_start) / 1000.0;
   summary->interrupted = g_interrupted && !sink_failed;
   if (sink_failed) return kExitBadInput;
   return summary->interrupted ? kExitInterrupted : kExitOk;

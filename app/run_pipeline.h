@@ -43,6 +43,7 @@ struct RunSummary {
   int keyframes = 0;           // made by this run
   int saved_keyframes = 0;     // of the map this run extended
   int loop_closures = 0;
+  int loop_closure_attempts = 0;
   std::string localization;   // extending a map: how the run was placed in it
   std::optional<Eigen::Vector2d> extent_min_m, extent_max_m;  // of the global grid
   std::int64_t dds_sent = 0, dds_dropped = 0;

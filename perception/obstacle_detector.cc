@@ -41,6 +41,7 @@ struct Sample {
   double s_px = NAN;
   double height_m = NAN;
   double height_sigma_m = NAN;
+  double footprint_sigma_m = NAN;  // how far one sigma of zero disparity moves point_in_base2
   double below_horizon_px = 0.0;
   Eigen::Vector2d point_in_base2{NAN, NAN};  // triangulated footprint
   Eigen::Vector2d floor_in_base2{NAN, NAN};  // where the pixel's ray meets the floor
@@ -155,6 +156,7 @@ bool ClassificationOptions::IsValid(std::string* error) const {
     return false;
   };
   if (sample_stride < 1) return fail("sample_stride: must be >= 1");
+  if (!(max_footprint_sigma_ratio >= 0)) return fail("max_footprint_sigma_ratio: must be >= 0");
   if (!(obstacle_min_height_m > 0)) return fail("obstacle_min_height_m: must be > 0");
   if (!(drop_off_min_depth_m > 0)) return fail("drop_off_min_depth_m: must be > 0");
   if (!(disparity_sigma_px > 0)) return fail("disparity_sigma_px: must be > 0");
@@ -185,6 +187,14 @@ bool LocalMapOptions::IsValid(std::string* error) const {
 bool PairSelectionOptions::IsValid(std::string* error) const {
   if (!(min_baseline_m > 0)) {
     *error = "pair_selection.min_baseline_m: must be > 0";
+    return false;
+  }
+  if (!(max_rotation_rad > 0)) {
+    *error = "pair_selection.max_rotation_rad: must be > 0";
+    return false;
+  }
+  if (detect_every < 1) {
+    *error = "pair_selection.detect_every: must be >= 1";
     return false;
   }
   if (max_history < 2) {
@@ -322,6 +332,8 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
       sample.significant = std::abs(s) >= co.min_disparity_sigmas * sigma_px;
       sample.height_m = tri->point_in_base1.z();
       sample.height_sigma_m = std::abs(tri_sigma->point_in_base1.z() - sample.height_m);
+      sample.footprint_sigma_m =
+          (tri_sigma->point_in_base1.head<2>() - tri->point_in_base1.head<2>()).norm();
       sample.point_in_base2 = t * tri->point_in_base1.head<2>();
       sample.raw = Classify(sample, co, camera_height);
     }
@@ -380,6 +392,8 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
       } else if ((label == PixelLabel::kObstacle || label == PixelLabel::kDropOff) &&
                  sample.measured) {
         sample_height.at<std::uint16_t>(i, j) = EncodeHeightMm(sample.height_m);
+        const double range_m = sample.point_in_base2.norm();
+        if (!(sample.footprint_sigma_m <= 0.05 + co.max_footprint_sigma_ratio * range_m)) continue;
         r.obstacle_points_in_base.emplace_back(static_cast<float>(sample.point_in_base2.x()),
                                                static_cast<float>(sample.point_in_base2.y()),
                                                static_cast<float>(sample.height_m));
@@ -440,17 +454,22 @@ SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, Timesta
     return out;  // skipped; the history is untouched
   }
   out.image_ok = true;
+  const int lk_window = options.ground_motion.lk_window_px;
+  std::vector<cv::Mat> pyramid;
+  cv::buildOpticalFlowPyramid(prepared, pyramid, cv::Size(lk_window, lk_window),
+                              options.ground_motion.lk_levels);
   if (history_.empty()) {
     out.odom_from_base = odom_from_base_;
     out.features = AddNewCorners(prepared, {});
     history_.push_back({prepared, odom_from_base_, stamp_ns, out.features});
+    previous_pyramid_ = std::move(pyramid);
     return out;
   }
   const Frame& previous = history_.back();
   // 1. Track the corners of the previous frame; the floor's motion between the frames is fitted to
   //    the tracks in the floor strip (the paper's ground motion).
   std::vector<Eigen::Vector2d> before, after;
-  std::vector<FeatureObservation> tracked = TrackFeatures(previous, prepared, &before, &after);
+  std::vector<FeatureObservation> tracked = TrackFeatures(previous, pyramid, prepared, &before, &after);
   std::vector<char> inlier;
   out.step = FitGroundMotion(before, after, camera, options.ground_motion, last_step_, &inlier);
   for (std::size_t i = 0; i < tracked.size(); ++i) {
@@ -464,7 +483,11 @@ SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, Timesta
   out.features = AddNewCorners(prepared, std::move(tracked));
 
   const cv::Size size(in.width, in.height);
-  if (out.step.status == GroundMotion::Status::kFailed) {
+  ++frames_since_detection_;
+  if (out.step.status != GroundMotion::Status::kFailed &&
+      frames_since_detection_ < options.pair_selection.detect_every) {
+    // Tracked only (see PairSelectionOptions::detect_every).
+  } else if (out.step.status == GroundMotion::Status::kFailed) {
     out.result = UnknownResult(size, options.local_map, PairStatus::kNoMotion,
                                "no floor motion from the previous frame");
     out.result->motion = out.step;
@@ -473,6 +496,8 @@ SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, Timesta
     const Eigen::Vector2d c_now = CameraCentreXyInOdom(camera, odom_from_base_);
     const Frame* reference = nullptr;
     for (auto it = history_.rbegin(); it != history_.rend(); ++it) {
+      const double yaw = (odom_from_base_.Inverse() * it->odom_from_base).yaw;
+      if (std::abs(yaw) > options.pair_selection.max_rotation_rad) break;
       const Eigen::Vector2d c = CameraCentreXyInOdom(camera, it->odom_from_base);
       if ((c_now - c).norm() >= options.pair_selection.min_baseline_m) {
         reference = &*it;
@@ -502,9 +527,11 @@ SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, Timesta
         motion.base2_from_base1 = prior;
       }
       out.result = detector_.Detect(reference->image, prepared, motion);
+      frames_since_detection_ = 0;
     }
   }
   history_.push_back({prepared, odom_from_base_, stamp_ns, out.features});
+  previous_pyramid_ = std::move(pyramid);
   while (static_cast<int>(history_.size()) > options.pair_selection.max_history) {
     history_.pop_front();
   }
@@ -512,7 +539,8 @@ SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, Timesta
 }
 
 std::vector<FeatureObservation> SequenceDetector::TrackFeatures(
-    const Frame& previous, const cv::Mat& current, std::vector<Eigen::Vector2d>* before,
+    const Frame& previous, const std::vector<cv::Mat>& current_pyramid, const cv::Mat& current,
+    std::vector<Eigen::Vector2d>* before,
     std::vector<Eigen::Vector2d>* after) const {
   const GroundMotionOptions& gm = detector_.options().ground_motion;
   std::vector<FeatureObservation> tracked;
@@ -536,11 +564,12 @@ std::vector<FeatureObservation> SequenceDetector::TrackFeatures(
   std::vector<float> err;
   const cv::Size window(gm.lk_window_px, gm.lk_window_px);
   const cv::TermCriteria criteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 20, 0.02);
-  cv::calcOpticalFlowPyrLK(previous.image, current, p0, p1, st1, err, window, gm.lk_levels,
-                           criteria, flags);
+  // The pyramids are built once per frame and serve both directions and the next frame.
+  cv::calcOpticalFlowPyrLK(previous_pyramid_, current_pyramid, p0, p1, st1, err, window,
+                           gm.lk_levels, criteria, flags);
   back = p0;
-  cv::calcOpticalFlowPyrLK(current, previous.image, p1, back, st2, err, window, gm.lk_levels,
-                           criteria, cv::OPTFLOW_USE_INITIAL_FLOW);
+  cv::calcOpticalFlowPyrLK(current_pyramid, previous_pyramid_, p1, back, st2, err, window,
+                           gm.lk_levels, criteria, cv::OPTFLOW_USE_INITIAL_FLOW);
   for (std::size_t i = 0; i < p0.size(); ++i) {
     if (!st1[i] || !st2[i]) continue;
     if (std::hypot(back[i].x - p0[i].x, back[i].y - p0[i].y) > gm.forward_backward_max_px) continue;

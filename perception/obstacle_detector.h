@@ -37,6 +37,11 @@ struct ClassificationOptions {
   double moving_min_perpendicular_px = 1.5;
   // Points farther than this from the robot (metres, > 0) are unknown: not reliable.
   double max_range_m = 6.0;
+  // An obstacle or drop-off point goes into the top view (local map, obstacle points) only when
+  // its footprint is known to within 0.05 m + this fraction of its range (one sigma of the zero
+  // disparity moves it along its ray; >= 0). Far, tall points whose rays graze their height are
+  // labelled in the image but not placed, rather than smeared far beyond where they are.
+  double max_footprint_sigma_ratio = 0.03;
   // How samples are combined before labelling: each on its own, with the median height of their
   // neighbours, or with the median height of their superpixel (SLICO; the paper's segments).
   enum class Aggregation { kNone, kMedian, kSegments };
@@ -65,6 +70,13 @@ struct LocalMapOptions {
 struct PairSelectionOptions {
   double min_baseline_m = 0.10;  // camera centre travel between the pair (> 0)
   int max_history = 20;          // frames kept to choose a reference from (>= 2)
+  // Largest yaw between the pair (rad, > 0). Turning pairs have little baseline for much image
+  // motion and match badly; when no frame within this yaw has the baseline, the frame is
+  // "no parallax" (unknown), as when standing still.
+  double max_rotation_rad = 0.12;
+  // Dense detection on every N-th usable frame (>= 1); the others are only tracked for odometry
+  // and have no result. 2 halves the cost with obstacle updates at half the camera rate.
+  int detect_every = 2;
 
   bool IsValid(std::string* error) const;
 };
@@ -131,7 +143,9 @@ class SequenceDetector {
   };
   // The previous frame's corners tracked into `current` (forward-backward checked), with their
   // positions before and after for the motion fit.
-  std::vector<FeatureObservation> TrackFeatures(const Frame& previous, const cv::Mat& current,
+  std::vector<FeatureObservation> TrackFeatures(const Frame& previous,
+                                                const std::vector<cv::Mat>& current_pyramid,
+                                                const cv::Mat& current,
                                                 std::vector<Eigen::Vector2d>* before,
                                                 std::vector<Eigen::Vector2d>* after) const;
   // Tops the tracks up with new Shi-Tomasi corners away from the tracked ones.
@@ -143,6 +157,8 @@ class SequenceDetector {
   std::optional<Pose2> last_step_;
   Pose2 odom_from_base_;
   std::int64_t next_track_id_ = 0;
+  int frames_since_detection_ = 0;
+  std::vector<cv::Mat> previous_pyramid_;  // Lucas-Kanade pyramid of history_.back()
 };
 
 // The 2x2 picture for people: input with labels, segmentation, zero disparity, top view.

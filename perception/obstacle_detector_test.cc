@@ -293,7 +293,9 @@ TEST_F(DetectorOnSyntheticScene, TexturelessFloorIsUnknownNeverFloor) {
 }
 
 TEST_F(DetectorOnSyntheticScene, StandstillAndTurningInPlaceGiveUnknown) {
-  SequenceDetector sequence(calib_, options_);
+  DetectorOptions every_frame = options_;
+  every_frame.pair_selection.detect_every = 1;
+  SequenceDetector sequence(calib_, every_frame);
   Scene scene;
   const Rendered a = Render(scene, sequence.detector().camera(), {0, 0, 0});
   const auto first = sequence.Process(a.image, 0);
@@ -310,6 +312,24 @@ TEST_F(DetectorOnSyntheticScene, StandstillAndTurningInPlaceGiveUnknown) {
     EXPECT_EQ(out.result->num_floor, 0);
     EXPECT_EQ(out.result->num_unknown, 640 * 480);
   }
+}
+
+TEST_F(DetectorOnSyntheticScene, DetectEveryNthFrameTracksTheOthers) {
+  DetectorOptions options = options_;
+  options.pair_selection.detect_every = 3;
+  SequenceDetector sequence(calib_, options);
+  Scene scene;
+  std::vector<bool> has_result;
+  for (int i = 0; i < 10; ++i) {
+    const Pose2 pose{0.05 * i, 0.0, 0.0};
+    const auto out = sequence.Process(Render(scene, sequence.detector().camera(), pose).image, i);
+    ASSERT_TRUE(out.image_ok);
+    EXPECT_NEAR(out.odom_from_base.x, pose.x, 0.01) << "frame " << i;  // every frame is tracked
+    has_result.push_back(out.result.has_value());
+  }
+  // Frame 0 has no pair; frames 1 and 2 are tracked only; then every 3rd frame is detected.
+  EXPECT_EQ(has_result, (std::vector<bool>{false, false, false, true, false, false, true, false,
+                                           false, true}));
 }
 
 TEST_F(DetectorOnSyntheticScene, BadImagesAreRejectedWithReasons) {
