@@ -1,9 +1,11 @@
 #!/usr/bin/env bash
-# Renders scenes of the simulated suite, runs monoplane on each, and scores the per-frame labels
-# against ground truth with monoplane-eval. The README's perception table comes from this script.
+# Renders the scenes of the simulated suite (once; cached in OUT), maps each with `monoplane run`
+# (per-frame outputs and a map), and scores the labels, the grid and the trajectory against ground
+# truth with monoplane-eval. Prints one Markdown table row per scene; the README's tables come
+# from this script.
 #
-#   tools/evaluate_suite.sh [BUILD_DIR] [SCENE ...]      (default: build, every scene)
-#   OUT=/tmp/suite tools/evaluate_suite.sh build office   # keep the outputs somewhere else
+#   tools/evaluate_suite.sh [BUILD_DIR] [SCENE ...]       (default: build, every scene)
+#   OUT=/tmp/suite CONFIG=my.yaml tools/evaluate_suite.sh build office corridor
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 build=${1:-build}
@@ -14,14 +16,41 @@ if [ ${#scenes[@]} -eq 0 ]; then
   for f in "$root"/tests/data/scenes/*.yaml; do scenes+=("$(basename "$f" .yaml)"); done
 fi
 mkdir -p "$out"
+echo "| scene | frames | obstacle recall | floor as obstacle | coverage | dangerous | height error (median) | grid precision | grid recall | dangerous cells | ATE (m) | frames/s |"
+echo "|---|---|---|---|---|---|---|---|---|---|---|---|"
 for scene in "${scenes[@]}"; do
-  seq="$out/$scene/sequence"
-  pred="$out/$scene/frames"
-  rm -rf "$out/$scene"
-  "$build/tools/sim/monoplane-sim" "$root/tests/data/scenes/$scene.yaml" --out "$seq" >/dev/null
-  "$build/app/monoplane" run --input "$seq" --frames-out "$pred" --quiet ${CONFIG:+--config "$CONFIG"} >"$out/$scene/run.txt"
-  "$build/tools/eval/monoplane-eval" labels --pred "$pred" --gt "$seq" --json >"$out/$scene/labels.json"
-  "$build/tools/eval/monoplane-eval" labels --pred "$pred" --gt "$seq" >"$out/$scene/labels.txt"
-  echo "== $scene"
-  grep -E "overall|0-1 m|1-2 m|2-4 m" "$out/$scene/labels.txt" || cat "$out/$scene/labels.txt"
+  dir="$out/$scene"
+  seq="$dir/sequence"
+  if [ ! -f "$seq/times.txt" ] || [ "$seq/times.txt" -ot "$root/tests/data/scenes/$scene.yaml" ]; then
+    rm -rf "$seq"
+    "$build/tools/sim/monoplane-sim" "$root/tests/data/scenes/$scene.yaml" --out "$seq" >/dev/null
+  fi
+  rm -rf "$dir/frames" "$dir/map.db" "$dir/map.db-wal" "$dir/map.db-shm"
+  "$build/app/monoplane" run --input "$seq" --frames-out "$dir/frames" --map "$dir/map.db" --quiet \
+    ${CONFIG:+--config "$CONFIG"} >"$dir/run.txt"
+  "$build/app/monoplane" export "$dir/map.db" --grid "$dir/map.yaml" --trajectory "$dir/trajectory.txt" \
+    --png "$dir/map.png" >/dev/null
+  "$build/tools/eval/monoplane-eval" labels --pred "$dir/frames" --gt "$seq" >"$dir/labels.txt"
+  "$build/tools/eval/monoplane-eval" labels --pred "$dir/frames" --gt "$seq" --json >"$dir/labels.json"
+  "$build/tools/eval/monoplane-eval" grid --pred "$dir/map.yaml" --gt "$seq/gt/map.yaml" --tolerance 1 \
+    --json >"$dir/grid.json"
+  "$build/tools/eval/monoplane-eval" traj --pred "$dir/trajectory.txt" --gt "$seq/gt/trajectory.txt" \
+    --json >"$dir/traj.json"
+  python3 - "$scene" "$dir" <<'EOF'
+import json, re, sys
+scene, d = sys.argv[1], sys.argv[2]
+labels = json.load(open(d + "/labels.json"))["overall"]
+grid = json.load(open(d + "/grid.json"))
+traj = json.load(open(d + "/traj.json"))
+run = open(d + "/run.txt").read()
+fps = re.search(r"([0-9.]+) frames/s", run)
+frames = re.search(r"frames read (\d+)", run)
+pct = lambda v: "-" if v is None else "%.1f %%" % (100 * v)
+cm = lambda v: "-" if v is None else "%.1f cm" % (100 * v)
+print("| %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %.3f | %s |" % (
+    scene, frames.group(1) if frames else "?", pct(labels["obstacle_recall"]),
+    pct(labels["floor_false_obstacle_rate"]), pct(labels["coverage"]), pct(labels["dangerous_rate"]),
+    cm(labels["height_error_median_m"]), pct(grid.get("precision")), pct(grid.get("recall")),
+    pct(grid.get("dangerous_share")), traj["ate_m"]["rmse"], fps.group(1) if fps else "?"))
+EOF
 done
