@@ -175,6 +175,11 @@ int Run(const RunRequest& request, RunSummary* summary) {
       continue;
     }
     ++summary->frames_processed;
+    const GroundMotion& step = p->output.step;
+    spdlog::debug("{}: motion {} ({} tracked, {} in the floor strip, {} inliers, rms {:.2f} px){}",
+                  p->frame.name, ToString(step.status), step.num_tracked,
+                  step.num_floor_candidates, step.num_inliers, step.rms_residual_px,
+                  p->output.result ? std::string(", ") + p->output.result->message : "");
     if (p->output.result) {
       const FrameResult& r = *p->output.result;
       ++summary->status_counts[static_cast<int>(r.status)];

@@ -441,7 +441,8 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
 
 SequenceDetector::SequenceDetector(const CameraCalibration& calibration,
                                    const DetectorOptions& options)
-    : detector_(calibration, options) {}
+    : detector_(calibration, options),
+      strip_mask_(FloorStripMask(detector_.camera(), options.ground_motion)) {}
 
 SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, TimestampNs stamp_ns) {
   Output out;
@@ -590,21 +591,44 @@ std::vector<FeatureObservation> SequenceDetector::AddNewCorners(
     const cv::Mat& current, std::vector<FeatureObservation> tracked) {
   const GroundMotionOptions& gm = detector_.options().ground_motion;
   const int wanted = gm.max_corners;
-  if (static_cast<int>(tracked.size()) >= wanted * 3 / 4) return tracked;
-  cv::Mat mask(current.size(), CV_8U, cv::Scalar(255));
+  // Half of the corners are kept in the floor strip: the motion fit needs them there, and on a
+  // plain floor (a road) the strongest corners are all elsewhere.
+  const int strip_wanted = wanted / 2;
+  const auto in_strip = [&](const Eigen::Vector2d& p) {
+    const int x = static_cast<int>(p.x()), y = static_cast<int>(p.y());
+    return x >= 0 && y >= 0 && x < strip_mask_.cols && y < strip_mask_.rows &&
+           strip_mask_.at<std::uint8_t>(y, x) != 0;
+  };
+  int tracked_in_strip = 0;
+  for (const auto& f : tracked) tracked_in_strip += in_strip(f.pixel) ? 1 : 0;
+  if (static_cast<int>(tracked.size()) >= wanted * 3 / 4 && tracked_in_strip >= strip_wanted * 3 / 4) {
+    return tracked;
+  }
+  cv::Mat free_mask(current.size(), CV_8U, cv::Scalar(255));
   for (const auto& f : tracked) {
-    cv::circle(mask, cv::Point(static_cast<int>(f.pixel.x()), static_cast<int>(f.pixel.y())),
+    cv::circle(free_mask, cv::Point(static_cast<int>(f.pixel.x()), static_cast<int>(f.pixel.y())),
                static_cast<int>(gm.corner_min_distance_px), cv::Scalar(0), -1);
   }
-  std::vector<cv::Point2f> corners;
-  cv::goodFeaturesToTrack(current, corners, wanted - static_cast<int>(tracked.size()),
-                          gm.corner_quality, gm.corner_min_distance_px, mask, 3, false);
-  for (const auto& c : corners) {
-    FeatureObservation f;
-    f.track_id = next_track_id_++;
-    f.pixel = Eigen::Vector2d(c.x, c.y);
-    tracked.push_back(f);  // ids grow, so the list stays sorted by id
+  const auto add = [&](const cv::Mat& mask, int count) {
+    if (count <= 0) return;
+    std::vector<cv::Point2f> corners;
+    cv::goodFeaturesToTrack(current, corners, count, gm.corner_quality, gm.corner_min_distance_px,
+                            mask, 3, false);
+    for (const auto& c : corners) {
+      FeatureObservation f;
+      f.track_id = next_track_id_++;
+      f.pixel = Eigen::Vector2d(c.x, c.y);
+      tracked.push_back(f);  // ids grow, so the list stays sorted by id
+      cv::circle(free_mask, cv::Point(static_cast<int>(c.x), static_cast<int>(c.y)),
+                 static_cast<int>(gm.corner_min_distance_px), cv::Scalar(0), -1);
+    }
+  };
+  if (tracked_in_strip < strip_wanted) {
+    cv::Mat strip_free;
+    cv::bitwise_and(free_mask, strip_mask_, strip_free);
+    add(strip_free, strip_wanted - tracked_in_strip);
   }
+  add(free_mask, wanted - static_cast<int>(tracked.size()));
   return tracked;
 }
 

@@ -159,6 +159,7 @@ class SequenceDetector {
   std::int64_t next_track_id_ = 0;
   int frames_since_detection_ = 0;
   std::vector<cv::Mat> previous_pyramid_;  // Lucas-Kanade pyramid of history_.back()
+  cv::Mat strip_mask_;  // the floor strip of the motion fit (FloorStripMask)
 };
 
 // The 2x2 picture for people: input with labels, segmentation, zero disparity, top view.
