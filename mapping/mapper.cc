@@ -113,6 +113,7 @@ Mapper::Mapper(const Options& options, const CameraCalibration& calibration, Til
     k.from_saved_map = true;
     next_id_ = std::max(next_id_, k.id + 1);
     if (options_.build_octree) octree_.Insert(k.obstacle_points_in_base, k.map_from_base, camera_.CameraCentreInBase());
+    Pack(&k);
   }
   initial_map_from_base_ = initial_map_from_base;
   localization_ = LocalizationResult{};
@@ -229,6 +230,21 @@ void Mapper::AddKeyframe(const FrameObservation& frame, FrameUpdate* update) {
     update->map_rebuilt = OptimizeAllAndMaybeRebuild();
   }
   if (on_keyframe_) on_keyframe_(keyframes_[index]);
+  // The keyframe that was the fixed end of this window takes part in no later window: from now on
+  // it serves only loop-closure targets and rebuilds, which need its local map and obstacle points.
+  const int left_window = index + 1 - options_.window_size;
+  if (left_window >= FirstRunIndex()) Pack(&keyframes_[left_window]);
+}
+
+void Mapper::Pack(Keyframe* keyframe) const {
+  if (keyframe->packed()) return;
+  if (!keyframe->local_map.cells.empty()) {
+    keyframe->packed_local_map = PackedGrid(keyframe->local_map);
+    std::vector<std::int8_t>().swap(keyframe->local_map.cells);
+  }
+  keyframe->obstacle_points_in_base =
+      HighestPointPerVoxel(keyframe->obstacle_points_in_base, options_.octree.resolution_m);
+  std::vector<FeatureObservation>().swap(keyframe->features);
 }
 
 void Mapper::OptimizeWindow() {
@@ -279,7 +295,7 @@ bool Mapper::TryLoopClosure(int index) {
   const ScanMatchOptions& m = options_.loop_match;
   TiledGrid older(options_.grid_resolution_m);
   for (const auto& [d, j] : candidates) {
-    FuseLocalMap(keyframes_[j].local_map, {}, keyframes_[j].map_from_base, 1, options_.log_odds, &older);
+    FuseLocalMap(keyframes_[j].LocalMap(), {}, keyframes_[j].map_from_base, 1, options_.log_odds, &older);
   }
   const auto [lo, hi] = LocalMapBounds(current.local_map, current.map_from_base, m.linear_window_m + 0.5);
   const MatchTarget target = MakeMatchTarget(older, lo, hi, m.smoothing_sigma_m);
@@ -344,7 +360,7 @@ bool Mapper::OptimizeAllAndMaybeRebuild() {
 }
 
 void Mapper::FuseKeyframe(const Keyframe& keyframe) {
-  FuseLocalMap(keyframe.local_map, keyframe.obstacle_points_in_base, keyframe.map_from_base, keyframe.stamp_ns,
+  FuseLocalMap(keyframe.LocalMap(), keyframe.obstacle_points_in_base, keyframe.map_from_base, keyframe.stamp_ns,
                options_.log_odds, &grid_, &changed_tiles_);
   if (options_.build_octree) {
     octree_.Insert(keyframe.obstacle_points_in_base, keyframe.map_from_base, camera_.CameraCentreInBase());

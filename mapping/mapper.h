@@ -105,6 +105,8 @@ class Mapper {
   FrameUpdate AddFrame(const FrameObservation& frame);
 
   // Outputs.
+  // In insertion order. Saved keyframes and those of this run that no later sliding window holds
+  // are packed (see Keyframe); the last window_size - 1 of this run, and so the newest, are full.
   const std::vector<Keyframe>& keyframes() const { return keyframes_; }
   std::vector<FramePose> Trajectory() const;  // every frame, latest correction applied
   Pose2 CurrentPose() const;
@@ -135,6 +137,8 @@ class Mapper {
   void OptimizeWindow();
   bool TryLoopClosure(int index);
   bool OptimizeAllAndMaybeRebuild();
+  // Packs a keyframe that left the sliding window (see Keyframe).
+  void Pack(Keyframe* keyframe) const;
   void FuseKeyframe(const Keyframe& keyframe);
   void Rebuild();
   int FirstRunIndex() const { return num_saved_; }

@@ -57,9 +57,33 @@ void PrintClosures(const Mapper& mapper, const testing::SyntheticRun& run) {
   }
 }
 
+// Cells whose log-odds differ between two grids (a missing tile reads 0).
+int DifferentLogOdds(const TiledGrid& a, const TiledGrid& b) {
+  int different = 0;
+  auto count = [&](const TiledGrid& x, const TiledGrid& y, bool skip_common) {
+    for (const auto& [key, tile] : x.tiles()) {
+      if (skip_common && y.tiles().count(key)) continue;
+      for (int k = 0; k < TiledGrid::kTileSize * TiledGrid::kTileSize; ++k) {
+        const Eigen::Vector2i cell(key.first * TiledGrid::kTileSize + k % TiledGrid::kTileSize,
+                                   key.second * TiledGrid::kTileSize + k / TiledGrid::kTileSize);
+        different += tile.log_odds[k] != y.LogOdds(cell) ? 1 : 0;
+      }
+    }
+  };
+  count(a, b, false);
+  count(b, a, true);
+  return different;
+}
+
 struct LoopFixture {
   testing::SyntheticRun run;
   Mapper mapper;
+  std::map<int, Keyframe> full_keyframes;  // by id, as the keyframe callback saw them
+  // Rebuilds after which some keyframes were packed, and the log-odds cells in which the rebuilt
+  // grid differs from the grid fused from the full keyframes at the same poses.
+  int rebuilds_with_packed = 0;
+  int rebuild_differences = 0;
+
   LoopFixture(bool features, const Mapper::Options& options)
       : run(testing::MakeRun(testing::SquareLoopWorld(), SquareLoop(), testing::TestCamera(), [&] {
           testing::RunOptions o;
@@ -67,6 +91,21 @@ struct LoopFixture {
           return o;
         }())),
         mapper(options, testing::TestCamera()) {
+    mapper.SetKeyframeCallback([this](const Keyframe& k) { full_keyframes[k.id] = k; });
+    mapper.SetCorrectionCallback([this, options] {
+      bool any_packed = false;
+      TiledGrid full(options.grid_resolution_m);
+      for (const Keyframe& k : mapper.keyframes()) {
+        any_packed |= k.packed();
+        // The keyframe whose closure this is reaches the keyframe callback only after it.
+        const auto it = full_keyframes.find(k.id);
+        const Keyframe& f = it != full_keyframes.end() ? it->second : k;
+        FuseLocalMap(f.local_map, f.obstacle_points_in_base, k.map_from_base, k.stamp_ns, options.log_odds, &full);
+      }
+      if (!any_packed) return;
+      ++rebuilds_with_packed;
+      rebuild_differences += DifferentLogOdds(mapper.grid(), full);
+    });
     for (const FrameObservation& f : run.frames) mapper.AddFrame(f);
   }
 };
@@ -124,12 +163,59 @@ TEST(Mapper, SquareLoopClosesWithFeatureWindow) {
   }
 }
 
+TEST(Mapper, PacksKeyframesThatLeftTheWindowLosslesslyForTheGrid) {
+  const LoopFixture& fx = FeatureLoop();
+  const Mapper::Options options;
+  const auto& keyframes = fx.mapper.keyframes();
+  ASSERT_GT(static_cast<int>(keyframes.size()), 3 * options.window_size);
+  // Full: those that can still be in a window (the next one starts window_size - 1 back).
+  const std::size_t first_full = keyframes.size() - (options.window_size - 1);
+  std::size_t full_bytes = 0, packed_bytes = 0, packed_map_bytes = 0;
+  for (std::size_t i = 0; i < keyframes.size(); ++i) {
+    const Keyframe& k = keyframes[i];
+    const Keyframe& full = fx.full_keyframes.at(k.id);
+    ASSERT_FALSE(full.packed());
+    ASSERT_FALSE(full.features.empty());
+    const OccupancyGrid local_map = k.LocalMap();
+    EXPECT_EQ(local_map.cells, full.local_map.cells);
+    EXPECT_EQ(local_map.geometry.width, full.local_map.geometry.width);
+    EXPECT_EQ(local_map.geometry.origin_x_m, full.local_map.geometry.origin_x_m);
+    if (i < first_full) {
+      ASSERT_TRUE(k.packed()) << i;
+      EXPECT_TRUE(k.local_map.cells.empty());
+      EXPECT_EQ(k.local_map.cells.capacity(), 0u);
+      EXPECT_TRUE(k.features.empty());
+      EXPECT_LE(k.obstacle_points_in_base.size(), full.obstacle_points_in_base.size());
+      EXPECT_EQ(k.obstacle_points_in_base, HighestPointPerVoxel(full.obstacle_points_in_base, options.octree.resolution_m));
+      full_bytes += full.local_map.cells.size() + full.obstacle_points_in_base.size() * sizeof(Eigen::Vector3f) +
+                    full.features.size() * sizeof(FeatureObservation);
+      packed_map_bytes += k.packed_local_map.ByteSize();
+      packed_bytes += k.packed_local_map.ByteSize() + k.obstacle_points_in_base.size() * sizeof(Eigen::Vector3f);
+    } else {
+      EXPECT_FALSE(k.packed()) << i;
+      EXPECT_EQ(k.features.size(), full.features.size());
+      EXPECT_EQ(k.obstacle_points_in_base, full.obstacle_points_in_base);
+    }
+  }
+  const std::size_t num_packed = first_full;
+  std::printf("packed keyframes %zu: %zu bytes each on average (local map %zu), %zu when full\n", num_packed,
+              packed_bytes / num_packed, packed_map_bytes / num_packed, full_bytes / num_packed);
+  // The synthetic obstacle points are one per voxel already (real ones are denser); the local map
+  // shrinks from 25.6 KB.
+  EXPECT_LT(packed_map_bytes / num_packed, 4000u);
+  EXPECT_LT(packed_bytes, full_bytes / 2);
+
+  // Rebuilding from packed keyframes gives exactly the log-odds of the full ones.
+  EXPECT_GE(fx.rebuilds_with_packed, 1);
+  EXPECT_EQ(fx.rebuild_differences, 0);
+}
+
 TEST(Mapper, RebuiltGridMatchesTheGridAtTruePoses) {
   LoopFixture& fx = FeatureLoop();
   ASSERT_GE(fx.mapper.counters().map_rebuilds, 1);
   TiledGrid truth_grid(0.05);
   for (const Keyframe& k : fx.mapper.keyframes()) {
-    FuseLocalMap(k.local_map, k.obstacle_points_in_base, fx.run.truth[FrameOfStamp(k.stamp_ns)], k.stamp_ns,
+    FuseLocalMap(k.LocalMap(), k.obstacle_points_in_base, fx.run.truth[FrameOfStamp(k.stamp_ns)], k.stamp_ns,
                  LogOddsOptions(), &truth_grid);
   }
   const OccupancyGrid expected = ToOccupancyGrid(truth_grid);

@@ -6,6 +6,7 @@
 
 #include <Eigen/Core>
 
+#include "mapping/packed_grid.h"
 #include "perception/frame_types.h"
 #include "perception/geometry/occupancy_grid.h"
 #include "perception/geometry/pose2.h"
@@ -30,16 +31,27 @@ struct FrameObservation {
 
 // A keyframe as the mapper keeps it; everything needed to rebuild the maps after a correction and
 // to save and reload a map.
+//
+// The mapper keeps a keyframe full while a later sliding window can still hold it (the newest
+// window_size - 1 of the run) and packs it after that (saved keyframes at once): features dropped,
+// local map run-length
+// encoded into packed_local_map (local_map keeps its geometry, its cells are emptied), obstacle
+// points reduced to the highest one per OctoMap voxel. Read the local map with LocalMap().
 struct Keyframe {
   int id = 0;                 // 0, 1, 2, ... in insertion order (saved keyframes keep their ids)
   TimestampNs stamp_ns = 0;
   Pose2 odom_from_base;       // raw dead-reckoned pose
   Pose2 map_from_base;        // optimised pose; map = base frame of the first frame of the first run
   double path_length_m = 0;   // travelled distance (odometry) from the start of its run
-  OccupancyGrid local_map;    // as observed, in this keyframe's base frame
-  std::vector<Eigen::Vector3f> obstacle_points_in_base;
-  std::vector<FeatureObservation> features;
+  OccupancyGrid local_map;    // as observed, in this keyframe's base frame; no cells once packed
+  PackedGrid packed_local_map;  // the local map's cells once packed, else empty
+  std::vector<Eigen::Vector3f> obstacle_points_in_base;  // z = height above the floor, metres
+  std::vector<FeatureObservation> features;  // empty once packed
   bool from_saved_map = false;  // loaded at construction: fixed, never optimised
+
+  bool packed() const { return !packed_local_map.empty(); }
+  // The local map with its cells, packed or not (a copy).
+  OccupancyGrid LocalMap() const { return packed() ? packed_local_map.Unpack() : local_map; }
 };
 
 // One frame of the trajectory, with the latest correction applied.
