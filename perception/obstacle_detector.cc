@@ -523,12 +523,21 @@ SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, Timesta
         }
       }
       GroundMotion motion = FitGroundMotion(p_ref, p_cur, camera, options.ground_motion, prior);
-      if (motion.status == GroundMotion::Status::kFailed) {
-        motion.status = GroundMotion::Status::kFallback;
-        motion.base2_from_base1 = prior;
+      if (motion.status == GroundMotion::Status::kFailed &&
+          out.step.status != GroundMotion::Status::kOk) {
+        // Neither the pair nor the last step has a fitted floor motion: a guessed motion would
+        // turn the floor into obstacles (or worse, obstacles into floor). Unknown instead.
+        out.result = UnknownResult(size, options.local_map, PairStatus::kNoMotion,
+                                   "no floor motion fitted for the pair");
+        out.result->motion = motion;
+      } else {
+        if (motion.status == GroundMotion::Status::kFailed) {
+          motion.status = GroundMotion::Status::kFallback;
+          motion.base2_from_base1 = prior;
+        }
+        out.result = detector_.Detect(reference->image, prepared, motion);
+        frames_since_detection_ = 0;
       }
-      out.result = detector_.Detect(reference->image, prepared, motion);
-      frames_since_detection_ = 0;
     }
   }
   history_.push_back({prepared, odom_from_base_, stamp_ns, out.features});
