@@ -2,6 +2,8 @@
 // joined by bounded queues.
 #include <atomic>
 #include <chrono>
+#include <condition_variable>
+#include <mutex>
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
@@ -38,6 +40,7 @@ struct DecodedFrame {
 struct PerceivedFrame {
   InputFrame frame;
   SequenceDetector::Output output;
+  const SequenceDetector* detector = nullptr;  // runs output's deferred detection
   double perception_ms = 0.0;
 };
 
@@ -132,6 +135,9 @@ int Run(const RunRequest& request, RunSummary* summary) {
                                            : BoundedQueue<DecodedFrame>::WhenFull::kBlock;
   BoundedQueue<DecodedFrame> decoded(8, when_full);
   BoundedQueue<PerceivedFrame> perceived(8);
+  std::mutex detector_mutex;
+  std::condition_variable detector_done;
+  bool detection_finished = false;
   std::atomic<double> read_ms{0.0};
 
   std::vector<std::string> reader_skipped;  // owned by the reader until it is joined
@@ -153,17 +159,38 @@ int Run(const RunRequest& request, RunSummary* summary) {
     decoded.Close();
   });
 
-  std::thread perception([&] {
+  // Perception in two threads: tracking (sequential) and the dense detection of the pairs it
+  // chose (pure, one frame behind), so both cores work on it.
+  BoundedQueue<PerceivedFrame> tracked(4);
+  std::thread tracking([&] {
     SequenceDetector detector(calibration, request.config.detector);
     while (auto d = decoded.Pop()) {
       const auto t0 = Clock::now();
       PerceivedFrame p;
-      p.output = detector.Process(d->frame.image, d->frame.stamp_ns);
+      p.output = detector.Process(d->frame.image, d->frame.stamp_ns, /*defer_detection=*/true);
       p.perception_ms = MsSince(t0);
       p.frame = std::move(d->frame);
-      if (!perceived.Push(std::move(p))) break;
+      p.detector = &detector;
+      if (!tracked.Push(std::move(p))) break;
+    }
+    tracked.Close();
+    // The detector must outlive the detection thread's use of it.
+    std::unique_lock<std::mutex> lock(detector_mutex);
+    detector_done.wait(lock, [&] { return detection_finished; });
+  });
+  std::thread detection([&] {
+    while (auto p = tracked.Pop()) {
+      const auto t0 = Clock::now();
+      p->detector->Finish(&p->output);
+      p->perception_ms += MsSince(t0);
+      if (!perceived.Push(std::move(*p))) break;
     }
     perceived.Close();
+    {
+      std::lock_guard<std::mutex> lock(detector_mutex);
+      detection_finished = true;
+    }
+    detector_done.notify_all();
   });
 
   Progress progress(source->size(), request.quiet);
@@ -204,7 +231,8 @@ int Run(const RunRequest& request, RunSummary* summary) {
                     p->output.result ? p->output.result->num_obstacle : 0);
   }
   reader.join();
-  perception.join();
+  tracking.join();
+  detection.join();
   summary->frames_read = frames_taken;
   summary->skipped.insert(summary->skipped.end(), reader_skipped.begin(), reader_skipped.end());
   progress.Finish();

@@ -207,7 +207,7 @@ bool PairSelectionOptions::IsValid(std::string* error) const {
 bool DetectorOptions::IsValid(std::string* error) const {
   return ground_motion.IsValid(error) && zero_disparity.IsValid(error) &&
          classification.IsValid(error) && local_map.IsValid(error) &&
-         pair_selection.IsValid(error);
+         pair_selection.IsValid(error) && floor_features.IsValid(error);
 }
 
 ObstacleDetector::ObstacleDetector(const CameraCalibration& calibration,
@@ -436,6 +436,7 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
       }
     }
   }
+  r.floor_features = ComputeFloorFeatures(current, r.labels, camera_, options_.floor_features);
   return r;
 }
 
@@ -444,7 +445,15 @@ SequenceDetector::SequenceDetector(const CameraCalibration& calibration,
     : detector_(calibration, options),
       strip_mask_(FloorStripMask(detector_.camera(), options.ground_motion)) {}
 
-SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, TimestampNs stamp_ns) {
+void SequenceDetector::Finish(Output* output) const {
+  if (!output->pending) return;
+  const Output::PendingDetection& p = *output->pending;
+  output->result = detector_.Detect(p.reference, p.current, p.motion);
+  output->pending.reset();
+}
+
+SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, TimestampNs stamp_ns,
+                                                   bool defer_detection) {
   Output out;
   const DetectorOptions& options = detector_.options();
   const CameraModel& camera = detector_.camera();
@@ -535,7 +544,8 @@ SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, Timesta
           motion.status = GroundMotion::Status::kFallback;
           motion.base2_from_base1 = prior;
         }
-        out.result = detector_.Detect(reference->image, prepared, motion);
+        out.pending = Output::PendingDetection{reference->image, prepared, motion};
+        if (!defer_detection) Finish(&out);
         frames_since_detection_ = 0;
       }
     }

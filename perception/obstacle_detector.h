@@ -6,6 +6,7 @@
 
 #include <opencv2/core.hpp>
 
+#include "perception/floor_features.h"
 #include "perception/frame_types.h"
 #include "perception/geometry/camera_model.h"
 #include "perception/geometry/timestamp.h"
@@ -87,6 +88,7 @@ struct DetectorOptions {
   ClassificationOptions classification;
   LocalMapOptions local_map;
   PairSelectionOptions pair_selection;
+  FloorFeatureOptions floor_features;  // computed on every kOk result (FrameResult::floor_features)
 
   bool IsValid(std::string* error) const;
 };
@@ -129,8 +131,19 @@ class SequenceDetector {
     std::vector<FeatureObservation> features;  // corners tracked into this frame
     bool image_ok = false;
     std::string message;                // why the image was unusable
+    // With defer_detection: the dense detection still to run (result is unset then). Run it with
+    // Finish(), on any thread: it only reads the detector and these shared, unchanging images.
+    struct PendingDetection {
+      cv::Mat reference, current;
+      GroundMotion motion;
+    };
+    std::optional<PendingDetection> pending;
   };
-  Output Process(const cv::Mat& image, TimestampNs stamp_ns);
+  // Tracks the frame and, unless defer_detection, runs the dense detection of its pair.
+  Output Process(const cv::Mat& image, TimestampNs stamp_ns, bool defer_detection = false);
+  // Runs a deferred detection into output->result (no-op when nothing is pending). Const and
+  // thread-safe: a second thread can detect frame k while Process tracks frame k + 1.
+  void Finish(Output* output) const;
 
   const ObstacleDetector& detector() const { return detector_; }
 
