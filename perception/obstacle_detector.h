@@ -31,7 +31,7 @@ struct ClassificationOptions {
   double min_disparity_sigmas = 3.0;
   // Minimum texture along the epipolar line (mean squared gradient, grey levels^2 per pixel^2, > 0);
   // below it a pixel is unknown, never floor.
-  double min_texture = 4.0;
+  double min_texture = 1.0;
   // Maximum mean |difference| after alignment, grey levels (> 0); above it unknown (or moving).
   double max_residual = 12.0;
   // Offset perpendicular to the epipolar line that marks motion of its own, input pixels (> 0).
