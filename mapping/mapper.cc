@@ -112,7 +112,7 @@ Mapper::Mapper(const Options& options, const CameraCalibration& calibration, Til
   for (Keyframe& k : keyframes_) {
     k.from_saved_map = true;
     next_id_ = std::max(next_id_, k.id + 1);
-    if (options_.build_octree) octree_.Insert(k.obstacle_points_in_base, k.map_from_base, camera_.CameraCentreInBase());
+    if (options_.build_octree) octree_.Insert(k.ObstaclePoints(), k.map_from_base, camera_.CameraCentreInBase());
     Pack(&k);
   }
   initial_map_from_base_ = initial_map_from_base;
@@ -242,8 +242,10 @@ void Mapper::Pack(Keyframe* keyframe) const {
     keyframe->packed_local_map = PackedGrid(keyframe->local_map);
     std::vector<std::int8_t>().swap(keyframe->local_map.cells);
   }
-  keyframe->obstacle_points_in_base =
-      HighestPointPerVoxel(keyframe->obstacle_points_in_base, options_.octree.resolution_m);
+  if (!keyframe->obstacle_points_in_base.empty()) {
+    keyframe->packed_obstacle_points = PackedPoints(keyframe->obstacle_points_in_base, options_.octree.resolution_m);
+    std::vector<Eigen::Vector3f>().swap(keyframe->obstacle_points_in_base);
+  }
   std::vector<FeatureObservation>().swap(keyframe->features);
 }
 
@@ -360,10 +362,11 @@ bool Mapper::OptimizeAllAndMaybeRebuild() {
 }
 
 void Mapper::FuseKeyframe(const Keyframe& keyframe) {
-  FuseLocalMap(keyframe.LocalMap(), keyframe.obstacle_points_in_base, keyframe.map_from_base, keyframe.stamp_ns,
+  const std::vector<Eigen::Vector3f> obstacle_points_in_base = keyframe.ObstaclePoints();
+  FuseLocalMap(keyframe.LocalMap(), obstacle_points_in_base, keyframe.map_from_base, keyframe.stamp_ns,
                options_.log_odds, &grid_, &changed_tiles_);
   if (options_.build_octree) {
-    octree_.Insert(keyframe.obstacle_points_in_base, keyframe.map_from_base, camera_.CameraCentreInBase());
+    octree_.Insert(obstacle_points_in_base, keyframe.map_from_base, camera_.CameraCentreInBase());
   }
 }
 
@@ -378,7 +381,7 @@ void Mapper::Rebuild() {
   for (int i = 0; i < static_cast<int>(keyframes_.size()); ++i) {
     const Keyframe& k = keyframes_[i];
     if (k.from_saved_map) {
-      if (options_.build_octree) octree_.Insert(k.obstacle_points_in_base, k.map_from_base, camera_.CameraCentreInBase());
+      if (options_.build_octree) octree_.Insert(k.ObstaclePoints(), k.map_from_base, camera_.CameraCentreInBase());
     } else {
       FuseKeyframe(k);
     }

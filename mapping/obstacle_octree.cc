@@ -1,9 +1,7 @@
 #include "mapping/obstacle_octree.h"
 
-#include <cmath>
 #include <map>
 #include <sstream>
-#include <tuple>
 #include <utility>
 
 #include <octomap/OcTree.h>
@@ -94,21 +92,6 @@ std::size_t ObstacleOctree::NumOccupiedLeaves() const {
     if (impl_->tree.isNodeOccupied(*it)) ++n;
   }
   return n;
-}
-
-std::vector<Eigen::Vector3f> HighestPointPerVoxel(const std::vector<Eigen::Vector3f>& points, double voxel_m) {
-  std::map<std::tuple<int, int, int>, Eigen::Vector3f> highest;
-  const double inv = 1.0 / voxel_m;
-  for (const Eigen::Vector3f& p : points) {
-    const auto key = std::make_tuple(static_cast<int>(std::floor(p.x() * inv)), static_cast<int>(std::floor(p.y() * inv)),
-                                     static_cast<int>(std::floor(p.z() * inv)));
-    auto [it, inserted] = highest.emplace(key, p);
-    if (!inserted && p.z() > it->second.z()) it->second = p;
-  }
-  std::vector<Eigen::Vector3f> out;
-  out.reserve(highest.size());
-  for (const auto& [key, p] : highest) out.push_back(p);
-  return out;
 }
 
 }  // namespace monoplane

@@ -49,11 +49,4 @@ class ObstacleOctree {
   std::unique_ptr<Impl> impl_;
 };
 
-// One point per voxel of side voxel_m (a grid anchored at the origin of the points' frame): the
-// highest point in it, in voxel order. For keeping old keyframes' obstacle points small: it keeps
-// every occupied voxel and column top of the points' own frame, so an OctoMap or height map of the
-// same resolution rebuilt from them differs only where a moved keyframe's voxels straddle the
-// map's (by up to one voxel). voxel_m > 0.
-std::vector<Eigen::Vector3f> HighestPointPerVoxel(const std::vector<Eigen::Vector3f>& points, double voxel_m);
-
 }  // namespace monoplane

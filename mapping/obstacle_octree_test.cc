@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <map>
 #include <sstream>
 
@@ -61,38 +60,6 @@ TEST(ObstacleOctree, BoxHeightsSurviveTheBtRoundTrip) {
   for (const auto& [column, z] : top) errors.push_back(std::abs(z + 0.025 - kBoxHeight));
   std::nth_element(errors.begin(), errors.begin() + errors.size() / 2, errors.end());
   EXPECT_LE(errors[errors.size() / 2], 0.03);
-}
-
-TEST(ObstacleOctree, HighestPointPerVoxelKeepsTheTreeOfItsOwnFrame) {
-  const double kBoxHeight = 0.5;
-  const testing::SyntheticWorld world({testing::Box{1.0, 1.0, 1.5, 1.4, kBoxHeight}});
-  const CameraModel camera(testing::TestCamera());
-  const Pose2 view{-1.0, 1.2, 0.0};
-  const OccupancyGrid local = testing::RenderLocalMap(world, view);
-  // The rendered points lie on voxel centres: add two lower ones beside each, in the same voxel.
-  std::vector<Eigen::Vector3f> points = testing::RenderObstaclePoints(world, view, local);
-  const std::size_t rendered = points.size();
-  for (std::size_t i = 0; i < rendered; ++i) {
-    points.push_back(points[i] + Eigen::Vector3f(0.02f, -0.02f, -0.02f));
-    points.push_back(points[i] + Eigen::Vector3f(-0.02f, 0.01f, -0.01f));
-  }
-  const auto thinned = HighestPointPerVoxel(points, 0.05);
-  std::printf("points %zu, one per voxel %zu\n", points.size(), thinned.size());
-  ASSERT_GT(thinned.size(), 20u);
-  EXPECT_EQ(thinned.size(), rendered);
-
-  // Inserted where the points' frame is the map frame, both give the same tree: the same occupied
-  // voxels, the same column tops to carve free space to.
-  ObstacleOctree all{ObstacleOctree::Options()}, one_per_voxel{ObstacleOctree::Options()};
-  all.Insert(points, Pose2(), camera.CameraCentreInBase());
-  one_per_voxel.Insert(thinned, Pose2(), camera.CameraCentreInBase());
-  EXPECT_EQ(one_per_voxel.ToBinary(), all.ToBinary());
-
-  // The highest point of each voxel, and a lone point is kept as it is.
-  const auto two = HighestPointPerVoxel({{0.01f, 0.01f, 0.01f}, {0.02f, 0.02f, 0.04f}, {-0.01f, 0.0f, 0.0f}}, 0.05);
-  ASSERT_EQ(two.size(), 2u);
-  EXPECT_EQ(two[0], Eigen::Vector3f(-0.01f, 0.0f, 0.0f));
-  EXPECT_EQ(two[1], Eigen::Vector3f(0.02f, 0.02f, 0.04f));
 }
 
 TEST(ObstacleOctree, RaysCarveFreeSpaceAndOptionsValidate) {

@@ -7,6 +7,7 @@
 #include <Eigen/Core>
 
 #include "mapping/packed_grid.h"
+#include "mapping/packed_points.h"
 #include "perception/frame_types.h"
 #include "perception/geometry/occupancy_grid.h"
 #include "perception/geometry/pose2.h"
@@ -34,9 +35,9 @@ struct FrameObservation {
 //
 // The mapper keeps a keyframe full while a later sliding window can still hold it (the newest
 // window_size - 1 of the run) and packs it after that (saved keyframes at once): features dropped,
-// local map run-length
-// encoded into packed_local_map (local_map keeps its geometry, its cells are emptied), obstacle
-// points reduced to the highest one per OctoMap voxel. Read the local map with LocalMap().
+// local map run-length encoded into packed_local_map (local_map keeps its geometry, its cells are
+// emptied), obstacle points packed per OctoMap voxel column into packed_obstacle_points. Read the
+// local map with LocalMap(), the points with ObstaclePoints().
 struct Keyframe {
   int id = 0;                 // 0, 1, 2, ... in insertion order (saved keyframes keep their ids)
   TimestampNs stamp_ns = 0;
@@ -45,13 +46,18 @@ struct Keyframe {
   double path_length_m = 0;   // travelled distance (odometry) from the start of its run
   OccupancyGrid local_map;    // as observed, in this keyframe's base frame; no cells once packed
   PackedGrid packed_local_map;  // the local map's cells once packed, else empty
-  std::vector<Eigen::Vector3f> obstacle_points_in_base;  // z = height above the floor, metres
+  std::vector<Eigen::Vector3f> obstacle_points_in_base;  // z = height above the floor, metres; empty once packed
+  PackedPoints packed_obstacle_points;  // the obstacle points once packed, else empty
   std::vector<FeatureObservation> features;  // empty once packed
   bool from_saved_map = false;  // loaded at construction: fixed, never optimised
 
-  bool packed() const { return !packed_local_map.empty(); }
+  bool packed() const { return !packed_local_map.empty() || !packed_obstacle_points.empty(); }
   // The local map with its cells, packed or not (a copy).
-  OccupancyGrid LocalMap() const { return packed() ? packed_local_map.Unpack() : local_map; }
+  OccupancyGrid LocalMap() const { return packed_local_map.empty() ? local_map : packed_local_map.Unpack(); }
+  // The obstacle points, packed or not (a copy; see PackedPoints for what packing keeps).
+  std::vector<Eigen::Vector3f> ObstaclePoints() const {
+    return packed_obstacle_points.empty() ? obstacle_points_in_base : packed_obstacle_points.Unpack();
+  }
 };
 
 // One frame of the trajectory, with the latest correction applied.
