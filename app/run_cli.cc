@@ -144,7 +144,13 @@ void PrintSummary(const RunRequest& request, const RunSummary& s) {
   std::printf("  keyframes %d, loop closures %d (of %d attempts), distance travelled %.2f m\n",
               s.keyframes, s.loop_closures, s.loop_closure_attempts, s.distance_m);
   if (s.saved_keyframes > 0) {
-    std::printf("  extended a map of %d keyframes: %s\n", s.saved_keyframes, s.localization.c_str());
+    if (s.localization == "localised") {
+      std::printf("  extended a map of %d keyframes: localised in it\n", s.saved_keyframes);
+    } else {
+      std::printf("  extended a map of %d keyframes: NOT localised (%s); this run's trajectory "
+                  "starts at the start pose (config start.x_m/y_m/yaw_rad) in the map frame\n",
+                  s.saved_keyframes, s.localization.c_str());
+    }
   }
   if (s.extent_min_m) {
     std::printf("  map extent x [%.2f, %.2f] y [%.2f, %.2f] m\n", s.extent_min_m->x(),
