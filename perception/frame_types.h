@@ -47,6 +47,19 @@ struct FeatureObservation {
   bool floor_inlier = false;  // moved as the floor did between the previous frame and this one
 };
 
+// A frame's floor features (perception/floor_features.h): row i of descriptors (CV_8U, 32 bytes,
+// ORB) describes the floor point points_in_base[i] (metres, base frame of the frame, z = 0). Empty
+// when none were found. A plain value: copying shares the descriptor bytes (cv::Mat); use Clone()
+// for a deep copy.
+struct FloorFeatures {
+  cv::Mat descriptors;
+  std::vector<Eigen::Vector2f> points_in_base;
+
+  int size() const { return static_cast<int>(points_in_base.size()); }
+  bool empty() const { return points_in_base.empty(); }
+  FloorFeatures Clone() const { return {descriptors.clone(), points_in_base}; }
+};
+
 // Why a frame pair did or did not give heights.
 enum class PairStatus {
   kOk,
@@ -72,6 +85,9 @@ struct FrameResult {
   // Obstacle and drop-off points, base frame of the current frame (z = height above the floor),
   // one per labelled sample, for 3-D maps.
   std::vector<Eigen::Vector3f> obstacle_points_in_base;
+  // Binary descriptors of the floor in front of the robot with their floor points (for loop
+  // closure); empty when DetectorOptions::floor_features is disabled or status != kOk.
+  FloorFeatures floor_features;
   // Counts of labelled pixels (full resolution).
   int num_floor = 0, num_obstacle = 0, num_drop_off = 0, num_moving = 0, num_unknown = 0;
 };

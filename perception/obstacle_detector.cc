@@ -212,7 +212,7 @@ bool DetectorOptions::IsValid(std::string* error) const {
 
 ObstacleDetector::ObstacleDetector(const CameraCalibration& calibration,
                                    const DetectorOptions& options)
-    : camera_(calibration), options_(options) {
+    : camera_(calibration), options_(options), floor_features_(camera_, options.floor_features) {
   const CameraIntrinsics& in = calibration.intrinsics;
   if (in.HasDistortion()) {
     const cv::Matx33d k(in.fx, 0, in.cx, 0, in.fy, in.cy, 0, 0, 1);
@@ -436,7 +436,7 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
       }
     }
   }
-  r.floor_features = ComputeFloorFeatures(current, r.labels, camera_, options_.floor_features);
+  r.floor_features = floor_features_.Compute(current, r.labels);
   return r;
 }
 

@@ -116,6 +116,7 @@ class ObstacleDetector {
   CameraModel camera_;
   DetectorOptions options_;
   cv::Mat undistort_map_x_, undistort_map_y_;
+  FloorFeatureExtractor floor_features_;
 };
 
 // Feeds a sequence frame by frame: tracks consecutive frames for odometry, picks a reference with

@@ -13,6 +13,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "perception/floor_features.h"
 #include "perception/ground_motion.h"
 #include "perception/obstacle_detector.h"
 #include "tools/eval/label_metrics.h"
@@ -177,6 +178,35 @@ void BM_SequenceFrame(benchmark::State& state) {
   state.SetLabel(state.range(0) == 0 ? "epipolar" : "farneback");
 }
 BENCHMARK(BM_SequenceFrame)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
+
+// Floor features (top view, ORB, floor points) on one 640x480 frame of the concrete-floor `loop`
+// scene, as Detect computes them for loop closure; counter features = keypoints kept.
+void BM_FloorFeatures(benchmark::State& state) {
+  sim::Scene scene;
+  std::string error;
+  sim::LoadSceneFile(std::string(MONOPLANE_SOURCE_DIR) + "/tests/data/scenes/loop.yaml", &scene, &error);
+  const sim::SceneRenderer renderer(scene, scene.calibration);
+  const ObstacleDetector detector(scene.calibration, DetectorOptions{});
+  std::vector<cv::Mat> frames;
+  for (int i = 0; i < 8; ++i) {
+    std::string why;
+    frames.push_back(detector.Prepare(renderer.RenderAtTime(i * 2.0).image, &why));
+  }
+  cv::setNumThreads(1);
+  FloorFeatureOptions options;
+  options.max_features = static_cast<int>(state.range(0));
+  const FloorFeatureExtractor extractor(detector.camera(), options);
+  std::size_t next = 0;
+  int features = 0;
+  for (auto _ : state) {
+    const FloorFeatures f = extractor.Compute(frames[next], cv::Mat());
+    features += f.size();
+    benchmark::DoNotOptimize(f.descriptors.data);
+    next = (next + 1) % frames.size();
+  }
+  state.counters["features"] = static_cast<double>(features) / static_cast<double>(state.iterations());
+}
+BENCHMARK(BM_FloorFeatures)->Arg(300)->Arg(500)->Arg(1000)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 }  // namespace monoplane
