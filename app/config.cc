@@ -91,6 +91,9 @@ OptionTable::OptionTable(AppConfig* config) : config_(config) {
   AddInt("pair_selection", "max_history", &ps.max_history, "frames kept to choose a reference from (>= 2)");
   AddDouble("pair_selection", "max_rotation_rad", &ps.max_rotation_rad, "largest yaw between the frames of a pair, rad (> 0)");
   AddInt("pair_selection", "detect_every", &ps.detect_every, "dense detection on every N-th frame, others tracked only (>= 1)");
+  FloorFeatureOptions& ff = d.floor_features;
+  AddBool("floor_features", "enabled", &ff.enabled, "floor descriptors on every detected frame, for loop closure");
+  AddInt("floor_features", "max_features", &ff.max_features, "floor keypoints per frame (>= 1)");
   Mapper::Options& m = config->mapping;
   AddDouble("mapping", "keyframe_distance_m", &m.keyframe_distance_m, "travel that makes a keyframe, m (> 0)");
   AddDouble("mapping", "keyframe_rotation_rad", &m.keyframe_rotation_rad, "rotation that makes a keyframe, rad (> 0)");
@@ -107,6 +110,10 @@ OptionTable::OptionTable(AppConfig* config) : config_(config) {
   AddDouble("mapping", "loop_max_second_ratio", &m.loop_match.max_second_ratio, "second-best / best score allowed (0, 1]");
   AddDouble("mapping", "loop_linear_window_m", &m.loop_match.linear_window_m, "loop search window in x and y, m (>= 0)");
   AddDouble("mapping", "loop_angular_window_rad", &m.loop_match.angular_window_rad, "loop search window in yaw, rad (>= 0)");
+  AddBool("mapping", "floor_loop_closure", &m.floor_loop_closure, "close loops on floor features first (scan matching when none is confident)");
+  AddInt("mapping", "floor_min_inliers", &m.floor_match.min_inliers, "floor-feature inliers a loop needs (>= 2)");
+  AddDouble("mapping", "floor_inlier_threshold_m", &m.floor_match.inlier_threshold_m, "floor RANSAC inlier threshold, m (> 0)");
+  AddDouble("mapping", "floor_gate_m", &m.floor_match.gate_m, "floor features match within this of where the estimate puts them, m (> 0)");
   AddDouble("mapping", "grid_resolution_m", &m.grid_resolution_m, "global grid cell side, m (> 0; a saved map keeps its own)");
   AddFloat("mapping", "log_odds_hit", &m.log_odds.hit, "log-odds added for an occupied observation (> 0)");
   AddFloat("mapping", "log_odds_miss", &m.log_odds.miss, "log-odds added for a free observation (< 0)");

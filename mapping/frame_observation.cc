@@ -12,6 +12,7 @@ FrameObservation MakeFrameObservation(const SequenceDetector::Output& output, Ti
     frame.has_result = true;
     frame.local_map = output.result->local_map;
     frame.obstacle_points_in_base = output.result->obstacle_points_in_base;
+    frame.floor_features = output.result->floor_features;
   }
   return frame;
 }

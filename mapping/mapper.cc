@@ -70,6 +70,14 @@ bool Mapper::Options::IsValid(std::string* error) const {
   }
   if (!(loop_sigma_xy_m > 0)) return fail("loop_sigma_xy_m", loop_sigma_xy_m, "> 0");
   if (!(loop_sigma_yaw_rad > 0)) return fail("loop_sigma_yaw_rad", loop_sigma_yaw_rad, "> 0");
+  if (!(floor_loop_max_correction_m > 0)) {
+    return fail("floor_loop_max_correction_m", floor_loop_max_correction_m, "> 0");
+  }
+  if (!(floor_loop_max_correction_rad > 0)) {
+    return fail("floor_loop_max_correction_rad", floor_loop_max_correction_rad, "> 0");
+  }
+  if (!(floor_loop_sigma_xy_m > 0)) return fail("floor_loop_sigma_xy_m", floor_loop_sigma_xy_m, "> 0");
+  if (!(floor_loop_sigma_yaw_rad > 0)) return fail("floor_loop_sigma_yaw_rad", floor_loop_sigma_yaw_rad, "> 0");
   if (!(rebuild_min_change_m >= 0)) return fail("rebuild_min_change_m", rebuild_min_change_m, ">= 0");
   if (!(rebuild_min_change_rad >= 0)) return fail("rebuild_min_change_rad", rebuild_min_change_rad, ">= 0");
   if (!(grid_resolution_m > 0)) return fail("grid_resolution_m", grid_resolution_m, "> 0");
@@ -80,6 +88,7 @@ bool Mapper::Options::IsValid(std::string* error) const {
   };
   if (!nested(window.IsValid(&sub), "window")) return false;
   if (!nested(loop_match.IsValid(&sub), "loop_match")) return false;
+  if (!nested(floor_match.IsValid(&sub), "floor_match")) return false;
   if (!nested(pose_graph.IsValid(&sub), "pose_graph")) return false;
   if (!nested(log_odds.IsValid(&sub), "log_odds")) return false;
   if (!nested(octree.IsValid(&sub), "octree")) return false;
@@ -184,6 +193,7 @@ void Mapper::AddKeyframe(const FrameObservation& frame, FrameUpdate* update) {
   kf.local_map = frame.local_map;
   kf.obstacle_points_in_base = frame.obstacle_points_in_base;
   kf.features = frame.features;
+  kf.floor_features = frame.floor_features;
   if (first_of_run) {
     kf.map_from_base = *map_from_odom_ * frame.odom_from_base;
     if (num_saved_ > 0) {
@@ -294,6 +304,61 @@ bool Mapper::TryLoopClosure(int index) {
   if (static_cast<int>(candidates.size()) > options_.loop_max_candidates) candidates.resize(options_.loop_max_candidates);
   ++counters_.loop_closure_attempts;
 
+  // Floor features first: the candidate with the most inliers among the confident matches.
+  std::optional<LoopClosureEvent> floor_event;
+  std::string floor_reason;
+  if (options_.floor_loop_closure && !current.floor_features.empty()) {
+    std::pair<int, int> best_rejected(-1, -1);  // (inliers, matches) of the best rejected match
+    for (const auto& [d, j] : candidates) {
+      const Keyframe& k = keyframes_[j];
+      if (k.floor_features.empty()) continue;
+      const Pose2 estimate = Between(k.map_from_base, current.map_from_base);
+      const FloorMatchResult f =
+          MatchFloorFeatures(current.floor_features, k.floor_features, options_.floor_match, estimate);
+      if (!f.accepted) {
+        if (!floor_event && std::make_pair(f.num_inliers, f.num_matches) > best_rejected) {
+          best_rejected = {f.num_inliers, f.num_matches};
+          floor_reason = f.reason + " (" + std::to_string(f.num_inliers) + " inliers of " +
+                         std::to_string(f.num_matches) + " matches, keyframe " + std::to_string(k.id) + ")";
+        }
+        continue;
+      }
+      const Pose2 correction = Between(estimate, f.target_from_source);
+      if (correction.TranslationNorm() > options_.floor_loop_max_correction_m ||
+          std::abs(correction.yaw) > options_.floor_loop_max_correction_rad) {
+        if (!floor_event) floor_reason = "floor match too far from the estimate";
+        continue;
+      }
+      if (floor_event && f.num_inliers <= floor_event->num_inliers) continue;
+      LoopClosureEvent e;
+      e.keyframe_id = current.id;
+      e.anchor_id = j;  // an index until accepted below
+      e.anchor_from_current = f.target_from_source;
+      e.score = f.inlier_ratio;
+      e.second_score = f.num_inliers > 0 ? static_cast<double>(f.second_inliers) / f.num_inliers : 0;
+      e.accepted = true;
+      e.source = "floor";
+      e.num_inliers = f.num_inliers;
+      floor_event = e;
+    }
+  }
+  if (floor_event) {
+    const int anchor = floor_event->anchor_id;
+    floor_event->anchor_id = keyframes_[anchor].id;
+    loop_events_.push_back(*floor_event);
+    ++counters_.loop_closures_accepted;
+    last_closure_index_ = index;
+    PoseGraphEdge edge;
+    edge.from = anchor;
+    edge.to = index;
+    edge.from_T_to = floor_event->anchor_from_current;
+    edge.sigma_xy_m = options_.floor_loop_sigma_xy_m;
+    edge.sigma_yaw_rad = options_.floor_loop_sigma_yaw_rad;
+    edge.robust = true;
+    loop_edges_.push_back(edge);
+    return true;
+  }
+
   const ScanMatchOptions& m = options_.loop_match;
   TiledGrid older(options_.grid_resolution_m);
   for (const auto& [d, j] : candidates) {
@@ -312,6 +377,7 @@ bool Mapper::TryLoopClosure(int index) {
   event.second_score = r.second_score;
   event.accepted = r.accepted;
   event.reason = r.reason;
+  if (!r.accepted && !floor_reason.empty()) event.reason += "; floor: " + floor_reason;
   loop_events_.push_back(event);
   if (!r.accepted) {
     ++counters_.loop_closures_rejected;

@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "mapping/floor_matcher.h"
 #include "mapping/grid_fusion.h"
 #include "mapping/obstacle_octree.h"
 #include "mapping/optimization.h"
@@ -58,6 +59,16 @@ class Mapper {
     double loop_sigma_xy_m = 0.05;         // loop constraint noise, > 0
     double loop_sigma_yaw_rad = 0.02;      // > 0
     ScanMatchOptions loop_match;
+    // Appearance-based loop closure on the floor features of the same candidates, tried first;
+    // the scan matcher runs when no candidate gives a confident floor match.
+    bool floor_loop_closure = true;
+    FloorMatchOptions floor_match;
+    // A floor match may move the current keyframe by at most this against its estimate relative to
+    // the candidate (a larger correction is taken for a false match).
+    double floor_loop_max_correction_m = 1.0;     // > 0
+    double floor_loop_max_correction_rad = 0.35;  // > 0
+    double floor_loop_sigma_xy_m = 0.02;          // floor loop constraint noise, > 0
+    double floor_loop_sigma_yaw_rad = 0.01;       // > 0
     PoseGraphOptions pose_graph;
     // Rebuild the grid and the OctoMap when a correction moves any keyframe by more than this.
     double rebuild_min_change_m = 0.02;    // >= 0

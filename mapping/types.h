@@ -28,6 +28,7 @@ struct FrameObservation {
   bool has_result = false;
   OccupancyGrid local_map;  // current base frame, cells -1 / 0 / 100
   std::vector<Eigen::Vector3f> obstacle_points_in_base;  // z = height above the floor, metres
+  FloorFeatures floor_features;  // floor descriptors and points (base frame); empty without a result
 };
 
 // A keyframe as the mapper keeps it; everything needed to rebuild the maps after a correction and
@@ -36,8 +37,8 @@ struct FrameObservation {
 // The mapper keeps a keyframe full while a later sliding window can still hold it (the newest
 // window_size - 1 of the run) and packs it after that (saved keyframes at once): features dropped,
 // local map run-length encoded into packed_local_map (local_map keeps its geometry, its cells are
-// emptied), obstacle points packed per OctoMap voxel column into packed_obstacle_points. Read the
-// local map with LocalMap(), the points with ObstaclePoints().
+// emptied), obstacle points packed per OctoMap voxel column into packed_obstacle_points. Floor
+// features are kept. Read the local map with LocalMap(), the points with ObstaclePoints().
 struct Keyframe {
   int id = 0;                 // 0, 1, 2, ... in insertion order (saved keyframes keep their ids)
   TimestampNs stamp_ns = 0;
@@ -49,6 +50,7 @@ struct Keyframe {
   std::vector<Eigen::Vector3f> obstacle_points_in_base;  // z = height above the floor, metres; empty once packed
   PackedPoints packed_obstacle_points;  // the obstacle points once packed, else empty
   std::vector<FeatureObservation> features;  // empty once packed
+  FloorFeatures floor_features;  // for appearance-based loop closure; kept when packed (small)
   bool from_saved_map = false;  // loaded at construction: fixed, never optimised
 
   bool packed() const { return !packed_local_map.empty() || !packed_obstacle_points.empty(); }
@@ -77,6 +79,10 @@ struct LoopClosureEvent {
   double second_score = 0;    // best score well separated from the best one
   bool accepted = false;
   std::string reason;         // why it was rejected (empty when accepted)
+  // Which matcher gave the result: "floor" (floor features; score = inlier ratio, second_score =
+  // second-best / best inliers) or "scan" (local maps; scores as above).
+  std::string source = "scan";
+  int num_inliers = 0;        // floor feature inliers ("floor" only)
 };
 
 // The result of localising a new run in a saved map.
