@@ -6,16 +6,17 @@ namespace monoplane::app {
 
 // Exit codes of the monoplane program.
 inline constexpr int kExitOk = 0;
-inline constexpr int kExitError = 1;      // an internal failure
-inline constexpr int kExitBadInput = 2;   // the user's input (file, option, config) is unusable
+inline constexpr int kExitError = 1;     // an internal failure
+inline constexpr int kExitBadInput = 2;  // the user's input (file, option, config) is unusable
 inline constexpr int kExitInterrupted = 130;
 
 // Each command registers its subcommand; the callback stores the exit code in *exit_code.
 void RegisterCheckCalibCommand(CLI::App* app, int* exit_code);
 void RegisterCalibrateCommand(CLI::App* app, int* exit_code);  // app/calibrate_command.cc
-void RegisterRunCommand(CLI::App* app, int* exit_code);     // app/run_cli.cc: run, config
-void RegisterEchoCommand(CLI::App* app, int* exit_code);  // app/echo_command.cc
-void RegisterMapCommands(CLI::App* app, int* exit_code);  // app/map_commands.cc: info, query, export
+void RegisterRunCommand(CLI::App* app, int* exit_code);        // app/run_cli.cc: run, config
+void RegisterEchoCommand(CLI::App* app, int* exit_code);       // app/echo_command.cc
+void RegisterMapCommands(CLI::App* app,
+                         int* exit_code);  // app/map_commands.cc: info, query, export
 void RegisterServeCommand(CLI::App* app, int* exit_code);  // app/serve_command.cc
 
 }  // namespace monoplane::app

@@ -18,8 +18,8 @@ struct EchoOptions {
   std::string topic;
   int domain_id = 0;
   std::string prefix;
-  int count = 0;          // messages to print before exiting; 0 = until interrupted
-  double timeout_s = 0;   // give up after this long without a message; 0 = wait forever
+  int count = 0;         // messages to print before exiting; 0 = until interrupted
+  double timeout_s = 0;  // give up after this long without a message; 0 = wait forever
 };
 
 int Echo(const EchoOptions& o) {
@@ -57,8 +57,7 @@ int Echo(const EchoOptions& o) {
     waited_s += kSliceS;
     if (o.timeout_s > 0 && waited_s >= o.timeout_s) {
       std::cerr << "monoplane echo: no message on " << subscriber->topic_name() << " within "
-                << o.timeout_s << " s (" << subscriber->MatchedWriters()
-                << " matched writers)\n";
+                << o.timeout_s << " s (" << subscriber->MatchedWriters() << " matched writers)\n";
       return kExitError;
     }
   }
@@ -69,8 +68,9 @@ int Echo(const EchoOptions& o) {
 
 void RegisterEchoCommand(CLI::App* app, int* exit_code) {
   auto* cmd = app->add_subcommand(
-      "echo", "Print a summary line per message of a DDS topic (map, map_updates, odom, tf, "
-              "monoplane/local_map)");
+      "echo",
+      "Print a summary line per message of a DDS topic (map, map_updates, odom, tf, "
+      "monoplane/local_map)");
   static EchoOptions options;
   cmd->add_option("TOPIC", options.topic,
                   "Topic: map, map_updates, odom, tf, monoplane/local_map, or a full rt/... name")

@@ -2,7 +2,6 @@
 
 #include <cstdio>
 #include <filesystem>
-
 #include <opencv2/imgcodecs.hpp>
 
 #include "perception/obstacle_detector.h"

@@ -3,14 +3,13 @@
 #include <algorithm>
 #include <chrono>
 #include <ctime>
-#include <iomanip>
 #include <filesystem>
 #include <fstream>
-#include <sstream>
-#include <vector>
-
+#include <iomanip>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/videoio.hpp>
+#include <sstream>
+#include <vector>
 
 namespace monoplane::app {
 namespace {
@@ -19,7 +18,8 @@ namespace fs = std::filesystem;
 
 bool IsImageFile(const fs::path& p) {
   std::string ext = p.extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char c) { return std::tolower(c); });
   return ext == ".png" || ext == ".jpg" || ext == ".jpeg" || ext == ".bmp" || ext == ".pgm" ||
          ext == ".ppm" || ext == ".tif" || ext == ".tiff";
 }
@@ -29,7 +29,9 @@ class ImageListSource : public InputSource {
  public:
   ImageListSource(std::vector<std::pair<TimestampNs, std::string>> frames, std::string calib,
                   std::string description)
-      : frames_(std::move(frames)), calib_(std::move(calib)), description_(std::move(description)) {}
+      : frames_(std::move(frames)),
+        calib_(std::move(calib)),
+        description_(std::move(description)) {}
 
   std::optional<InputFrame> Next() override {
     if (next_ >= frames_.size()) return std::nullopt;
@@ -58,7 +60,8 @@ class ImageListSource : public InputSource {
 
 class VideoSource : public InputSource {
  public:
-  VideoSource(std::unique_ptr<cv::VideoCapture> capture, bool live, double fps, std::string description)
+  VideoSource(std::unique_ptr<cv::VideoCapture> capture, bool live, double fps,
+              std::string description)
       : capture_(std::move(capture)), live_(live), fps_(fps), description_(std::move(description)) {
     const double count = capture_->get(cv::CAP_PROP_FRAME_COUNT);
     size_ = live_ || count <= 0 ? -1 : static_cast<int>(count);
@@ -112,8 +115,8 @@ bool ReadTimesFile(const fs::path& file, const fs::path& base,
     double seconds = 0;
     std::string path;
     if (!(fields >> seconds >> path)) {
-      *error = file.string() + ":" + std::to_string(line_number) +
-               ": expected '<seconds> <image path>'";
+      *error =
+          file.string() + ":" + std::to_string(line_number) + ": expected '<seconds> <image path>'";
       return false;
     }
     frames->emplace_back(SecondsToNs(seconds), (base / path).string());
@@ -189,9 +192,8 @@ std::unique_ptr<InputSource> OpenInput(const std::string& path, const InputOptio
     for (std::size_t i = 0; i < files.size(); ++i) {
       // KITTI names frames by their index; the timestamps file has one line per index.
       const int index = std::atoi(fs::path(files[i]).stem().string().c_str());
-      const TimestampNs stamp = index < static_cast<int>(stamps.size())
-                                    ? stamps[index]
-                                    : SecondsToNs(index / 10.0);
+      const TimestampNs stamp =
+          index < static_cast<int>(stamps.size()) ? stamps[index] : SecondsToNs(index / 10.0);
       frames.emplace_back(stamp, files[i]);
     }
     if (frames.empty()) {

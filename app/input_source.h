@@ -1,10 +1,9 @@
 #pragma once
 
 #include <memory>
+#include <opencv2/core.hpp>
 #include <optional>
 #include <string>
-
-#include <opencv2/core.hpp>
 
 #include "perception/geometry/timestamp.h"
 
@@ -12,11 +11,11 @@ namespace monoplane::app {
 
 // One frame from an input, in input order.
 struct InputFrame {
-  int index = 0;            // 0-based, input order
+  int index = 0;  // 0-based, input order
   TimestampNs stamp_ns = 0;
-  std::string name;         // file name or "frame N", for messages
-  cv::Mat image;            // empty when the frame could not be read
-  std::string error;        // why it could not be read
+  std::string name;   // file name or "frame N", for messages
+  cv::Mat image;      // empty when the frame could not be read
+  std::string error;  // why it could not be read
 };
 
 // A sequence of frames: a folder of images, a video file, a camera device, a KITTI raw drive or a

@@ -1,14 +1,14 @@
 // monoplane: obstacle detection and mapping for a wheeled robot with one camera over a flat floor.
-#include <iostream>
-
 #include <CLI/CLI.hpp>
+#include <iostream>
 
 #include "app/commands.h"
 #include "app/version.h"
 
 int main(int argc, char** argv) {
   using namespace monoplane::app;
-  CLI::App app{"monoplane: see obstacles and build a lasting map with one camera over a flat floor"};
+  CLI::App app{
+      "monoplane: see obstacles and build a lasting map with one camera over a flat floor"};
   app.set_version_flag("--version", std::string("monoplane ") + MONOPLANE_VERSION);
   app.require_subcommand(0, 1);
   int exit_code = kExitOk;

@@ -100,8 +100,9 @@ int InfoCommand(const InfoArgs& args) {
         << ", \"resolution_m\": " << (info.tiles ? Num(info.resolution_m) : "null")
         << ", \"extent_m\": ";
     if (info.extent_min_m) {
-      out << "{\"min_x\": " << Num(info.extent_min_m->x()) << ", \"min_y\": "
-          << Num(info.extent_min_m->y()) << ", \"max_x\": " << Num(info.extent_max_m->x())
+      out << "{\"min_x\": " << Num(info.extent_min_m->x())
+          << ", \"min_y\": " << Num(info.extent_min_m->y())
+          << ", \"max_x\": " << Num(info.extent_max_m->x())
           << ", \"max_y\": " << Num(info.extent_max_m->y()) << "}";
     } else {
       out << "null";
@@ -116,12 +117,12 @@ int InfoCommand(const InfoArgs& args) {
     for (const RunInfo& r : runs) {
       out << "  run " << r.id << ": " << RunStatusName(r.status) << ", started "
           << Seconds(r.started_ns) << " s"
-          << (r.ended_ns ? ", ended " + Seconds(*r.ended_ns) + " s" : std::string())
-          << ", program " << r.program_version << ", " << per_run[r.id].first << " frames ("
-          << per_run[r.id].second << " keyframes)\n";
+          << (r.ended_ns ? ", ended " + Seconds(*r.ended_ns) + " s" : std::string()) << ", program "
+          << r.program_version << ", " << per_run[r.id].first << " frames (" << per_run[r.id].second
+          << " keyframes)\n";
     }
-    out << "frames: " << info.frames << " (" << info.keyframes << " keyframes, "
-        << info.local_maps << " local maps)\n";
+    out << "frames: " << info.frames << " (" << info.keyframes << " keyframes, " << info.local_maps
+        << " local maps)\n";
     if (info.extent_min_m) {
       const Eigen::Vector2d size = *info.extent_max_m - *info.extent_min_m;
       out << "grid: resolution " << Num(info.resolution_m, 3) << " m, " << info.tiles
@@ -148,9 +149,9 @@ struct QueryArgs {
   std::vector<double> point;   // X Y
   std::vector<double> region;  // X0 Y0 X1 Y1
   std::string raster_path;
-  std::vector<double> nearest; // X Y
+  std::vector<double> nearest;  // X Y
   double max_radius_m = 5.0;
-  std::vector<double> path;    // X0 Y0 X1 Y1 ...
+  std::vector<double> path;  // X0 Y0 X1 Y1 ...
   double radius_m = -1.0;
 };
 
@@ -195,7 +196,8 @@ int QueryCommand(const QueryArgs& args, const std::string& kind) {
     }
   } else if (kind == "region") {
     const Eigen::Vector2d a(args.region[0], args.region[1]), b(args.region[2], args.region[3]);
-    const double cells = std::abs((a - b).x() * (a - b).y()) / (grid.resolution_m() * grid.resolution_m());
+    const double cells =
+        std::abs((a - b).x() * (a - b).y()) / (grid.resolution_m() * grid.resolution_m());
     if (cells > 4e8) return Fail("query", "region: more than 4e8 cells; ask for a smaller region");
     st = db->LoadTilesInBox(a, b, &grid);
     if (!st.ok()) return Fail("query", st.message(), ExitFor(st));
@@ -204,7 +206,8 @@ int QueryCommand(const QueryArgs& args, const std::string& kind) {
       std::string error;
       MapPictureOptions picture;
       picture.pixels_per_cell = 1;
-      picture.max_side_px = std::max(64, std::max(q.raster->geometry.width, q.raster->geometry.height));
+      picture.max_side_px =
+          std::max(64, std::max(q.raster->geometry.width, q.raster->geometry.height));
       if (!WriteMapPicture(*q.raster, {}, picture, args.raster_path, &error)) {
         return Fail("query", error);
       }
@@ -214,8 +217,9 @@ int QueryCommand(const QueryArgs& args, const std::string& kind) {
       out << "{\"query\": \"region\", \"min_cell\": " << Cell(q.min_cell)
           << ", \"max_cell\": " << Cell(q.max_cell) << ", \"cells\": " << total
           << ", \"free\": " << q.free << ", \"occupied\": " << q.occupied
-          << ", \"unknown\": " << q.unknown << ", \"raster\": "
-          << (args.raster_path.empty() ? "null" : JsonString(args.raster_path)) << "}\n";
+          << ", \"unknown\": " << q.unknown
+          << ", \"raster\": " << (args.raster_path.empty() ? "null" : JsonString(args.raster_path))
+          << "}\n";
     } else {
       out << "region cells " << Cell(q.min_cell) << " .. " << Cell(q.max_cell) << ": " << total
           << " cells, " << q.free << " free, " << q.occupied << " occupied, " << q.unknown
@@ -230,17 +234,17 @@ int QueryCommand(const QueryArgs& args, const std::string& kind) {
     const auto q = QueryNearestObstacle(grid, p, args.max_radius_m);
     if (args.json) {
       out << "{\"query\": \"nearest\", \"x\": " << Num(p.x()) << ", \"y\": " << Num(p.y())
-          << ", \"max_radius_m\": " << Num(args.max_radius_m) << ", \"found\": "
-          << (q ? "true" : "false");
+          << ", \"max_radius_m\": " << Num(args.max_radius_m)
+          << ", \"found\": " << (q ? "true" : "false");
       if (q) {
-        out << ", \"cell\": " << Cell(q->cell) << ", \"center\": [" << Num(q->center_m.x())
-            << ", " << Num(q->center_m.y()) << "], \"distance_m\": " << Num(q->distance_m);
+        out << ", \"cell\": " << Cell(q->cell) << ", \"center\": [" << Num(q->center_m.x()) << ", "
+            << Num(q->center_m.y()) << "], \"distance_m\": " << Num(q->distance_m);
       }
       out << "}\n";
     } else if (q) {
       out << "nearest obstacle to (" << Num(p.x(), 3) << ", " << Num(p.y(), 3) << "): cell "
-          << Cell(q->cell) << " at (" << Num(q->center_m.x(), 3) << ", "
-          << Num(q->center_m.y(), 3) << "), " << Num(q->distance_m, 3) << " m\n";
+          << Cell(q->cell) << " at (" << Num(q->center_m.x(), 3) << ", " << Num(q->center_m.y(), 3)
+          << "), " << Num(q->distance_m, 3) << " m\n";
     } else {
       out << "no obstacle within " << Num(args.max_radius_m, 3) << " m of (" << Num(p.x(), 3)
           << ", " << Num(p.y(), 3) << ")\n";
@@ -256,8 +260,9 @@ int QueryCommand(const QueryArgs& args, const std::string& kind) {
     const PathClearance q = QueryPathClearance(grid, path, args.radius_m);
     if (args.json) {
       out << "{\"query\": \"path\", \"radius_m\": " << Num(args.radius_m) << ", \"state\": \""
-          << PathStateName(q.state) << "\", \"clear\": "
-          << (q.state == PathState::kClear ? "true" : "false") << ", \"first_blocking_cell\": "
+          << PathStateName(q.state)
+          << "\", \"clear\": " << (q.state == PathState::kClear ? "true" : "false")
+          << ", \"first_blocking_cell\": "
           << (q.first_blocking_cell ? Cell(*q.first_blocking_cell) : "null");
       if (q.first_blocking_cell) {
         out << ", \"first_blocking_center\": [" << Num(q.first_blocking_center_m.x()) << ", "
@@ -329,8 +334,7 @@ int ExportCommand(const ExportArgs& args) {
   }
   if (!args.trajectory_txt.empty()) {
     if (!WriteTumTrajectory(trajectory, args.trajectory_txt, &error)) return Fail("export", error);
-    std::cout << "trajectory: " << args.trajectory_txt << " (" << trajectory.size()
-              << " poses)\n";
+    std::cout << "trajectory: " << args.trajectory_txt << " (" << trajectory.size() << " poses)\n";
   }
   if (!args.octomap_bt.empty()) {
     StoredOctomap octomap;
@@ -358,13 +362,15 @@ void RegisterMapCommands(CLI::App* app, int* exit_code) {
   static QueryArgs query_args;
   static ExportArgs export_args;
 
-  auto* info = app->add_subcommand("info", "Summarise a map: runs, frames, extent, resolution, size");
+  auto* info =
+      app->add_subcommand("info", "Summarise a map: runs, frames, extent, resolution, size");
   info->add_option("MAP", info_args.map, "Map database (SQLite)")->required();
   info->add_flag("--json", info_args.json, "Print JSON for programs");
   info->callback([exit_code] { *exit_code = InfoCommand(info_args); });
 
-  auto* query = app->add_subcommand("query", "Ask a map about a point, a region, the nearest "
-                                             "obstacle or a path (map-frame metres)");
+  auto* query = app->add_subcommand("query",
+                                    "Ask a map about a point, a region, the nearest "
+                                    "obstacle or a path (map-frame metres)");
   query->add_option("MAP", query_args.map, "Map database (SQLite)")->required();
   query->add_flag("--json", query_args.json, "Print JSON for programs");
   query->require_subcommand(1);
@@ -384,8 +390,9 @@ void RegisterMapCommands(CLI::App* app, int* exit_code) {
     sub->callback([exit_code, sub] { *exit_code = QueryCommand(query_args, sub->get_name()); });
   }
 
-  auto* exp = app->add_subcommand("export", "Export a map: map_server grid, TUM trajectory, "
-                                            "OctoMap .bt, PNG picture");
+  auto* exp = app->add_subcommand("export",
+                                  "Export a map: map_server grid, TUM trajectory, "
+                                  "OctoMap .bt, PNG picture");
   exp->add_option("MAP", export_args.map, "Map database (SQLite)")->required();
   exp->add_option("--grid", export_args.grid_yaml, "map_server YAML (a PGM is written beside it)");
   exp->add_option("--trajectory", export_args.trajectory_txt, "TUM trajectory text file");

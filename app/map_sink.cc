@@ -1,5 +1,7 @@
 // The end of `monoplane run`: mapping on the caller's thread; the map database and DDS on a writer
 // thread fed by a bounded queue (back-pressure: mapping waits when the writer is 32 jobs behind).
+#include <spdlog/spdlog.h>
+
 #include <atomic>
 #include <chrono>
 #include <cstdio>
@@ -7,8 +9,6 @@
 #include <functional>
 #include <mutex>
 #include <thread>
-
-#include <spdlog/spdlog.h>
 
 #include "app/bounded_queue.h"
 #include "app/run_pipeline.h"
@@ -146,7 +146,8 @@ struct MapSink::Impl {
     const std::set<TiledGrid::TileKey> changed = mapper->TakeChangedTiles();
     if (changed.empty()) return;
     Enqueue([this, tiles = CopyTiles(mapper->grid(), changed),
-             keys = std::vector<TiledGrid::TileKey>(changed.begin(), changed.end())](std::string* error) {
+             keys = std::vector<TiledGrid::TileKey>(changed.begin(), changed.end())](
+                std::string* error) {
       const StorageStatus s = db->WriteGridTiles(run_id, tiles, keys);
       if (!s.ok()) *error = s.message();
       return s.ok();
@@ -177,7 +178,8 @@ struct MapSink::Impl {
       for (const auto& p : stored) by_index[p.index] = &p;
       for (std::size_t i = 0; i < frames.size(); ++i) {
         const auto it = by_index.find(frames[i].index);
-        frames[i].map_from_base_raw = it != by_index.end() ? it->second->map_from_base : poses[i].map_from_base;
+        frames[i].map_from_base_raw =
+            it != by_index.end() ? it->second->map_from_base : poses[i].map_from_base;
         frames[i].is_keyframe = it != by_index.end() && it->second->is_keyframe;
         frames[i].map_from_base_optimised = poses[i].map_from_base;
       }
@@ -189,7 +191,8 @@ struct MapSink::Impl {
   void PublishMap(TimestampNs stamp_ns, bool force) {
     if (!publisher) return;
     const double period_ns = request.config.dds.map_period_s * 1e9;
-    if (!force && map_published && static_cast<double>(stamp_ns - last_map_stamp) < period_ns) return;
+    if (!force && map_published && static_cast<double>(stamp_ns - last_map_stamp) < period_ns)
+      return;
     last_map_stamp = stamp_ns;
     map_published = true;
     Enqueue([this, grid = ToOccupancyGrid(mapper->grid()), stamp_ns](std::string* error) {
@@ -216,8 +219,10 @@ bool MapSink::Open(std::string* error) {
   if (!m.request.map_path.empty()) {
     namespace fs = std::filesystem;
     std::error_code ec;
-    m.created_file = !fs::exists(m.request.map_path, ec) || fs::file_size(m.request.map_path, ec) == 0;
-    const StorageStatus s = MapDatabase::Open(m.request.map_path, OpenMode::kCreate, &m.db, config.storage);
+    m.created_file =
+        !fs::exists(m.request.map_path, ec) || fs::file_size(m.request.map_path, ec) == 0;
+    const StorageStatus s =
+        MapDatabase::Open(m.request.map_path, OpenMode::kCreate, &m.db, config.storage);
     if (!s.ok()) {
       *error = s.message();
       if (m.created_file) fs::remove(m.request.map_path, ec);
@@ -238,9 +243,10 @@ bool MapSink::Open(std::string* error) {
     }
   }
   if (!saved_keyframes.empty()) {
-    spdlog::info("extending {}: {} keyframes, localising the first keyframe near ({:.2f}, {:.2f}, {:.2f})",
-                 m.request.map_path, saved_keyframes.size(), config.start.x_m, config.start.y_m,
-                 config.start.yaw_rad);
+    spdlog::info(
+        "extending {}: {} keyframes, localising the first keyframe near ({:.2f}, {:.2f}, {:.2f})",
+        m.request.map_path, saved_keyframes.size(), config.start.x_m, config.start.y_m,
+        config.start.yaw_rad);
     m.mapper = std::make_unique<Mapper>(mapping, m.calibration, std::move(saved_grid),
                                         std::move(saved_keyframes), config.start.pose());
   } else {
@@ -248,8 +254,8 @@ bool MapSink::Open(std::string* error) {
   }
   if (m.db) {
     OptionTable table(const_cast<AppConfig*>(&config));
-    const StorageStatus s = m.db->BeginRun(m.calibration, table.Dump(), MONOPLANE_VERSION,
-                                           WallClockNs(), &m.run_id);
+    const StorageStatus s =
+        m.db->BeginRun(m.calibration, table.Dump(), MONOPLANE_VERSION, WallClockNs(), &m.run_id);
     if (!s.ok()) {
       *error = s.message();
       m.db.reset();
@@ -289,7 +295,8 @@ bool MapSink::Add(const InputFrame& frame, const SequenceDetector::Output& outpu
   }
 
   RunSummary& s = *m.summary;
-  if (m.last_odom) s.distance_m += (output.odom_from_base.Translation() - m.last_odom->Translation()).norm();
+  if (m.last_odom)
+    s.distance_m += (output.odom_from_base.Translation() - m.last_odom->Translation()).norm();
   m.last_odom = output.odom_from_base;
   s.trajectory.emplace_back(update.map_from_base, frame.stamp_ns);
   if (update.keyframe) ++s.keyframes;
@@ -327,8 +334,12 @@ bool MapSink::Add(const InputFrame& frame, const SequenceDetector::Output& outpu
     m.Enqueue([&m, map_from_odom, odom = output.odom_from_base, stamp = frame.stamp_ns,
                local_map = std::move(local_map)](std::string* e) {
       // Dropped samples (a full reader backlog) are counted by the publisher; only errors stop.
-      if (m.publisher->PublishPose(map_from_odom, odom, stamp, {}, e) == interfaces::PublishStatus::kError) return false;
-      if (local_map && m.publisher->PublishLocalMap(*local_map, stamp, e) == interfaces::PublishStatus::kError) return false;
+      if (m.publisher->PublishPose(map_from_odom, odom, stamp, {}, e) ==
+          interfaces::PublishStatus::kError)
+        return false;
+      if (local_map &&
+          m.publisher->PublishLocalMap(*local_map, stamp, e) == interfaces::PublishStatus::kError)
+        return false;
       return true;
     });
     if (update.keyframe || update.map_rebuilt) m.PublishMap(frame.stamp_ns, update.map_rebuilt);

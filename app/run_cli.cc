@@ -1,10 +1,10 @@
 // Registers `monoplane run` (with the built-in demo when no input is given) and `monoplane config`.
+#include <spdlog/spdlog.h>
+
+#include <CLI/CLI.hpp>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
-
-#include <CLI/CLI.hpp>
-#include <spdlog/spdlog.h>
 
 #include "app/commands.h"
 #include "app/config.h"
@@ -88,8 +88,9 @@ int RunDemo(RunCli* cli) {
     std::cerr << "monoplane run: scoring: " << error << "\n";
     return kExitError;
   }
-  std::printf("\nScores against the simulator's ground truth (%d frames; monoplane-eval gives more):\n",
-              labels.frames_scored);
+  std::printf(
+      "\nScores against the simulator's ground truth (%d frames; monoplane-eval gives more):\n",
+      labels.frames_scored);
   for (const auto& band : labels.bands) {
     if (band.max_distance_m > 4.0 + 1e-9) break;
   }
@@ -107,8 +108,9 @@ int RunDemo(RunCli* cli) {
 }
 
 int RunCommand(RunCli* cli) {
-  spdlog::set_level(cli->verbose ? spdlog::level::debug
-                                 : cli->request.quiet ? spdlog::level::warn : spdlog::level::info);
+  spdlog::set_level(cli->verbose         ? spdlog::level::debug
+                    : cli->request.quiet ? spdlog::level::warn
+                                         : spdlog::level::info);
   std::string error;
   if (cli->fps > 0) cli->request.config.input.fps = cli->fps;
   if (!cli->config_path.empty() &&
@@ -130,7 +132,8 @@ int RunCommand(RunCli* cli) {
 }  // namespace
 
 void PrintSummary(const RunRequest& request, const RunSummary& s) {
-  std::printf("\nmonoplane run: %s\n", s.interrupted ? "interrupted (Ctrl-C), map closed cleanly" : "done");
+  std::printf("\nmonoplane run: %s\n",
+              s.interrupted ? "interrupted (Ctrl-C), map closed cleanly" : "done");
   std::printf("  frames read %d, processed %d, skipped %zu", s.frames_read, s.frames_processed,
               s.skipped.size());
   if (s.dropped_live_frames > 0) std::printf(", dropped (live, behind) %zu", s.dropped_live_frames);
@@ -147,9 +150,10 @@ void PrintSummary(const RunRequest& request, const RunSummary& s) {
     if (s.localization == "localised") {
       std::printf("  extended a map of %d keyframes: localised in it\n", s.saved_keyframes);
     } else {
-      std::printf("  extended a map of %d keyframes: NOT localised (%s); this run's trajectory "
-                  "starts at the start pose (config start.x_m/y_m/yaw_rad) in the map frame\n",
-                  s.saved_keyframes, s.localization.c_str());
+      std::printf(
+          "  extended a map of %d keyframes: NOT localised (%s); this run's trajectory "
+          "starts at the start pose (config start.x_m/y_m/yaw_rad) in the map frame\n",
+          s.saved_keyframes, s.localization.c_str());
     }
   }
   if (s.extent_min_m) {
@@ -163,11 +167,14 @@ void PrintSummary(const RunRequest& request, const RunSummary& s) {
   std::printf("  wall time %.2f s, %.1f frames/s\n", s.wall_s,
               s.wall_s > 0 ? s.frames_processed / s.wall_s : 0.0);
   const double n = std::max(1, s.frames_processed);
-  std::printf("  time per frame: read %.2f ms, perception %.2f ms, outputs %.2f ms, mapping %.2f ms, storage %.2f ms\n",
-              s.read_ms / n, s.perception_ms / n, s.frame_outputs_ms / n, s.mapping_ms / n,
-              s.storage_ms / n);
+  std::printf(
+      "  time per frame: read %.2f ms, perception %.2f ms, outputs %.2f ms, mapping %.2f ms, "
+      "storage %.2f ms\n",
+      s.read_ms / n, s.perception_ms / n, s.frame_outputs_ms / n, s.mapping_ms / n,
+      s.storage_ms / n);
   if (!request.map_path.empty()) std::printf("  map: %s\n", request.map_path.c_str());
-  if (!request.frames_out.empty()) std::printf("  per-frame outputs: %s\n", request.frames_out.c_str());
+  if (!request.frames_out.empty())
+    std::printf("  per-frame outputs: %s\n", request.frames_out.c_str());
 }
 
 void RegisterRunCommand(CLI::App* app, int* exit_code) {
@@ -177,7 +184,8 @@ void RegisterRunCommand(CLI::App* app, int* exit_code) {
   cmd->add_option("--input", cli.request.input_path,
                   "Folder of images (with times.txt, calib.yaml), video file, /dev/videoN, KITTI "
                   "drive or TUM folder");
-  cmd->add_option("--calib", cli.request.calib_path, "Calibration YAML (default: INPUT/calib.yaml)");
+  cmd->add_option("--calib", cli.request.calib_path,
+                  "Calibration YAML (default: INPUT/calib.yaml)");
   cmd->add_option("--map", cli.request.map_path, "SQLite map file to create or extend");
   cmd->add_option("--frames-out", cli.request.frames_out,
                   "Folder for per-frame labels, heights, local maps and panels");

@@ -1,17 +1,17 @@
 // `monoplane run`: input -> perception -> mapping -> storage / DDS, as a pipeline of threads
 // joined by bounded queues.
+#include <spdlog/spdlog.h>
+#include <unistd.h>
+
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
-#include <mutex>
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
+#include <mutex>
 #include <thread>
-#include <unistd.h>
-
-#include <spdlog/spdlog.h>
 
 #include "app/bounded_queue.h"
 #include "app/commands.h"
@@ -204,8 +204,8 @@ int Run(const RunRequest& request, RunSummary* summary) {
     ++summary->frames_processed;
     const GroundMotion& step = p->output.step;
     spdlog::debug("{}: motion {} ({} tracked, {} in the floor strip, {} inliers, rms {:.2f} px){}",
-                  p->frame.name, ToString(step.status), step.num_tracked,
-                  step.num_floor_candidates, step.num_inliers, step.rms_residual_px,
+                  p->frame.name, ToString(step.status), step.num_tracked, step.num_floor_candidates,
+                  step.num_inliers, step.rms_residual_px,
                   p->output.result ? std::string(", ") + p->output.result->message : "");
     if (p->output.result) {
       const FrameResult& r = *p->output.result;

@@ -1,10 +1,9 @@
 #pragma once
 
+#include <Eigen/Core>
 #include <array>
 #include <memory>
 #include <optional>
-
-#include <Eigen/Core>
 #include <string>
 #include <vector>
 
@@ -19,10 +18,10 @@ namespace monoplane::app {
 // What the user asked `monoplane run` to do.
 struct RunRequest {
   std::string input_path;
-  std::string calib_path;   // empty: the input's calib.yaml
-  std::string map_path;     // SQLite map; empty: no map written
-  std::string frames_out;   // per-frame outputs; empty: none
-  bool publish = false;     // DDS
+  std::string calib_path;  // empty: the input's calib.yaml
+  std::string map_path;    // SQLite map; empty: no map written
+  std::string frames_out;  // per-frame outputs; empty: none
+  bool publish = false;    // DDS
   bool quiet = false;
   bool scale_calibration = false;  // scale the intrinsics to the image size
   int max_frames = -1;             // stop after this many frames (-1: all)
@@ -33,18 +32,18 @@ struct RunRequest {
 struct RunSummary {
   int frames_read = 0;
   int frames_processed = 0;
-  std::vector<std::string> skipped;  // "name: reason" of every frame that could not be used
+  std::vector<std::string> skipped;    // "name: reason" of every frame that could not be used
   std::array<int, 4> status_counts{};  // per PairStatus
   std::size_t dropped_live_frames = 0;
   bool interrupted = false;
   double read_ms = 0, perception_ms = 0, frame_outputs_ms = 0, mapping_ms = 0, storage_ms = 0;
   double wall_s = 0;
   double distance_m = 0;
-  int keyframes = 0;           // made by this run
-  int saved_keyframes = 0;     // of the map this run extended
+  int keyframes = 0;        // made by this run
+  int saved_keyframes = 0;  // of the map this run extended
   int loop_closures = 0;
   int loop_closure_attempts = 0;
-  std::string localization;   // extending a map: how the run was placed in it
+  std::string localization;  // extending a map: how the run was placed in it
   std::optional<Eigen::Vector2d> extent_min_m, extent_max_m;  // of the global grid
   std::int64_t dds_sent = 0, dds_dropped = 0;
   std::vector<std::pair<Pose2, TimestampNs>> trajectory;  // map_from_base per processed frame

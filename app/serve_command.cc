@@ -24,7 +24,7 @@ struct ServeOptions {
   std::string map;
   int domain_id = 0;
   std::string prefix;
-  double duration_s = 0;     // 0: until Ctrl-C
+  double duration_s = 0;       // 0: until Ctrl-C
   double reload_period_s = 2;  // check the file for changes this often; 0: never
 };
 
@@ -126,8 +126,8 @@ int Serve(const ServeOptions& o) {
   server_options.topic_prefix = o.prefix;
   const TiledGrid* current = &grid;
   auto server = interfaces::MapQueryServer::Create(
-      server_options, [&current](const interfaces::MapQueryRequest& q) { return Answer(*current, q); },
-      &error);
+      server_options,
+      [&current](const interfaces::MapQueryRequest& q) { return Answer(*current, q); }, &error);
   if (!server) {
     std::cerr << "monoplane serve: DDS: " << error << "\n";
     return kExitError;
@@ -137,11 +137,12 @@ int Serve(const ServeOptions& o) {
     return kExitError;
   }
   const OccupancyGrid published = ToOccupancyGrid(grid);
-  std::fprintf(stderr,
-               "serving %s on domain %d: %dx%d cells at %.3f m on %s, queries on %s (Ctrl-C stops)\n",
-               o.map.c_str(), o.domain_id, published.geometry.width, published.geometry.height,
-               grid.resolution_m(), publisher->Endpoints()[0].topic_name.c_str(),
-               interfaces::MapQueryRequestTopic(o.prefix).c_str());
+  std::fprintf(
+      stderr,
+      "serving %s on domain %d: %dx%d cells at %.3f m on %s, queries on %s (Ctrl-C stops)\n",
+      o.map.c_str(), o.domain_id, published.geometry.width, published.geometry.height,
+      grid.resolution_m(), publisher->Endpoints()[0].topic_name.c_str(),
+      interfaces::MapQueryRequestTopic(o.prefix).c_str());
   std::signal(SIGINT, OnSigint);
   std::signal(SIGTERM, OnSigint);
   auto stamp = ChangeStamp(o.map);
@@ -153,7 +154,8 @@ int Serve(const ServeOptions& o) {
       return kExitError;
     }
     const auto now = std::chrono::steady_clock::now();
-    if (o.duration_s > 0 && std::chrono::duration<double>(now - start).count() >= o.duration_s) break;
+    if (o.duration_s > 0 && std::chrono::duration<double>(now - start).count() >= o.duration_s)
+      break;
     if (o.reload_period_s > 0 &&
         std::chrono::duration<double>(now - last_check).count() >= o.reload_period_s) {
       last_check = now;
@@ -166,7 +168,8 @@ int Serve(const ServeOptions& o) {
           publisher->PublishMap(grid, NowNs(), {}, &error);
           std::fprintf(stderr, "map changed on disk: reloaded and published\n");
         } else {
-          std::fprintf(stderr, "map changed on disk but could not be read (%s); serving the old one\n",
+          std::fprintf(stderr,
+                       "map changed on disk but could not be read (%s); serving the old one\n",
                        error.c_str());
         }
       }

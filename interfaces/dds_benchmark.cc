@@ -9,6 +9,8 @@
 //    network): publish -> take -> converted grid.
 // Grids: local 160 x 160 (25.6 kB of cells), global 2000 x 2000 (4 MB).
 // Cyclone is kept on the loopback interface without multicast (interfaces/test/loopback.h).
+#include <benchmark/benchmark.h>
+#include <dds/dds.h>
 #include <sys/prctl.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -20,9 +22,6 @@
 #include <cstdlib>
 #include <string>
 #include <vector>
-
-#include <benchmark/benchmark.h>
-#include <dds/dds.h>
 
 #include "idl/nav_msgs.h"
 #include "interfaces/map_publisher.h"
@@ -53,8 +52,9 @@ OccupancyGrid Grid(int size) {
 [[noreturn]] void RunPong() {
   prctl(PR_SET_PDEATHSIG, SIGTERM);
   const dds_entity_t participant = dds_create_participant(kDomain, nullptr, nullptr);
-  const dds_entity_t ping_local = dds_create_topic(
-      participant, &nav_msgs_msg_dds__OccupancyGrid__desc, "rt/bench/monoplane/local_map", nullptr, nullptr);
+  const dds_entity_t ping_local =
+      dds_create_topic(participant, &nav_msgs_msg_dds__OccupancyGrid__desc,
+                       "rt/bench/monoplane/local_map", nullptr, nullptr);
   const dds_entity_t ping_map = dds_create_topic(
       participant, &nav_msgs_msg_dds__OccupancyGrid__desc, "rt/bench/map", nullptr, nullptr);
   const dds_entity_t pong = dds_create_topic(participant, &nav_msgs_msg_dds__OccupancyGrid__desc,
@@ -137,7 +137,8 @@ void RoundTrip(benchmark::State& state, bool global) {
   Endpoints& e = Get();
   const OccupancyGrid grid = Grid(global ? 2000 : 160);
   auto publish = [&](TimestampNs stamp) {
-    return global ? e.publisher->PublishMap(grid, stamp) : e.publisher->PublishLocalMap(grid, stamp);
+    return global ? e.publisher->PublishMap(grid, stamp)
+                  : e.publisher->PublishLocalMap(grid, stamp);
   };
   // Until the pong answers (discovery across processes), on DDS events with a timeout.
   TimestampNs stamp = 1;
@@ -213,10 +214,22 @@ void BM_RoundTrip_GlobalMap2000(benchmark::State& state) { RoundTrip(state, true
 void BM_InProcess_LocalMap160(benchmark::State& state) { InProcess(state, false); }
 void BM_InProcess_GlobalMap2000(benchmark::State& state) { InProcess(state, true); }
 
-BENCHMARK(BM_RoundTrip_LocalMap160)->UseManualTime()->Iterations(2000)->Unit(benchmark::kMicrosecond);
-BENCHMARK(BM_RoundTrip_GlobalMap2000)->UseManualTime()->Iterations(100)->Unit(benchmark::kMillisecond);
-BENCHMARK(BM_InProcess_LocalMap160)->UseManualTime()->Iterations(2000)->Unit(benchmark::kMicrosecond);
-BENCHMARK(BM_InProcess_GlobalMap2000)->UseManualTime()->Iterations(100)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_RoundTrip_LocalMap160)
+    ->UseManualTime()
+    ->Iterations(2000)
+    ->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_RoundTrip_GlobalMap2000)
+    ->UseManualTime()
+    ->Iterations(100)
+    ->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_InProcess_LocalMap160)
+    ->UseManualTime()
+    ->Iterations(2000)
+    ->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_InProcess_GlobalMap2000)
+    ->UseManualTime()
+    ->Iterations(100)
+    ->Unit(benchmark::kMillisecond);
 
 }  // namespace
 }  // namespace monoplane::interfaces

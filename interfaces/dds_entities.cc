@@ -49,8 +49,9 @@ std::int32_t CreateParticipant(int domain_id, std::string* error) {
   const dds_entity_t participant =
       dds_create_participant(static_cast<dds_domainid_t>(domain_id), nullptr, nullptr);
   if (participant < 0) {
-    if (error) *error = DdsError(participant, "creating a participant on domain " +
-                                                  std::to_string(domain_id));
+    if (error)
+      *error =
+          DdsError(participant, "creating a participant on domain " + std::to_string(domain_id));
     return 0;
   }
   return participant;
@@ -62,9 +63,9 @@ void DeleteEntity(std::int32_t entity) {
 
 std::int32_t CreateTopic(std::int32_t participant, const void* descriptor,
                          const std::string& topic_name, std::string* error) {
-  const dds_entity_t topic = dds_create_topic(
-      participant, static_cast<const dds_topic_descriptor_t*>(descriptor), topic_name.c_str(),
-      nullptr, nullptr);
+  const dds_entity_t topic =
+      dds_create_topic(participant, static_cast<const dds_topic_descriptor_t*>(descriptor),
+                       topic_name.c_str(), nullptr, nullptr);
   if (topic < 0) {
     if (error) *error = DdsError(topic, "creating topic " + topic_name);
     return 0;
@@ -113,10 +114,18 @@ EndpointInfo ReadEndpointInfo(std::int32_t endpoint) {
     dds_durability_kind_t durability;
     if (dds_qget_durability(qos, &durability)) {
       switch (durability) {
-        case DDS_DURABILITY_VOLATILE: info.durability = "volatile"; break;
-        case DDS_DURABILITY_TRANSIENT_LOCAL: info.durability = "transient_local"; break;
-        case DDS_DURABILITY_TRANSIENT: info.durability = "transient"; break;
-        case DDS_DURABILITY_PERSISTENT: info.durability = "persistent"; break;
+        case DDS_DURABILITY_VOLATILE:
+          info.durability = "volatile";
+          break;
+        case DDS_DURABILITY_TRANSIENT_LOCAL:
+          info.durability = "transient_local";
+          break;
+        case DDS_DURABILITY_TRANSIENT:
+          info.durability = "transient";
+          break;
+        case DDS_DURABILITY_PERSISTENT:
+          info.durability = "persistent";
+          break;
       }
     }
     dds_history_kind_t history;

@@ -32,8 +32,8 @@ struct EndpointQos {
 
 // What a created endpoint really uses, read back from DDS (for tests and users).
 struct EndpointInfo {
-  std::string topic_name;  // e.g. "rt/map"
-  std::string type_name;   // e.g. "nav_msgs::msg::dds_::OccupancyGrid_"
+  std::string topic_name;   // e.g. "rt/map"
+  std::string type_name;    // e.g. "nav_msgs::msg::dds_::OccupancyGrid_"
   std::string reliability;  // "reliable" | "best_effort"
   std::string durability;   // "volatile" | "transient_local" | "transient" | "persistent"
   std::string history;      // "keep_last" | "keep_all"

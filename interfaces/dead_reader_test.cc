@@ -1,10 +1,8 @@
 // A reliable reader in another process that stops (SIGSTOP: alive for discovery, but it never
 // acknowledges again) does not stall the publisher: every publish call returns, as sent or as
 // dropped after max_blocking_time, and none fails.
-#include "interfaces/map_publisher.h"
-
-#include "interfaces/test/loopback.h"
-
+#include <dds/dds.h>
+#include <gtest/gtest.h>
 #include <signal.h>
 #include <sys/prctl.h>
 #include <sys/wait.h>
@@ -12,10 +10,9 @@
 
 #include <string>
 
-#include <dds/dds.h>
-#include <gtest/gtest.h>
-
 #include "idl/nav_msgs.h"
+#include "interfaces/map_publisher.h"
+#include "interfaces/test/loopback.h"
 #include "interfaces/test/random_grid.h"
 
 namespace monoplane::interfaces {
@@ -58,8 +55,8 @@ TEST(DeadReaderTest, StoppedRemoteReaderDoesNotStallPublishing) {
   std::string error;
   auto publisher = MapPublisher::Create(options, &error);
   ASSERT_NE(publisher, nullptr) << error;
-  ASSERT_TRUE(publisher->WaitForReaders(MapPublisher::Topic::kLocalMap,
-                                        [](int n) { return n == 1; }, 30.0))
+  ASSERT_TRUE(publisher->WaitForReaders(
+      MapPublisher::Topic::kLocalMap, [](int n) { return n == 1; }, 30.0))
       << "the reader process never matched";
   int status = 0;
   ASSERT_EQ(waitpid(child, &status, WUNTRACED), child);

@@ -1,13 +1,12 @@
 // A reader that joins after the map was published still receives it (transient-local), and reads
 // it with its own, independently written copy of the nav_msgs/OccupancyGrid layout.
-#include "interfaces/test/loopback.h"
-
-#include <string>
-
 #include <dds/dds.h>
 #include <gtest/gtest.h>
 
+#include <string>
+
 #include "interfaces/map_publisher.h"
+#include "interfaces/test/loopback.h"
 #include "interfaces/test/random_grid.h"
 #include "test/late_joiner_grid.h"
 

@@ -1,8 +1,6 @@
 // Three reliable subscribers receive every local map published at 15 Hz over 30 s, in order and
 // intact. The publisher is paced with sleep_until; the subscribers wait on read conditions.
-#include "interfaces/map_publisher.h"
-
-#include "interfaces/test/loopback.h"
+#include <gtest/gtest.h>
 
 #include <chrono>
 #include <cstdint>
@@ -10,9 +8,9 @@
 #include <thread>
 #include <vector>
 
-#include <gtest/gtest.h>
-
+#include "interfaces/map_publisher.h"
 #include "interfaces/map_subscriber.h"
+#include "interfaces/test/loopback.h"
 
 namespace monoplane::interfaces {
 namespace {
@@ -23,7 +21,8 @@ constexpr int kSeconds = 30;
 constexpr int kFrames = kRateHz * kSeconds;
 constexpr int kSubscribers = 3;
 
-// The local map of frame `frame`: 160 x 160 at 5 cm around base_link, cells a function of the frame.
+// The local map of frame `frame`: 160 x 160 at 5 cm around base_link, cells a function of the
+// frame.
 OccupancyGrid LocalMap(int frame) {
   GridGeometry g;
   g.resolution_m = 0.05;
@@ -72,7 +71,8 @@ TEST(LocalMapStreamTest, ThreeReliableSubscribersReceiveEveryFrameAt15HzFor30s) 
         auto message = subscribers[i]->Take(5.0, &r.error);
         if (!message) break;
         const int frame = static_cast<int>(message->stamp_ns / 1000000);
-        r.corrupt += message->grid.cells != LocalMap(frame).cells || message->frame_id != "base_link";
+        r.corrupt +=
+            message->grid.cells != LocalMap(frame).cells || message->frame_id != "base_link";
         r.stamps.push_back(message->stamp_ns);
       }
     });

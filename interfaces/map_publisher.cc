@@ -1,11 +1,11 @@
 #include "interfaces/map_publisher.h"
 
+#include <dds/dds.h>
+
 #include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <utility>
-
-#include <dds/dds.h>
 
 #include "idl/map_msgs.h"
 #include "idl/nav_msgs.h"
@@ -67,7 +67,6 @@ namespace {
 
 enum Endpoint { kMap = 0, kMapUpdates, kOdom, kTf, kLocalMap, kNumEndpoints };
 
-
 std_msgs_msg_dds__Header_ MakeHeader(TimestampNs stamp_ns, const std::string& frame) {
   std_msgs_msg_dds__Header_ header{};
   const RosTime t = ToRosTime(stamp_ns);
@@ -117,8 +116,9 @@ struct MapPublisher::Impl {
     }
     if (rc == DDS_RETCODE_TIMEOUT) {
       ++stats[endpoint].dropped;
-      if (error) *error = ReadEndpointInfo(writers[endpoint]).topic_name +
-                          ": sample dropped, a reliable reader's backlog is full";
+      if (error)
+        *error = ReadEndpointInfo(writers[endpoint]).topic_name +
+                 ": sample dropped, a reliable reader's backlog is full";
       return PublishStatus::kDropped;
     }
     ++stats[endpoint].errors;
@@ -130,8 +130,9 @@ struct MapPublisher::Impl {
                           const std::string& frame, std::string* error) {
     if (grid.cells.size() != grid.geometry.NumCells()) {
       ++stats[endpoint].errors;
-      if (error) *error = "grid has " + std::to_string(grid.cells.size()) + " cells, geometry says " +
-                          std::to_string(grid.geometry.NumCells());
+      if (error)
+        *error = "grid has " + std::to_string(grid.cells.size()) + " cells, geometry says " +
+                 std::to_string(grid.geometry.NumCells());
       return PublishStatus::kError;
     }
     nav_msgs_msg_dds__OccupancyGrid_ msg{};
@@ -167,15 +168,20 @@ std::unique_ptr<MapPublisher> MapPublisher::Create(const Options& options, std::
     EndpointQos qos;
   };
   const Spec specs[kNumEndpoints] = {
-      {&nav_msgs_msg_dds__OccupancyGrid__desc, "map",
+      {&nav_msgs_msg_dds__OccupancyGrid__desc,
+       "map",
        {true, Durability::kTransientLocal, false, 1, max_blocking_ns, -1}},
-      {&map_msgs_msg_dds__OccupancyGridUpdate__desc, "map_updates",
+      {&map_msgs_msg_dds__OccupancyGridUpdate__desc,
+       "map_updates",
        {true, Durability::kVolatile, false, 10, max_blocking_ns, -1}},
-      {&nav_msgs_msg_dds__Odometry__desc, "odom",
+      {&nav_msgs_msg_dds__Odometry__desc,
+       "odom",
        {true, Durability::kVolatile, false, 10, max_blocking_ns, -1}},
-      {&tf2_msgs_msg_dds__TFMessage__desc, "tf",
+      {&tf2_msgs_msg_dds__TFMessage__desc,
+       "tf",
        {true, Durability::kVolatile, false, 100, max_blocking_ns, -1}},
-      {&nav_msgs_msg_dds__OccupancyGrid__desc, "monoplane/local_map",
+      {&nav_msgs_msg_dds__OccupancyGrid__desc,
+       "monoplane/local_map",
        {true, Durability::kVolatile, false, options.local_map_history_depth, max_blocking_ns, -1}},
   };
   for (int i = 0; i < kNumEndpoints; ++i) {
@@ -226,7 +232,8 @@ PublishStatus MapPublisher::PublishMapUpdate(const OccupancyGrid& grid_in_map,
   std::vector<int8_t> cells;
   cells.reserve(static_cast<std::size_t>(region.width) * region.height);
   for (int row = region.row; row < region.row + region.height; ++row) {
-    const auto begin = grid_in_map.cells.begin() + static_cast<std::ptrdiff_t>(g.Index(region.col, row));
+    const auto begin =
+        grid_in_map.cells.begin() + static_cast<std::ptrdiff_t>(g.Index(region.col, row));
     cells.insert(cells.end(), begin, begin + region.width);
   }
   map_msgs_msg_dds__OccupancyGridUpdate_ msg{};
@@ -270,8 +277,8 @@ PublishStatus MapPublisher::PublishPose(const Pose2& map_from_odom, const Pose2&
   return Worse(odom_status, tf_status);
 }
 
-PublishStatus MapPublisher::PublishLocalMap(const OccupancyGrid& grid_in_base,
-                                            TimestampNs stamp_ns, std::string* error) {
+PublishStatus MapPublisher::PublishLocalMap(const OccupancyGrid& grid_in_base, TimestampNs stamp_ns,
+                                            std::string* error) {
   return impl_->WriteGrid(kLocalMap, grid_in_base, stamp_ns, impl_->options.base_frame, error);
 }
 

@@ -51,9 +51,9 @@ struct PublishStats {
 // rmw_cyclonedds (nav2, rviz2) subscribe with no glue. Topics (with prefix P: rt/P/<name>):
 //   rt/map                   nav_msgs/OccupancyGrid, frame map; reliable, transient-local,
 //                            keep-last 1 (as the ROS 2 map_server: late joiners get the last map)
-//   rt/map_updates           map_msgs/OccupancyGridUpdate, frame map; reliable, volatile, keep-last 10
-//   rt/odom                  nav_msgs/Odometry odom -> base_link; reliable, volatile, keep-last 10
-//   rt/tf                    tf2_msgs/TFMessage map -> odom and odom -> base_link; reliable,
+//   rt/map_updates           map_msgs/OccupancyGridUpdate, frame map; reliable, volatile, keep-last
+//   10 rt/odom                  nav_msgs/Odometry odom -> base_link; reliable, volatile, keep-last
+//   10 rt/tf                    tf2_msgs/TFMessage map -> odom and odom -> base_link; reliable,
 //                            volatile, keep-last 100 (tf2's broadcaster QoS)
 //   rt/monoplane/local_map   nav_msgs/OccupancyGrid in base_link, one per frame; reliable,
 //                            volatile, keep-last `local_map_history_depth` (default 1: a reader
@@ -63,8 +63,8 @@ struct PublishStats {
 class MapPublisher {
  public:
   struct Options {
-    int domain_id = 0;          // DDS domain id, [0, 232]
-    std::string topic_prefix;   // "" -> rt/map; "robot1" -> rt/robot1/map
+    int domain_id = 0;         // DDS domain id, [0, 232]
+    std::string topic_prefix;  // "" -> rt/map; "robot1" -> rt/robot1/map
     std::string map_frame = "map";
     std::string odom_frame = "odom";
     std::string base_frame = "base_link";

@@ -3,18 +3,17 @@
 // that never takes does not stall publishing.
 #include "interfaces/map_publisher.h"
 
-#include "interfaces/test/loopback.h"
+#include <dds/dds.h>
+#include <gtest/gtest.h>
 
 #include <cmath>
 #include <cstring>
 #include <map>
 #include <string>
 
-#include <dds/dds.h>
-#include <gtest/gtest.h>
-
 #include "idl/nav_msgs.h"
 #include "interfaces/map_subscriber.h"
+#include "interfaces/test/loopback.h"
 #include "interfaces/test/random_grid.h"
 
 namespace monoplane::interfaces {
@@ -26,7 +25,8 @@ OccupancyGrid TestGrid(int width, int height, double origin_x, double origin_y, 
   return testing::RandomGrid(width, height, 0.1, origin_x, origin_y, seed);
 }
 
-std::unique_ptr<MapPublisher> MakePublisher(const std::string& prefix, double max_blocking_s = 0.005) {
+std::unique_ptr<MapPublisher> MakePublisher(const std::string& prefix,
+                                            double max_blocking_s = 0.005) {
   MapPublisher::Options options;
   options.domain_id = kDomain;
   options.topic_prefix = prefix;
@@ -37,7 +37,8 @@ std::unique_ptr<MapPublisher> MakePublisher(const std::string& prefix, double ma
   return publisher;
 }
 
-std::unique_ptr<MapSubscriber> MakeSubscriber(const std::string& topic, const std::string& prefix = "") {
+std::unique_ptr<MapSubscriber> MakeSubscriber(const std::string& topic,
+                                              const std::string& prefix = "") {
   MapSubscriber::Options options;
   options.domain_id = kDomain;
   options.topic_prefix = prefix;
@@ -125,7 +126,8 @@ TEST(MapPublisherTest, DiscoveredMapWriterMatchesRos2MapServer) {
   std::map<std::string, std::string> type_of;
   bool map_checked = false;
   while (!map_checked) {
-    ASSERT_GT(dds_waitset_wait(waitset, nullptr, 0, DDS_SECS(10)), 0) << "rt/discovery/map not discovered";
+    ASSERT_GT(dds_waitset_wait(waitset, nullptr, 0, DDS_SECS(10)), 0)
+        << "rt/discovery/map not discovered";
     void* samples[16] = {};
     dds_sample_info_t infos[16];
     const dds_return_t n = dds_take(reader, samples, infos, 16, 16);
@@ -186,8 +188,9 @@ TEST(MapPublisherTest, MapLocalMapUpdateOdomAndTfRoundTrip) {
   ASSERT_EQ(publisher->PublishMapUpdate(changed, *region, stamp + 2, &error), PublishStatus::kSent);
   const Pose2 map_from_odom{1.0, -2.0, 0.3};
   const Pose2 odom_from_base{0.5, 0.25, -1.2};
-  ASSERT_EQ(publisher->PublishPose(map_from_odom, odom_from_base, stamp + 3, {0.2, 0.0, 0.1}, &error),
-            PublishStatus::kSent)
+  ASSERT_EQ(
+      publisher->PublishPose(map_from_odom, odom_from_base, stamp + 3, {0.2, 0.0, 0.1}, &error),
+      PublishStatus::kSent)
       << error;
 
   auto got_map = map_sub->Take(10.0, &error);
@@ -259,7 +262,8 @@ TEST(MapPublisherTest, TiledGridIsPublishedAsItsTrinaryGrid) {
   tiled.TileAt(uncertain).log_odds[TiledGrid::IndexInTile(uncertain)] = 0.1f;
   tiled.TileAt(uncertain).last_seen_ns[TiledGrid::IndexInTile(uncertain)] = 1;
   std::string error;
-  ASSERT_EQ(publisher->PublishMap(tiled, 7, TrinaryThresholds{}, &error), PublishStatus::kSent) << error;
+  ASSERT_EQ(publisher->PublishMap(tiled, 7, TrinaryThresholds{}, &error), PublishStatus::kSent)
+      << error;
   auto got = map_sub->Take(10.0, &error);
   ASSERT_TRUE(got) << error;
   const GridGeometry& g = got->grid.geometry;
@@ -282,7 +286,8 @@ TEST(MapPublisherTest, RejectsInconsistentGrids) {
   EXPECT_EQ(publisher->PublishMap(grid, 1, &error), PublishStatus::kError);
   EXPECT_NE(error.find("15 cells"), std::string::npos) << error;
   const OccupancyGrid ok = TestGrid(4, 4, 0, 0, 3);
-  EXPECT_EQ(publisher->PublishMapUpdate(ok, CellRect{2, 2, 3, 1}, 1, &error), PublishStatus::kError);
+  EXPECT_EQ(publisher->PublishMapUpdate(ok, CellRect{2, 2, 3, 1}, 1, &error),
+            PublishStatus::kError);
   EXPECT_EQ(publisher->map_stats().errors, 1);
 }
 

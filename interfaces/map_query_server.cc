@@ -1,11 +1,11 @@
 #include "interfaces/map_query_server.h"
 
+#include <dds/dds.h>
+
 #include <chrono>
 #include <cmath>
 #include <random>
 #include <utility>
-
-#include <dds/dds.h>
 
 #include "idl/monoplane_msgs.h"
 
@@ -24,8 +24,9 @@ EndpointQos QueryQos(double max_blocking_time_s) {
 
 bool ValidDomain(int domain_id, const char* owner, std::string* error) {
   if (domain_id >= 0 && domain_id <= 232) return true;
-  if (error) *error = std::string(owner) + "::Options::domain_id = " + std::to_string(domain_id) +
-                      ". Violated constraint: in [0, 232]";
+  if (error)
+    *error = std::string(owner) + "::Options::domain_id = " + std::to_string(domain_id) +
+             ". Violated constraint: in [0, 232]";
   return false;
 }
 
@@ -225,8 +226,10 @@ std::string MapQueryReplyTopic(const std::string& prefix) {
 bool MapQueryServer::Options::IsValid(std::string* error) const {
   if (!ValidDomain(domain_id, "MapQueryServer", error)) return false;
   if (!(max_blocking_time_s >= 0.0 && max_blocking_time_s <= 1.0)) {
-    if (error) *error = "MapQueryServer::Options::max_blocking_time_s = " +
-                        std::to_string(max_blocking_time_s) + ". Violated constraint: in [0, 1]";
+    if (error)
+      *error =
+          "MapQueryServer::Options::max_blocking_time_s = " + std::to_string(max_blocking_time_s) +
+          ". Violated constraint: in [0, 1]";
     return false;
   }
   return true;
@@ -335,8 +338,7 @@ struct MapQueryClient::Impl {
 MapQueryClient::MapQueryClient(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
 MapQueryClient::~MapQueryClient() = default;
 
-std::unique_ptr<MapQueryClient> MapQueryClient::Create(const Options& options,
-                                                       std::string* error) {
+std::unique_ptr<MapQueryClient> MapQueryClient::Create(const Options& options, std::string* error) {
   if (!options.IsValid(error)) return nullptr;
   auto impl = std::make_unique<Impl>();
   impl->client_id = options.client_id;
@@ -380,8 +382,8 @@ bool MapQueryClient::WaitForServer(double match_timeout_s) {
   }
 }
 
-std::optional<MapQueryReply> MapQueryClient::Query(const MapQueryRequest& request,
-                                                   double timeout_s, std::string* error) {
+std::optional<MapQueryReply> MapQueryClient::Query(const MapQueryRequest& request, double timeout_s,
+                                                   std::string* error) {
   const uint64_t request_id = impl_->next_request_id++;
   std::vector<geometry_msgs_msg_dds__Point_> path;
   for (const auto& p : request.path_m) path.push_back({p.x(), p.y(), 0.0});
@@ -428,8 +430,9 @@ std::optional<MapQueryReply> MapQueryClient::Query(const MapQueryRequest& reques
     }
     const std::int64_t remaining = RemainingNs(deadline);
     if (remaining == 0) {
-      if (error) *error = "no reply to map query " + std::to_string(request_id) + " within " +
-                          std::to_string(timeout_s) + " s";
+      if (error)
+        *error = "no reply to map query " + std::to_string(request_id) + " within " +
+                 std::to_string(timeout_s) + " s";
       return std::nullopt;
     }
     const dds_return_t woke = dds_waitset_wait(impl_->endpoints.waitset, nullptr, 0, remaining);

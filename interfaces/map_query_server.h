@@ -1,13 +1,12 @@
 #pragma once
 
+#include <Eigen/Core>
 #include <cstdint>
 #include <functional>
 #include <memory>
 #include <optional>
 #include <string>
 #include <vector>
-
-#include <Eigen/Core>
 
 #include "interfaces/dds_entities.h"
 #include "perception/geometry/occupancy_grid.h"
@@ -19,7 +18,8 @@ namespace monoplane::interfaces {
 struct MapQueryRequest {
   enum class Kind { kPoint = 1, kRegion = 2, kNearestObstacle = 3, kPathClearance = 4 };
   Kind kind = Kind::kPoint;
-  Eigen::Vector2d point_m = Eigen::Vector2d::Zero();     // point; region corner a; nearest: query point
+  Eigen::Vector2d point_m =
+      Eigen::Vector2d::Zero();  // point; region corner a; nearest: query point
   Eigen::Vector2d corner_b_m = Eigen::Vector2d::Zero();  // region corner b
   bool want_raster = false;                              // region: return the cells too
   double max_radius_m = 1.0;                             // nearest obstacle search radius, > 0
@@ -78,8 +78,8 @@ std::string MapQueryReplyTopic(const std::string& prefix);
 class MapQueryServer {
  public:
   struct Options {
-    int domain_id = 0;         // [0, 232]
-    std::string topic_prefix;  // as MapPublisher::Options::topic_prefix
+    int domain_id = 0;                  // [0, 232]
+    std::string topic_prefix;           // as MapPublisher::Options::topic_prefix
     double max_blocking_time_s = 0.05;  // longest a reply write may wait, [0, 1]
     bool IsValid(std::string* error) const;
   };

@@ -3,13 +3,13 @@
 // get only their own replies.
 #include "interfaces/map_query_server.h"
 
-#include "interfaces/test/loopback.h"
+#include <gtest/gtest.h>
 
 #include <atomic>
 #include <cmath>
 #include <thread>
 
-#include <gtest/gtest.h>
+#include "interfaces/test/loopback.h"
 
 namespace monoplane::interfaces {
 namespace {

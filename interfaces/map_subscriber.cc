@@ -1,11 +1,11 @@
 #include "interfaces/map_subscriber.h"
 
+#include <dds/dds.h>
+
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <utility>
-
-#include <dds/dds.h>
 
 #include "idl/map_msgs.h"
 #include "idl/nav_msgs.h"
@@ -139,13 +139,15 @@ std::string Summarize(const ReceivedMessage& m) {
 
 bool MapSubscriber::Options::IsValid(std::string* error) const {
   if (domain_id < 0 || domain_id > 232) {
-    if (error) *error = "MapSubscriber::Options::domain_id = " + std::to_string(domain_id) +
-                        ". Violated constraint: in [0, 232]";
+    if (error)
+      *error = "MapSubscriber::Options::domain_id = " + std::to_string(domain_id) +
+               ". Violated constraint: in [0, 232]";
     return false;
   }
   if (history_depth < 1 || history_depth > 10000) {
-    if (error) *error = "MapSubscriber::Options::history_depth = " + std::to_string(history_depth) +
-                        ". Violated constraint: in [1, 10000]";
+    if (error)
+      *error = "MapSubscriber::Options::history_depth = " + std::to_string(history_depth) +
+               ". Violated constraint: in [1, 10000]";
     return false;
   }
   return true;
@@ -164,8 +166,7 @@ MapSubscriber::MapSubscriber(std::unique_ptr<Impl> impl) : impl_(std::move(impl)
 MapSubscriber::~MapSubscriber() = default;
 
 std::unique_ptr<MapSubscriber> MapSubscriber::Create(const Options& options,
-                                                     const std::string& topic,
-                                                     std::string* error) {
+                                                     const std::string& topic, std::string* error) {
   if (!options.IsValid(error)) return nullptr;
   auto impl = std::make_unique<Impl>();
   impl->topic_name = topic.rfind("rt/", 0) == 0 ? topic : RosTopicName(options.topic_prefix, topic);
@@ -187,8 +188,9 @@ std::unique_ptr<MapSubscriber> MapSubscriber::Create(const Options& options,
     impl->kind = MessageKind::kTf;
     descriptor = &tf2_msgs_msg_dds__TFMessage__desc;
   } else {
-    if (error) *error = "unknown topic \"" + topic +
-                        "\" (known: map, map_updates, odom, tf, monoplane/local_map)";
+    if (error)
+      *error = "unknown topic \"" + topic +
+               "\" (known: map, map_updates, odom, tf, monoplane/local_map)";
     return nullptr;
   }
   impl->participant = CreateParticipant(options.domain_id, error);
@@ -200,7 +202,8 @@ std::unique_ptr<MapSubscriber> MapSubscriber::Create(const Options& options,
   impl->waitset = dds_create_waitset(impl->participant);
   const dds_entity_t condition = dds_create_readcondition(impl->reader, DDS_ANY_STATE);
   if (impl->waitset < 0 || condition < 0) {
-    if (error) *error = DdsError(impl->waitset < 0 ? impl->waitset : condition, "creating a waitset");
+    if (error)
+      *error = DdsError(impl->waitset < 0 ? impl->waitset : condition, "creating a waitset");
     return nullptr;
   }
   const dds_return_t rc = dds_waitset_attach(impl->waitset, condition, condition);
@@ -213,8 +216,9 @@ std::unique_ptr<MapSubscriber> MapSubscriber::Create(const Options& options,
 
 std::optional<ReceivedMessage> MapSubscriber::Take(double timeout_s, std::string* error) {
   using Clock = std::chrono::steady_clock;
-  const auto deadline = Clock::now() + std::chrono::nanoseconds(static_cast<std::int64_t>(
-                                           std::max(0.0, timeout_s) * 1e9));
+  const auto deadline =
+      Clock::now() +
+      std::chrono::nanoseconds(static_cast<std::int64_t>(std::max(0.0, timeout_s) * 1e9));
   while (true) {
     void* samples[1] = {nullptr};
     dds_sample_info_t info;
@@ -250,9 +254,9 @@ std::optional<ReceivedMessage> MapSubscriber::Take(double timeout_s, std::string
     }
     const auto remaining = deadline - Clock::now();
     if (remaining <= Clock::duration::zero()) return std::nullopt;
-    const dds_return_t rc = dds_waitset_wait(
-        impl_->waitset, nullptr, 0,
-        std::chrono::duration_cast<std::chrono::nanoseconds>(remaining).count());
+    const dds_return_t rc =
+        dds_waitset_wait(impl_->waitset, nullptr, 0,
+                         std::chrono::duration_cast<std::chrono::nanoseconds>(remaining).count());
     if (rc < 0) {
       if (error) *error = DdsError(rc, "waiting on " + impl_->topic_name);
       return std::nullopt;

@@ -48,7 +48,8 @@ struct ReceivedMessage {
 };
 
 // One summary line, e.g.
-// "rt/map stamp=12.500000000 frame=map 200x100 res=0.050 origin=(-5.000,-2.500,0.000) free=10 occupied=2 unknown=19988"
+// "rt/map stamp=12.500000000 frame=map 200x100 res=0.050 origin=(-5.000,-2.500,0.000) free=10
+// occupied=2 unknown=19988"
 std::string Summarize(const ReceivedMessage& message);
 
 // Subscribes to one monoplane / ROS 2 topic and hands out what arrives. The QoS is reliable with
@@ -58,9 +59,9 @@ std::string Summarize(const ReceivedMessage& message);
 class MapSubscriber {
  public:
   struct Options {
-    int domain_id = 0;       // [0, 232]
+    int domain_id = 0;         // [0, 232]
     std::string topic_prefix;  // as MapPublisher::Options::topic_prefix
-    int history_depth = 16;  // samples queued before the oldest is dropped, [1, 10000]
+    int history_depth = 16;    // samples queued before the oldest is dropped, [1, 10000]
     bool IsValid(std::string* error) const;
   };
 

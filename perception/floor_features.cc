@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-
 #include <opencv2/features2d.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -29,14 +28,17 @@ cv::Matx33d ToCv(const Eigen::Matrix3d& m) {
 
 bool FloorFeatureOptions::IsValid(std::string* error) const {
   auto fail = [&](const std::string& key, double value, const std::string& constraint) {
-    if (error) *error = "FloorFeatureOptions::" + key + " = " + std::to_string(value) + ": must be " + constraint;
+    if (error)
+      *error =
+          "FloorFeatureOptions::" + key + " = " + std::to_string(value) + ": must be " + constraint;
     return false;
   };
   if (!(resolution_m > 0)) return fail("resolution_m", resolution_m, "> 0");
   if (!(max_x_m > min_x_m)) return fail("max_x_m", max_x_m, "> min_x_m");
   if (!(half_width_m > 0)) return fail("half_width_m", half_width_m, "> 0");
   if (!((max_x_m - min_x_m) / resolution_m <= 4000 && 2 * half_width_m / resolution_m <= 4000)) {
-    return fail("resolution_m", resolution_m, "coarse enough for a top view of at most 4000 x 4000 cells");
+    return fail("resolution_m", resolution_m,
+                "coarse enough for a top view of at most 4000 x 4000 cells");
   }
   if (max_features < 1) return fail("max_features", max_features, ">= 1");
   if (fast_threshold < 1) return fail("fast_threshold", fast_threshold, ">= 1");
@@ -49,7 +51,7 @@ bool FloorFeatureOptions::IsValid(std::string* error) const {
 
 Eigen::Matrix3d FloorFromTopView(const FloorFeatureOptions& o) {
   Eigen::Matrix3d m;
-  m << 0, -o.resolution_m, o.max_x_m - 0.5 * o.resolution_m,  //
+  m << 0, -o.resolution_m, o.max_x_m - 0.5 * o.resolution_m,      //
       -o.resolution_m, 0, o.half_width_m - 0.5 * o.resolution_m,  //
       0, 0, 1;
   return m;
@@ -59,8 +61,8 @@ namespace {
 
 // 255 where the top-view cell's floor point is seen in the image (in front of the camera, inside
 // the image, clear of the horizon), else 0.
-cv::Mat ValidTopView(const Eigen::Matrix3d& pixel_from_topview, const CameraModel& camera, const cv::Size& size,
-                     const cv::Size& image_size) {
+cv::Mat ValidTopView(const Eigen::Matrix3d& pixel_from_topview, const CameraModel& camera,
+                     const cv::Size& size, const cv::Size& image_size) {
   cv::Mat valid(size, CV_8U);
   const Eigen::Vector3d l = camera.HorizonLine();
   const double margin = 2.0;
@@ -72,7 +74,8 @@ cv::Mat ValidTopView(const Eigen::Matrix3d& pixel_from_topview, const CameraMode
       bool ok = q.z() > 1e-9;
       if (ok) {
         const double u = q.x() / q.z(), v = q.y() / q.z();
-        ok = u >= margin && v >= margin && u <= image_size.width - 1 - margin && v <= image_size.height - 1 - margin;
+        ok = u >= margin && v >= margin && u <= image_size.width - 1 - margin &&
+             v <= image_size.height - 1 - margin;
         // Keep off the horizon: the floor there is smeared over many top-view cells.
         ok = ok && std::abs(l.dot(Eigen::Vector3d(u, v, 1))) / l.head<2>().norm() > 10.0;
       }
@@ -89,13 +92,14 @@ cv::Mat RenderFloorTopView(const cv::Mat& undistorted_grey, const CameraModel& c
   const cv::Size size = TopViewSize(options);
   const Eigen::Matrix3d pixel_from_topview = camera.pixel_from_floor() * FloorFromTopView(options);
   cv::Mat top;
-  cv::warpPerspective(undistorted_grey, top, ToCv(pixel_from_topview), size, cv::INTER_LINEAR | cv::WARP_INVERSE_MAP,
-                      cv::BORDER_CONSTANT, 0);
+  cv::warpPerspective(undistorted_grey, top, ToCv(pixel_from_topview), size,
+                      cv::INTER_LINEAR | cv::WARP_INVERSE_MAP, cv::BORDER_CONSTANT, 0);
   if (valid) *valid = ValidTopView(pixel_from_topview, camera, size, undistorted_grey.size());
   return top;
 }
 
-FloorFeatureExtractor::FloorFeatureExtractor(const CameraModel& camera, const FloorFeatureOptions& options)
+FloorFeatureExtractor::FloorFeatureExtractor(const CameraModel& camera,
+                                             const FloorFeatureOptions& options)
     : options_(options) {
   const CameraIntrinsics& in = camera.calibration().intrinsics;
   image_size_ = cv::Size(in.width, in.height);
@@ -115,10 +119,12 @@ FloorFeatureExtractor::FloorFeatureExtractor(const CameraModel& camera, const Fl
   valid_ = ValidTopView(pixel_from_topview_, camera, size, image_size_);
   // Descriptor patches must lie inside the seen floor.
   cv::erode(valid_, keypoint_mask_,
-            cv::getStructuringElement(cv::MORPH_RECT, cv::Size(options.patch_size_px + 2, options.patch_size_px + 2)));
+            cv::getStructuringElement(
+                cv::MORPH_RECT, cv::Size(options.patch_size_px + 2, options.patch_size_px + 2)));
 }
 
-FloorFeatures FloorFeatureExtractor::Compute(const cv::Mat& undistorted_grey, const cv::Mat& labels) const {
+FloorFeatures FloorFeatureExtractor::Compute(const cv::Mat& undistorted_grey,
+                                             const cv::Mat& labels) const {
   FloorFeatures out;
   if (!options_.enabled || undistorted_grey.empty() || undistorted_grey.size() != image_size_ ||
       undistorted_grey.type() != CV_8U) {
@@ -143,21 +149,24 @@ FloorFeatures FloorFeatureExtractor::Compute(const cv::Mat& undistorted_grey, co
     const double gain = 40.0 / std::max(stddev[0], 1e-3);
     band.convertTo(top, CV_8U, gain, 128.0 - gain * mean[0]);
   }
-  cv::Ptr<cv::ORB> orb = cv::ORB::create(options_.max_features, static_cast<float>(options_.scale_factor),
-                                         options_.num_levels, options_.patch_size_px, 0, 2, cv::ORB::HARRIS_SCORE,
-                                         options_.patch_size_px, options_.fast_threshold);
+  cv::Ptr<cv::ORB> orb =
+      cv::ORB::create(options_.max_features, static_cast<float>(options_.scale_factor),
+                      options_.num_levels, options_.patch_size_px, 0, 2, cv::ORB::HARRIS_SCORE,
+                      options_.patch_size_px, options_.fast_threshold);
   std::vector<cv::KeyPoint> keypoints;
   cv::Mat descriptors;
   orb->detectAndCompute(top, keypoint_mask_, keypoints, descriptors);
   if (keypoints.empty()) return out;
 
-  const bool use_labels = !labels.empty() && labels.type() == CV_8U && labels.size() == undistorted_grey.size();
+  const bool use_labels =
+      !labels.empty() && labels.type() == CV_8U && labels.size() == undistorted_grey.size();
   std::vector<int> keep;
   keep.reserve(keypoints.size());
   for (int i = 0; i < static_cast<int>(keypoints.size()); ++i) {
     if (use_labels) {
       const Eigen::Vector2d p =
-          (pixel_from_topview_ * Eigen::Vector3d(keypoints[i].pt.x, keypoints[i].pt.y, 1.0)).hnormalized();
+          (pixel_from_topview_ * Eigen::Vector3d(keypoints[i].pt.x, keypoints[i].pt.y, 1.0))
+              .hnormalized();
       const int u = std::clamp(static_cast<int>(std::lround(p.x())), 0, labels.cols - 1);
       const int v = std::clamp(static_cast<int>(std::lround(p.y())), 0, labels.rows - 1);
       const auto label = static_cast<PixelLabel>(labels.at<std::uint8_t>(v, u));

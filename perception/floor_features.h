@@ -1,10 +1,9 @@
 #pragma once
 
-#include <string>
-#include <vector>
-
 #include <Eigen/Core>
 #include <opencv2/core.hpp>
+#include <string>
+#include <vector>
 
 #include "perception/frame_types.h"
 #include "perception/geometry/camera_model.h"
@@ -23,11 +22,11 @@ struct FloorFeatureOptions {
   double min_x_m = 0.45;
   double max_x_m = 3.0;
   double half_width_m = 1.8;
-  int max_features = 1000;   // keypoints kept per frame (>= 1)
-  int fast_threshold = 8;    // ORB's FAST threshold, grey levels (>= 1)
-  int num_levels = 1;        // ORB pyramid levels (>= 1); the top view has a fixed scale
-  double scale_factor = 1.2; // between levels (> 1)
-  int patch_size_px = 19;    // ORB's descriptor patch (and keypoint border), top-view pixels (>= 7)
+  int max_features = 1000;    // keypoints kept per frame (>= 1)
+  int fast_threshold = 8;     // ORB's FAST threshold, grey levels (>= 1)
+  int num_levels = 1;         // ORB pyramid levels (>= 1); the top view has a fixed scale
+  double scale_factor = 1.2;  // between levels (> 1)
+  int patch_size_px = 19;  // ORB's descriptor patch (and keypoint border), top-view pixels (>= 7)
   // Gaussian blur of the top view before detection, top-view pixels (>= 0; 0 = none).
   double blur_sigma_px = 1.0;
 
@@ -61,9 +60,9 @@ class FloorFeatureExtractor {
   FloorFeatureOptions options_;
   Eigen::Matrix3d floor_from_topview_, pixel_from_topview_;
   cv::Size image_size_;
-  cv::Mat map1_, map2_;   // top view -> image, fixed point (cv::convertMaps)
-  cv::Mat valid_;         // seen floor, CV_8U 255/0
-  cv::Mat keypoint_mask_; // valid_ eroded by the descriptor patch
+  cv::Mat map1_, map2_;    // top view -> image, fixed point (cv::convertMaps)
+  cv::Mat valid_;          // seen floor, CV_8U 255/0
+  cv::Mat keypoint_mask_;  // valid_ eroded by the descriptor patch
 };
 
 // One-shot convenience: builds a FloorFeatureExtractor and computes.

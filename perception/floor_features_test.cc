@@ -3,10 +3,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <random>
-
 #include <opencv2/features2d.hpp>
 #include <opencv2/imgproc.hpp>
+#include <random>
 
 #include "perception/frame_types.h"
 
@@ -44,7 +43,8 @@ cv::Mat FloorTexture() {
 }
 
 // The undistorted image of the textured floor seen from world_from_base (sky above: flat grey).
-cv::Mat RenderFloor(const CameraModel& camera, const cv::Mat& texture, const Pose2& world_from_base) {
+cv::Mat RenderFloor(const CameraModel& camera, const cv::Mat& texture,
+                    const Pose2& world_from_base) {
   const CameraIntrinsics& in = camera.calibration().intrinsics;
   cv::Mat map_x(in.height, in.width, CV_32F), map_y(in.height, in.width, CV_32F);
   for (int v = 0; v < in.height; ++v) {
@@ -115,8 +115,8 @@ TEST_F(FloorFeaturesTest, MatchedFeaturesAreTheSameFloorPoint) {
     const Eigen::Vector2d wb = world_from_b * b.points_in_base[m.trainIdx].cast<double>();
     close += (wa - wb).norm() < 0.02 ? 1 : 0;
   }
-  std::printf("features %d / %d, good matches %d, same point within 2 cm %d\n", a.size(), b.size(), good,
-              close);
+  std::printf("features %d / %d, good matches %d, same point within 2 cm %d\n", a.size(), b.size(),
+              good, close);
   // A wrong match lands within 2 cm of the right point by chance once in thousands.
   EXPECT_GE(close, 50);
 }

@@ -1,14 +1,12 @@
 #pragma once
 
+#include <Eigen/Core>
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <string>
-
-#include <vector>
-
-#include <Eigen/Core>
 #include <opencv2/core.hpp>
+#include <string>
+#include <vector>
 
 #include "perception/geometry/occupancy_grid.h"
 #include "perception/geometry/pose2.h"
@@ -27,13 +25,13 @@ enum class PixelLabel : std::uint8_t {
 // The planar motion between two frames and how much to trust it.
 struct GroundMotion {
   enum class Status {
-    kOk,          // fitted on enough floor inliers
-    kFallback,    // too few inliers: the prior motion was used instead
-    kFailed,      // no usable motion and no prior
+    kOk,        // fitted on enough floor inliers
+    kFallback,  // too few inliers: the prior motion was used instead
+    kFailed,    // no usable motion and no prior
   };
   Status status = Status::kFailed;
-  Pose2 base2_from_base1;      // robot motion: maps base-1 points into the base-2 frame
-  int num_tracked = 0;         // corners tracked forward-backward consistently
+  Pose2 base2_from_base1;        // robot motion: maps base-1 points into the base-2 frame
+  int num_tracked = 0;           // corners tracked forward-backward consistently
   int num_floor_candidates = 0;  // tracked corners in the floor strip
   int num_inliers = 0;
   double rms_residual_px = 0.0;  // over the inliers, in image 2
@@ -63,9 +61,9 @@ struct FloorFeatures {
 // Why a frame pair did or did not give heights.
 enum class PairStatus {
   kOk,
-  kNoParallax,     // standstill or turning on the spot: everything is unknown
-  kNoMotion,       // ground motion could not be estimated: everything is unknown
-  kBadImage,       // empty, wrong size, or without any texture: everything is unknown
+  kNoParallax,  // standstill or turning on the spot: everything is unknown
+  kNoMotion,    // ground motion could not be estimated: everything is unknown
+  kBadImage,    // empty, wrong size, or without any texture: everything is unknown
 };
 const char* ToString(PairStatus status);
 
@@ -75,8 +73,8 @@ struct FrameResult {
   std::string message;  // human-readable reason when status != kOk
   GroundMotion motion;  // reference -> current
   // Full input resolution:
-  cv::Mat labels;          // CV_8U, PixelLabel values
-  cv::Mat height_mm;       // CV_16U, height above the floor in mm + 32768; 0 = unknown
+  cv::Mat labels;     // CV_8U, PixelLabel values
+  cv::Mat height_mm;  // CV_16U, height above the floor in mm + 32768; 0 = unknown
   // Sample grid (one value per sample_stride_px block):
   cv::Mat zero_disparity_px;  // CV_32F, signed; NaN where unknown
   cv::Mat segments;           // CV_32S segment id per full-resolution pixel (empty if disabled)
@@ -97,6 +95,8 @@ inline std::uint16_t EncodeHeightMm(double height_m) {
   const double v = std::round(height_m * 1000.0) + 32768.0;
   return static_cast<std::uint16_t>(std::clamp(v, 1.0, 65535.0));
 }
-inline double DecodeHeightM(std::uint16_t value) { return (static_cast<int>(value) - 32768) / 1000.0; }
+inline double DecodeHeightM(std::uint16_t value) {
+  return (static_cast<int>(value) - 32768) / 1000.0;
+}
 
 }  // namespace monoplane

@@ -1,11 +1,10 @@
 #include "perception/ground_motion.h"
 
-#include <cmath>
-#include <random>
-
 #include <Eigen/Dense>
+#include <cmath>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/video/tracking.hpp>
+#include <random>
 
 namespace monoplane {
 namespace {
@@ -33,9 +32,12 @@ std::optional<Pose2> TwoPointMotion(const Eigen::Vector2d& a0, const Eigen::Vect
 
 const char* ToString(GroundMotion::Status status) {
   switch (status) {
-    case GroundMotion::Status::kOk: return "ok";
-    case GroundMotion::Status::kFallback: return "fallback";
-    case GroundMotion::Status::kFailed: return "failed";
+    case GroundMotion::Status::kOk:
+      return "ok";
+    case GroundMotion::Status::kFallback:
+      return "fallback";
+    case GroundMotion::Status::kFailed:
+      return "failed";
   }
   return "?";
 }

@@ -1,10 +1,9 @@
 #pragma once
 
+#include <opencv2/core.hpp>
 #include <optional>
 #include <string>
 #include <vector>
-
-#include <opencv2/core.hpp>
 
 #include "perception/frame_types.h"
 #include "perception/geometry/camera_model.h"
@@ -49,8 +48,8 @@ GroundMotion EstimateGroundMotion(const cv::Mat& image1, const cv::Mat& image2,
 // feature tracks): RANSAC over 2-point planar motions on the points whose image-1 floor position
 // lies in the strip, then least-squares refinement. `inlier_mask` (optional) marks the inliers.
 GroundMotion FitGroundMotion(const std::vector<Eigen::Vector2d>& pixels1,
-                             const std::vector<Eigen::Vector2d>& pixels2,
-                             const CameraModel& camera, const GroundMotionOptions& options,
+                             const std::vector<Eigen::Vector2d>& pixels2, const CameraModel& camera,
+                             const GroundMotionOptions& options,
                              const std::optional<Pose2>& prior = std::nullopt,
                              std::vector<char>* inlier_mask = nullptr);
 

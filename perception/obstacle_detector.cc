@@ -2,12 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
-#include <vector>
-
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/video/tracking.hpp>
 #include <opencv2/ximgproc/slic.hpp>
+#include <vector>
 
 namespace monoplane {
 namespace {
@@ -26,12 +25,13 @@ FrameResult UnknownResult(const cv::Size& size, const LocalMapOptions& map_optio
   g.resolution_m = map_options.resolution_m;
   g.origin_x_m = map_options.min_x_m;
   g.origin_y_m = map_options.min_y_m;
-  g.width = static_cast<int>(std::lround((map_options.max_x_m - map_options.min_x_m) / g.resolution_m));
-  g.height = static_cast<int>(std::lround((map_options.max_y_m - map_options.min_y_m) / g.resolution_m));
+  g.width =
+      static_cast<int>(std::lround((map_options.max_x_m - map_options.min_x_m) / g.resolution_m));
+  g.height =
+      static_cast<int>(std::lround((map_options.max_y_m - map_options.min_y_m) / g.resolution_m));
   r.local_map = OccupancyGrid(g, kCellUnknown);
   return r;
 }
-
 
 // One sample of the search grid.
 struct Sample {
@@ -142,10 +142,14 @@ Eigen::Vector2d CameraCentreXyInOdom(const CameraModel& camera, const Pose2& odo
 
 const char* ToString(PairStatus status) {
   switch (status) {
-    case PairStatus::kOk: return "ok";
-    case PairStatus::kNoParallax: return "no parallax (standstill or turning on the spot)";
-    case PairStatus::kNoMotion: return "ground motion unknown";
-    case PairStatus::kBadImage: return "bad image";
+    case PairStatus::kOk:
+      return "ok";
+    case PairStatus::kNoParallax:
+      return "no parallax (standstill or turning on the spot)";
+    case PairStatus::kNoMotion:
+      return "ground motion unknown";
+    case PairStatus::kBadImage:
+      return "bad image";
   }
   return "?";
 }
@@ -244,9 +248,15 @@ cv::Mat ObstacleDetector::Prepare(const cv::Mat& image, std::string* error) cons
     return {};
   }
   switch (eight_bit.channels()) {
-    case 1: grey = eight_bit; break;
-    case 3: cv::cvtColor(eight_bit, grey, cv::COLOR_BGR2GRAY); break;
-    case 4: cv::cvtColor(eight_bit, grey, cv::COLOR_BGRA2GRAY); break;
+    case 1:
+      grey = eight_bit;
+      break;
+    case 3:
+      cv::cvtColor(eight_bit, grey, cv::COLOR_BGR2GRAY);
+      break;
+    case 4:
+      cv::cvtColor(eight_bit, grey, cv::COLOR_BGRA2GRAY);
+      break;
     default:
       *error = "unsupported number of channels: " + std::to_string(eight_bit.channels());
       return {};
@@ -388,7 +398,8 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
       if (label == PixelLabel::kFloor) {
         sample_height.at<std::uint16_t>(i, j) = EncodeHeightMm(0.0);
         // Top view: floor at its floor point...
-        if (auto cell = g.CellOf(sample.floor_in_base2)) ++free_votes[g.Index(cell->x(), cell->y())];
+        if (auto cell = g.CellOf(sample.floor_in_base2))
+          ++free_votes[g.Index(cell->x(), cell->y())];
       } else if ((label == PixelLabel::kObstacle || label == PixelLabel::kDropOff) &&
                  sample.measured) {
         sample_height.at<std::uint16_t>(i, j) = EncodeHeightMm(sample.height_m);
@@ -420,7 +431,8 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
              cv::INTER_NEAREST);
   cv::resize(sample_height, height_full, cv::Size(sample_cols * block, sample_rows * block), 0, 0,
              cv::INTER_NEAREST);
-  const cv::Rect roi(0, 0, std::min(size.width, labels_full.cols), std::min(size.height, labels_full.rows));
+  const cv::Rect roi(0, 0, std::min(size.width, labels_full.cols),
+                     std::min(size.height, labels_full.rows));
   labels_full(roi).copyTo(r.labels(roi));
   height_full(roi).copyTo(r.height_mm(roi));
   r.num_unknown = 0;
@@ -428,11 +440,21 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
     const std::uint8_t* p = r.labels.ptr<std::uint8_t>(yy);
     for (int xx = 0; xx < r.labels.cols; ++xx) {
       switch (static_cast<PixelLabel>(p[xx])) {
-        case PixelLabel::kFloor: ++r.num_floor; break;
-        case PixelLabel::kObstacle: ++r.num_obstacle; break;
-        case PixelLabel::kDropOff: ++r.num_drop_off; break;
-        case PixelLabel::kMoving: ++r.num_moving; break;
-        default: ++r.num_unknown; break;
+        case PixelLabel::kFloor:
+          ++r.num_floor;
+          break;
+        case PixelLabel::kObstacle:
+          ++r.num_obstacle;
+          break;
+        case PixelLabel::kDropOff:
+          ++r.num_drop_off;
+          break;
+        case PixelLabel::kMoving:
+          ++r.num_moving;
+          break;
+        default:
+          ++r.num_unknown;
+          break;
       }
     }
   }
@@ -479,7 +501,8 @@ SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, Timesta
   // 1. Track the corners of the previous frame; the floor's motion between the frames is fitted to
   //    the tracks in the floor strip (the paper's ground motion).
   std::vector<Eigen::Vector2d> before, after;
-  std::vector<FeatureObservation> tracked = TrackFeatures(previous, pyramid, prepared, &before, &after);
+  std::vector<FeatureObservation> tracked =
+      TrackFeatures(previous, pyramid, prepared, &before, &after);
   std::vector<char> inlier;
   out.step = FitGroundMotion(before, after, camera, options.ground_motion, last_step_, &inlier);
   for (std::size_t i = 0; i < tracked.size(); ++i) {
@@ -560,8 +583,7 @@ SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, Timesta
 
 std::vector<FeatureObservation> SequenceDetector::TrackFeatures(
     const Frame& previous, const std::vector<cv::Mat>& current_pyramid, const cv::Mat& current,
-    std::vector<Eigen::Vector2d>* before,
-    std::vector<Eigen::Vector2d>* after) const {
+    std::vector<Eigen::Vector2d>* before, std::vector<Eigen::Vector2d>* after) const {
   const GroundMotionOptions& gm = detector_.options().ground_motion;
   std::vector<FeatureObservation> tracked;
   if (previous.features.empty()) return tracked;
@@ -620,7 +642,8 @@ std::vector<FeatureObservation> SequenceDetector::AddNewCorners(
   };
   int tracked_in_strip = 0;
   for (const auto& f : tracked) tracked_in_strip += in_strip(f.pixel) ? 1 : 0;
-  if (static_cast<int>(tracked.size()) >= wanted * 3 / 4 && tracked_in_strip >= strip_wanted * 3 / 4) {
+  if (static_cast<int>(tracked.size()) >= wanted * 3 / 4 &&
+      tracked_in_strip >= strip_wanted * 3 / 4) {
     return tracked;
   }
   cv::Mat free_mask(current.size(), CV_8U, cv::Scalar(255));

@@ -1,10 +1,9 @@
 #pragma once
 
 #include <deque>
+#include <opencv2/core.hpp>
 #include <optional>
 #include <string>
-
-#include <opencv2/core.hpp>
 
 #include "perception/floor_features.h"
 #include "perception/frame_types.h"
@@ -29,8 +28,8 @@ struct ClassificationOptions {
   double disparity_sigma_px = 0.05;
   // An obstacle or drop-off needs a zero disparity of at least this many sigmas (>= 0).
   double min_disparity_sigmas = 3.0;
-  // Minimum texture along the epipolar line (mean squared gradient, grey levels^2 per pixel^2, > 0);
-  // below it a pixel is unknown, never floor.
+  // Minimum texture along the epipolar line (mean squared gradient, grey levels^2 per pixel^2, >
+  // 0); below it a pixel is unknown, never floor.
   double min_texture = 1.0;
   // Maximum mean |difference| after alignment, grey levels (> 0); above it unknown (or moving).
   double max_residual = 12.0;
@@ -47,10 +46,10 @@ struct ClassificationOptions {
   // neighbours, or with the median height of their superpixel (SLICO; the paper's segments).
   enum class Aggregation { kNone, kMedian, kSegments };
   Aggregation aggregation = Aggregation::kMedian;
-  int median_radius = 1;            // samples, for kMedian (>= 1)
-  double segment_size_px = 16.0;    // superpixel side, input pixels, for kSegments (>= 4)
-  int segment_iterations = 4;       // SLIC iterations (>= 1)
-  int segment_min_samples = 3;      // measured samples a segment needs to be labelled (>= 1)
+  int median_radius = 1;          // samples, for kMedian (>= 1)
+  double segment_size_px = 16.0;  // superpixel side, input pixels, for kSegments (>= 4)
+  int segment_iterations = 4;     // SLIC iterations (>= 1)
+  int segment_min_samples = 3;    // measured samples a segment needs to be labelled (>= 1)
 
   bool IsValid(std::string* error) const;
 };
@@ -126,12 +125,12 @@ class SequenceDetector {
   SequenceDetector(const CameraCalibration& calibration, const DetectorOptions& options);
 
   struct Output {
-    std::optional<FrameResult> result;  // none for the first frame or an unusable image
-    Pose2 odom_from_base;               // dead-reckoned pose of this frame
-    GroundMotion step;                  // motion from the previous good frame
+    std::optional<FrameResult> result;         // none for the first frame or an unusable image
+    Pose2 odom_from_base;                      // dead-reckoned pose of this frame
+    GroundMotion step;                         // motion from the previous good frame
     std::vector<FeatureObservation> features;  // corners tracked into this frame
     bool image_ok = false;
-    std::string message;                // why the image was unusable
+    std::string message;  // why the image was unusable
     // With defer_detection: the dense detection still to run (result is unset then). Run it with
     // Finish(), on any thread: it only reads the detector and these shared, unchanging images.
     struct PendingDetection {
@@ -173,7 +172,7 @@ class SequenceDetector {
   std::int64_t next_track_id_ = 0;
   int frames_since_detection_ = 0;
   std::vector<cv::Mat> previous_pyramid_;  // Lucas-Kanade pyramid of history_.back()
-  cv::Mat strip_mask_;  // the floor strip of the motion fit (FloorStripMask)
+  cv::Mat strip_mask_;                     // the floor strip of the motion fit (FloorStripMask)
 };
 
 // The 2x2 picture for people: input with labels, segmentation, zero disparity, top view.

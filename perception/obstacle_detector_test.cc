@@ -2,12 +2,12 @@
 // box (exact geometry), seen from two known poses.
 #include "perception/obstacle_detector.h"
 
-#include <cmath>
-#include <random>
-
 #include <gtest/gtest.h>
+
+#include <cmath>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <random>
 
 namespace monoplane {
 namespace {
@@ -67,15 +67,16 @@ struct Scene {
 };
 
 struct Rendered {
-  cv::Mat image;        // CV_8U
-  cv::Mat height_m;     // CV_32F, NaN where no surface
+  cv::Mat image;     // CV_8U
+  cv::Mat height_m;  // CV_32F, NaN where no surface
 };
 
 // Renders with 2x2 supersampling; the pose is world_from_base.
 Rendered Render(const Scene& scene, const CameraModel& camera, const Pose2& world_from_base) {
   const CameraIntrinsics& in = camera.calibration().intrinsics;
   Rendered out{cv::Mat(in.height, in.width, CV_8U), cv::Mat(in.height, in.width, CV_32F)};
-  const Eigen::Matrix3d r_wb = Eigen::AngleAxisd(world_from_base.yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  const Eigen::Matrix3d r_wb =
+      Eigen::AngleAxisd(world_from_base.yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
   const Eigen::Vector3d t_wb(world_from_base.x, world_from_base.y, 0.0);
   const Eigen::Vector3d origin = r_wb * camera.CameraCentreInBase() + t_wb;
   for (int y = 0; y < in.height; ++y) {
@@ -180,7 +181,8 @@ TEST(ZeroDisparity, DirectionMatchesGeometry) {
     const auto z = ZeroDisparityAtHeight(camera, t, p1, 0.05);
     ASSERT_TRUE(z);
     const Eigen::Vector2d x = z->floor_predicted;
-    const Eigen::Vector2d u = Eigen::Vector2d(e.x() - e.z() * x.x(), e.y() - e.z() * x.y()).normalized();
+    const Eigen::Vector2d u =
+        Eigen::Vector2d(e.x() - e.z() * x.x(), e.y() - e.z() * x.y()).normalized();
     EXPECT_GT(u.dot(z->direction), 0.999);
   }
 }
@@ -223,7 +225,8 @@ TEST_F(DetectorOnSyntheticScene, FloorOnlyIsFloorNotObstacle) {
       }
     }
     for (int l = 0; l < 5; ++l) {
-      std::printf("label %d: %d %d %d %d\n", l, by_label[l][0], by_label[l][1], by_label[l][2], by_label[l][3]);
+      std::printf("label %d: %d %d %d %d\n", l, by_label[l][0], by_label[l][1], by_label[l][2],
+                  by_label[l][3]);
     }
   }
 }
@@ -266,7 +269,8 @@ TEST_F(DetectorOnSyntheticScene, BoxIsObstacleWithItsHeight) {
   ASSERT_TRUE(cell);
   int occupied_near = 0;
   for (int dc = -1; dc <= 2; ++dc) {
-    for (int dr = -2; dr <= 2; ++dr) occupied_near += r.local_map.At(cell->x() + dc, cell->y() + dr) == kCellOccupied;
+    for (int dr = -2; dr <= 2; ++dr)
+      occupied_near += r.local_map.At(cell->x() + dc, cell->y() + dr) == kCellOccupied;
   }
   EXPECT_GT(occupied_near, 3);
   // The floor between the robot and the box is mostly free.
@@ -328,8 +332,8 @@ TEST_F(DetectorOnSyntheticScene, DetectEveryNthFrameTracksTheOthers) {
     has_result.push_back(out.result.has_value());
   }
   // Frame 0 has no pair; frames 1 and 2 are tracked only; then every 3rd frame is detected.
-  EXPECT_EQ(has_result, (std::vector<bool>{false, false, false, true, false, false, true, false,
-                                           false, true}));
+  EXPECT_EQ(has_result,
+            (std::vector<bool>{false, false, false, true, false, false, true, false, false, true}));
 }
 
 TEST_F(DetectorOnSyntheticScene, BadImagesAreRejectedWithReasons) {
@@ -339,7 +343,8 @@ TEST_F(DetectorOnSyntheticScene, BadImagesAreRejectedWithReasons) {
   EXPECT_EQ(error, "empty image");
   EXPECT_TRUE(detector.Prepare(cv::Mat(10, 10, CV_8U), &error).empty());
   EXPECT_EQ(error, "image is 10x10, the calibration expects 640x480");
-  EXPECT_EQ(detector.Prepare(cv::Mat(480, 640, CV_8UC3, cv::Scalar(1, 2, 3)), &error).type(), CV_8U);
+  EXPECT_EQ(detector.Prepare(cv::Mat(480, 640, CV_8UC3, cv::Scalar(1, 2, 3)), &error).type(),
+            CV_8U);
   SequenceDetector sequence(calib_, options_);
   const auto out = sequence.Process(cv::Mat(100, 100, CV_8U), 0);
   EXPECT_FALSE(out.image_ok);

@@ -1,5 +1,4 @@
 #include <cmath>
-
 #include <opencv2/imgproc.hpp>
 
 #include "perception/obstacle_detector.h"
@@ -9,11 +8,16 @@ namespace {
 
 cv::Vec3b LabelColour(PixelLabel label) {
   switch (label) {
-    case PixelLabel::kFloor: return {60, 180, 60};      // green
-    case PixelLabel::kObstacle: return {40, 40, 220};   // red
-    case PixelLabel::kDropOff: return {220, 120, 40};   // blue
-    case PixelLabel::kMoving: return {0, 200, 240};     // yellow
-    default: return {0, 0, 0};
+    case PixelLabel::kFloor:
+      return {60, 180, 60};  // green
+    case PixelLabel::kObstacle:
+      return {40, 40, 220};  // red
+    case PixelLabel::kDropOff:
+      return {220, 120, 40};  // blue
+    case PixelLabel::kMoving:
+      return {0, 200, 240};  // yellow
+    default:
+      return {0, 0, 0};
   }
 }
 
@@ -32,8 +36,8 @@ cv::Mat RenderLocalMap(const OccupancyGrid& grid, int pixels_per_cell) {
     for (int col = 0; col < g.width; ++col) {
       const std::int8_t v = grid.At(col, row);
       const cv::Vec3b c = v == kCellUnknown ? cv::Vec3b(128, 128, 128)
-                          : v >= 50        ? cv::Vec3b(0, 0, 0)
-                                           : cv::Vec3b(255, 255, 255);
+                          : v >= 50         ? cv::Vec3b(0, 0, 0)
+                                            : cv::Vec3b(255, 255, 255);
       const int px = (g.height - 1 - row) * pixels_per_cell;
       const int py = (g.width - 1 - col) * pixels_per_cell;
       out(cv::Rect(px, py, pixels_per_cell, pixels_per_cell)).setTo(cv::Scalar(c[0], c[1], c[2]));
@@ -110,8 +114,8 @@ cv::Mat RenderPanels(const cv::Mat& current, const FrameResult& result) {
     const double f = std::min(static_cast<double>(size.width) / map.cols,
                               static_cast<double>(size.height) / map.rows);
     cv::resize(map, map, cv::Size(), f, f, cv::INTER_NEAREST);
-    map.copyTo(top(cv::Rect((size.width - map.cols) / 2, (size.height - map.rows) / 2, map.cols,
-                            map.rows)));
+    map.copyTo(top(
+        cv::Rect((size.width - map.cols) / 2, (size.height - map.rows) / 2, map.cols, map.rows)));
   }
   Caption(&top, "top view (5 cm cells)");
   cv::Mat row1, row2, out;

@@ -1,10 +1,9 @@
 #include "perception/zero_disparity.h"
 
 #include <cmath>
-#include <vector>
-
 #include <opencv2/imgproc.hpp>
 #include <opencv2/video/tracking.hpp>
+#include <vector>
 
 namespace monoplane {
 namespace {
@@ -21,7 +20,8 @@ Eigen::Matrix3d HomographyAtLevel(const Eigen::Matrix3d& h, int level) {
 // split into the zero disparity along the epipolar line and the part across it.
 ZeroDisparityField FarnebackField(const cv::Mat& image1, const cv::Mat& image2,
                                   const CameraModel& camera, const Pose2& base2_from_base1,
-                                  const ZeroDisparityOptions& options, const Eigen::Vector3d& epipole) {
+                                  const ZeroDisparityOptions& options,
+                                  const Eigen::Vector3d& epipole) {
   ZeroDisparityField field;
   const int level = options.finest_level;
   field.level = level;
@@ -83,8 +83,12 @@ ZeroDisparityField FarnebackField(const cv::Mat& image1, const cv::Mat& image2,
   for (int y = 0; y < rows; ++y) {
     for (int x = 0; x < cols; ++x) {
       const float noise = std::max(1.25f * field.residual.at<float>(y, x), 1.0f);
-      field.sigma_px.at<float>(y, x) = noise / std::sqrt(area * std::max(field.texture.at<float>(y, x), 1e-6f)) * static_cast<float>(field.scale);
-      field.perpendicular_sigma_px.at<float>(y, x) = noise / std::sqrt(area * std::max(spp.at<float>(y, x), 1e-6f)) * static_cast<float>(field.scale);
+      field.sigma_px.at<float>(y, x) =
+          noise / std::sqrt(area * std::max(field.texture.at<float>(y, x), 1e-6f)) *
+          static_cast<float>(field.scale);
+      field.perpendicular_sigma_px.at<float>(y, x) =
+          noise / std::sqrt(area * std::max(spp.at<float>(y, x), 1e-6f)) *
+          static_cast<float>(field.scale);
     }
   }
   return field;
@@ -111,7 +115,8 @@ bool ZeroDisparityOptions::IsValid(std::string* error) const {
 Eigen::Vector3d EpipoleInImage2(const CameraModel& camera, const Pose2& base2_from_base1) {
   const Eigen::Vector3d c1 = camera.CameraCentreInBase();
   const Eigen::Vector2d xy = base2_from_base1 * c1.head<2>();
-  const Eigen::Vector3d c1_in_camera2 = camera.camera_from_base() * Eigen::Vector3d(xy.x(), xy.y(), c1.z());
+  const Eigen::Vector3d c1_in_camera2 =
+      camera.camera_from_base() * Eigen::Vector3d(xy.x(), xy.y(), c1.z());
   return camera.K() * c1_in_camera2;
 }
 
@@ -242,7 +247,8 @@ ZeroDisparityField ComputeZeroDisparity(const cv::Mat& image1, const cv::Mat& im
         for (int x = 0; x < cols; ++x) {
           // Mean |d| of a Gaussian is 0.8 sigma; one grey level of quantisation at least.
           const float noise = std::max(1.25f * res[x], 1.0f);
-          out[x] = noise / std::sqrt(area * std::max(tex[x], 1e-6f)) * static_cast<float>(field.scale);
+          out[x] =
+              noise / std::sqrt(area * std::max(tex[x], 1e-6f)) * static_cast<float>(field.scale);
           field.perpendicular_sigma_px.at<float>(y, x) =
               noise / std::sqrt(area * std::max(spp.at<float>(y, x), 1e-6f)) *
               static_cast<float>(field.scale);

@@ -1,8 +1,7 @@
 #pragma once
 
-#include <string>
-
 #include <opencv2/core.hpp>
+#include <string>
 
 #include "perception/geometry/camera_model.h"
 
@@ -38,16 +37,16 @@ struct ZeroDisparityOptions {
 // where the floor homography maps its image-1 position: H p1 = q - s u(q).
 struct ZeroDisparityField {
   int level = 0;
-  double scale = 1.0;       // input pixels per level pixel (2^level)
-  cv::Mat s_px;             // CV_32F, signed, input pixels
-  cv::Mat texture;          // CV_32F, sum over the window of (image gradient along u)^2 / window area
-  cv::Mat residual;         // CV_32F, mean |I2 - I1 warped| over the window after alignment (grey levels)
-  cv::Mat perpendicular_px; // CV_32F, best offset perpendicular to the epipolar line (input px)
+  double scale = 1.0;  // input pixels per level pixel (2^level)
+  cv::Mat s_px;        // CV_32F, signed, input pixels
+  cv::Mat texture;     // CV_32F, sum over the window of (image gradient along u)^2 / window area
+  cv::Mat residual;  // CV_32F, mean |I2 - I1 warped| over the window after alignment (grey levels)
+  cv::Mat perpendicular_px;  // CV_32F, best offset perpendicular to the epipolar line (input px)
   // CV_32F, standard deviation of s_px (input px) from the alignment residual and the texture:
   // sigma_noise / sqrt(window area * texture), as for a Lucas-Kanade estimate.
   cv::Mat sigma_px;
   cv::Mat perpendicular_sigma_px;  // CV_32F, the same for perpendicular_px
-  cv::Mat ux, uy;           // CV_32F, the unit epipolar direction of growing height
+  cv::Mat ux, uy;                  // CV_32F, the unit epipolar direction of growing height
   bool has_parallax = false;
 };
 

@@ -4,9 +4,8 @@
 //                                   x = 5.1; one run of 20 frames (every 5th a keyframe) along
 //                                   y = 0.55; an OctoMap with one occupied voxel.
 //   make_test_map OUT.db --newer-schema   the same, marked as written by schema version 99.
-#include <sqlite3.h>
-
 #include <octomap/OcTree.h>
+#include <sqlite3.h>
 
 #include <cstdio>
 #include <cstring>

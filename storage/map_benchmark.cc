@@ -3,12 +3,11 @@
 //   cells/s, whole-grid load, keyframes written per second with 160 x 160 local maps, and bytes per
 //   keyframe. Targets (issue 6): point <= 0.1 ms warm, open + first <= 50 ms, raster >= 50 M
 //   cells/s, >= 200 keyframes/s, <= 50 kB per keyframe.
+#include <benchmark/benchmark.h>
 #include <unistd.h>
 
 #include <filesystem>
 #include <random>
-
-#include <benchmark/benchmark.h>
 
 #include "storage/map_codec.h"
 #include "storage/map_database.h"
@@ -21,9 +20,10 @@ namespace {
 constexpr int kCells = 2000;
 constexpr double kRes = 0.05;
 
-// A synthetic building as a mapper would leave it: free floor, walls every 5 m with doors, furniture
-// blobs, unvisited rooms. Log-odds are sums of n fixed updates (n = 1..8), heights per blob, and
-// cells seen in passes: one stamp per 20 x 20 block plus whole frames (66 ms) within the pass.
+// A synthetic building as a mapper would leave it: free floor, walls every 5 m with doors,
+// furniture blobs, unvisited rooms. Log-odds are sums of n fixed updates (n = 1..8), heights per
+// blob, and cells seen in passes: one stamp per 20 x 20 block plus whole frames (66 ms) within the
+// pass.
 TiledGrid MakeBigGrid() {
   TiledGrid grid(kRes);
   std::mt19937 rng(42);
@@ -37,7 +37,8 @@ TiledGrid MakeBigGrid() {
       const bool blob = ((i / 10) * 13 + (j / 10) * 7) % 37 == 0;
       const float l = wall || blob ? 0.85f * hits(rng) : -0.4f * hits(rng);
       const float h = wall ? 1.0f : blob ? 0.1f * ((i / 10 + j / 10) % 8) + 0.05f : std::nanf("");
-      const TimestampNs pass_ns = 1700000000000000000ll + ((i / 20) * 97 + (j / 20) * 31) % 3600 * 1000000000ll;
+      const TimestampNs pass_ns =
+          1700000000000000000ll + ((i / 20) * 97 + (j / 20) * 31) % 3600 * 1000000000ll;
       testing::MarkCell(&grid, {i, j}, l, h, pass_ns + frame(rng) * 66000000ll);
     }
   }
@@ -54,7 +55,8 @@ struct BigMap {
 const BigMap& GetBigMap() {
   static const BigMap map = [] {
     BigMap m;
-    m.dir = std::filesystem::temp_directory_path() / ("monoplane_bench_" + std::to_string(getpid()));
+    m.dir =
+        std::filesystem::temp_directory_path() / ("monoplane_bench_" + std::to_string(getpid()));
     std::filesystem::create_directories(m.dir);
     m.path = m.dir + "/big.db";
     m.grid = MakeBigGrid();
@@ -127,12 +129,13 @@ void BM_RegionRaster(benchmark::State& state) {
   const BigMap& map = GetBigMap();
   const double side_m = state.range(0) * kRes;
   for (auto _ : state) {
-    benchmark::DoNotOptimize(QueryRegion(map.grid, {10.0, 10.0}, {10.0 + side_m, 10.0 + side_m}, true));
+    benchmark::DoNotOptimize(
+        QueryRegion(map.grid, {10.0, 10.0}, {10.0 + side_m, 10.0 + side_m}, true));
   }
   state.SetItemsProcessed(state.iterations() * state.range(0) * state.range(0));
-  state.counters["cells_per_s"] = benchmark::Counter(
-      static_cast<double>(state.iterations() * state.range(0) * state.range(0)),
-      benchmark::Counter::kIsRate);
+  state.counters["cells_per_s"] =
+      benchmark::Counter(static_cast<double>(state.iterations() * state.range(0) * state.range(0)),
+                         benchmark::Counter::kIsRate);
 }
 BENCHMARK(BM_RegionRaster)->Arg(1000)->Arg(2000)->Unit(benchmark::kMillisecond);
 
@@ -178,7 +181,8 @@ void BM_WriteKeyframes(benchmark::State& state) {
     std::abort();
   }
   std::vector<OccupancyGrid> locals;
-  for (int k = 0; k < 64; ++k) locals.push_back(testing::TestLocalMap(160, static_cast<unsigned>(k)));
+  for (int k = 0; k < 64; ++k)
+    locals.push_back(testing::TestLocalMap(160, static_cast<unsigned>(k)));
   MapInfo before;
   db->Info(&before);
   TiledGrid grid(kRes);

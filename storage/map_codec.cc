@@ -1,12 +1,12 @@
 #include "storage/map_codec.h"
 
+#include <zlib.h>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
-
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
-#include <zlib.h>
 
 namespace monoplane {
 namespace {
@@ -128,7 +128,8 @@ bool EncodeTile(const TiledGrid::Tile& tile, int compression_level, EncodedTile*
   std::vector<std::uint8_t> raw(kTileBytes);
   auto put = [&](int plane, int k, std::uint16_t v) {
     raw[static_cast<std::size_t>(2 * plane) * kTileCells + k] = static_cast<std::uint8_t>(v & 0xFF);
-    raw[static_cast<std::size_t>(2 * plane + 1) * kTileCells + k] = static_cast<std::uint8_t>(v >> 8);
+    raw[static_cast<std::size_t>(2 * plane + 1) * kTileCells + k] =
+        static_cast<std::uint8_t>(v >> 8);
   };
   for (int k = 0; k < kTileCells; ++k) {
     put(0, k, QuantiseSigned(tile.log_odds[k], 1.0 / kLogOddsQuantum));
@@ -161,8 +162,9 @@ bool DecodeTile(const std::uint8_t* data, std::size_t size, TimestampNs base_ns,
     return false;
   }
   auto get = [&](int plane, int k) {
-    return static_cast<std::uint16_t>(raw[static_cast<std::size_t>(2 * plane) * kTileCells + k] |
-                                      (raw[static_cast<std::size_t>(2 * plane + 1) * kTileCells + k] << 8));
+    return static_cast<std::uint16_t>(
+        raw[static_cast<std::size_t>(2 * plane) * kTileCells + k] |
+        (raw[static_cast<std::size_t>(2 * plane + 1) * kTileCells + k] << 8));
   };
   tile->log_odds.resize(kTileCells);
   tile->height_m.resize(kTileCells);
@@ -172,9 +174,10 @@ bool DecodeTile(const std::uint8_t* data, std::size_t size, TimestampNs base_ns,
     tile->log_odds[k] = static_cast<float>((static_cast<int>(l) - 32768) * kLogOddsQuantum);
     tile->height_m[k] = h == 0 ? std::numeric_limits<float>::quiet_NaN()
                                : static_cast<float>((static_cast<int>(h) - 32768) * 1e-3);
-    const std::uint32_t seen = static_cast<std::uint32_t>(get(2, k)) |
-                               (static_cast<std::uint32_t>(get(3, k)) << 16);
-    tile->last_seen_ns[k] = seen == 0 ? 0 : base_ns + static_cast<std::int64_t>(seen - 1) * kNsPerMs;
+    const std::uint32_t seen =
+        static_cast<std::uint32_t>(get(2, k)) | (static_cast<std::uint32_t>(get(3, k)) << 16);
+    tile->last_seen_ns[k] =
+        seen == 0 ? 0 : base_ns + static_cast<std::int64_t>(seen - 1) * kNsPerMs;
   }
   return true;
 }

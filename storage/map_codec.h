@@ -27,9 +27,9 @@ bool DecodeLocalMapCells(const std::uint8_t* data, std::size_t size, OccupancyGr
 // 16 bits; 0 = never).
 struct EncodedTile {
   std::vector<std::uint8_t> data;  // the compressed blob
-  bool has_data = false;         // any cell observed; tiles without data are not stored
-  TimestampNs base_ns = 0;       // the earliest last-seen stamp in the tile
-  TimestampNs last_seen_ns = 0;  // the latest
+  bool has_data = false;           // any cell observed; tiles without data are not stored
+  TimestampNs base_ns = 0;         // the earliest last-seen stamp in the tile
+  TimestampNs last_seen_ns = 0;    // the latest
   int min_col = 0, min_row = 0, max_col = -1, max_row = -1;  // observed cells, within the tile
 };
 inline constexpr double kLogOddsQuantum = 0.001;

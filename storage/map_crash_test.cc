@@ -1,14 +1,13 @@
 // Crash safety: a child process writes keyframes and grid tiles in a loop and is killed with
 // SIGKILL at 20 different points; each time the map must open, pass PRAGMA integrity_check, hold
 // everything the child reported committed, and take a new run.
+#include <gtest/gtest.h>
 #include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <cstdint>
 #include <set>
-
-#include <gtest/gtest.h>
 
 #include "storage/map_database.h"
 #include "storage/test_util.h"
@@ -35,8 +34,8 @@ void WriteReport(int fd, std::int64_t value) {
     ::_exit(1);
   }
   std::int64_t run = 0;
-  if (!db->BeginRun(TestCalibration(), "attempt: " + std::to_string(attempt), "crash-test",
-                    attempt, &run)
+  if (!db->BeginRun(TestCalibration(), "attempt: " + std::to_string(attempt), "crash-test", attempt,
+                    &run)
            .ok()) {
     WriteReport(fd, -1);
     ::_exit(1);

@@ -17,27 +17,42 @@ namespace monoplane {
 
 const char* StorageErrorKindName(StorageErrorKind kind) {
   switch (kind) {
-    case StorageErrorKind::kOk: return "ok";
-    case StorageErrorKind::kNotFound: return "not-found";
-    case StorageErrorKind::kNotADatabase: return "not-a-database";
-    case StorageErrorKind::kNotAMap: return "not-a-map";
-    case StorageErrorKind::kCorrupt: return "corrupt";
-    case StorageErrorKind::kReadOnly: return "read-only";
-    case StorageErrorKind::kBusy: return "busy";
-    case StorageErrorKind::kDiskFull: return "disk-full";
-    case StorageErrorKind::kNewerSchema: return "newer-schema";
-    case StorageErrorKind::kInvalidArgument: return "invalid-argument";
-    case StorageErrorKind::kIo: return "io";
-    case StorageErrorKind::kInternal: return "internal";
+    case StorageErrorKind::kOk:
+      return "ok";
+    case StorageErrorKind::kNotFound:
+      return "not-found";
+    case StorageErrorKind::kNotADatabase:
+      return "not-a-database";
+    case StorageErrorKind::kNotAMap:
+      return "not-a-map";
+    case StorageErrorKind::kCorrupt:
+      return "corrupt";
+    case StorageErrorKind::kReadOnly:
+      return "read-only";
+    case StorageErrorKind::kBusy:
+      return "busy";
+    case StorageErrorKind::kDiskFull:
+      return "disk-full";
+    case StorageErrorKind::kNewerSchema:
+      return "newer-schema";
+    case StorageErrorKind::kInvalidArgument:
+      return "invalid-argument";
+    case StorageErrorKind::kIo:
+      return "io";
+    case StorageErrorKind::kInternal:
+      return "internal";
   }
   return "unknown";
 }
 
 const char* RunStatusName(RunStatus status) {
   switch (status) {
-    case RunStatus::kRunning: return "running";
-    case RunStatus::kFinished: return "finished";
-    case RunStatus::kFailed: return "failed";
+    case RunStatus::kRunning:
+      return "running";
+    case RunStatus::kFinished:
+      return "finished";
+    case RunStatus::kFailed:
+      return "failed";
   }
   return "unknown";
 }
@@ -191,22 +206,56 @@ struct MapDatabase::Impl {
     StorageErrorKind kind = StorageErrorKind::kInternal;
     const char* cause = "SQLite error";
     switch (rc & 0xFF) {
-      case SQLITE_NOTADB: kind = StorageErrorKind::kNotADatabase; cause = "not an SQLite database"; break;
-      case SQLITE_CORRUPT: kind = StorageErrorKind::kCorrupt; cause = "database file is corrupt"; break;
-      case SQLITE_READONLY: kind = StorageErrorKind::kReadOnly; cause = "database is read-only"; break;
-      case SQLITE_PERM: kind = StorageErrorKind::kReadOnly; cause = "permission denied"; break;
+      case SQLITE_NOTADB:
+        kind = StorageErrorKind::kNotADatabase;
+        cause = "not an SQLite database";
+        break;
+      case SQLITE_CORRUPT:
+        kind = StorageErrorKind::kCorrupt;
+        cause = "database file is corrupt";
+        break;
+      case SQLITE_READONLY:
+        kind = StorageErrorKind::kReadOnly;
+        cause = "database is read-only";
+        break;
+      case SQLITE_PERM:
+        kind = StorageErrorKind::kReadOnly;
+        cause = "permission denied";
+        break;
       case SQLITE_BUSY:
-      case SQLITE_LOCKED: kind = StorageErrorKind::kBusy; cause = "database is busy (locked by another writer)"; break;
-      case SQLITE_FULL: kind = StorageErrorKind::kDiskFull; cause = "disk full (or the map's size limit reached)"; break;
-      case SQLITE_CANTOPEN: kind = StorageErrorKind::kIo; cause = "cannot open the file"; break;
-      case SQLITE_IOERR: kind = StorageErrorKind::kIo; cause = "I/O error"; break;
-      case SQLITE_NOMEM: kind = StorageErrorKind::kInternal; cause = "out of memory"; break;
-      case SQLITE_CONSTRAINT: kind = StorageErrorKind::kInvalidArgument; cause = "constraint violated"; break;
-      case SQLITE_TOOBIG: kind = StorageErrorKind::kInvalidArgument; cause = "record too big"; break;
-      default: break;
+      case SQLITE_LOCKED:
+        kind = StorageErrorKind::kBusy;
+        cause = "database is busy (locked by another writer)";
+        break;
+      case SQLITE_FULL:
+        kind = StorageErrorKind::kDiskFull;
+        cause = "disk full (or the map's size limit reached)";
+        break;
+      case SQLITE_CANTOPEN:
+        kind = StorageErrorKind::kIo;
+        cause = "cannot open the file";
+        break;
+      case SQLITE_IOERR:
+        kind = StorageErrorKind::kIo;
+        cause = "I/O error";
+        break;
+      case SQLITE_NOMEM:
+        kind = StorageErrorKind::kInternal;
+        cause = "out of memory";
+        break;
+      case SQLITE_CONSTRAINT:
+        kind = StorageErrorKind::kInvalidArgument;
+        cause = "constraint violated";
+        break;
+      case SQLITE_TOOBIG:
+        kind = StorageErrorKind::kInvalidArgument;
+        cause = "record too big";
+        break;
+      default:
+        break;
     }
-    const char* detail = db != nullptr && sqlite3_errcode(db) == rc ? sqlite3_errmsg(db)
-                                                                     : sqlite3_errstr(rc);
+    const char* detail =
+        db != nullptr && sqlite3_errcode(db) == rc ? sqlite3_errmsg(db) : sqlite3_errstr(rc);
     return {kind, path + ": " + cause + " (" + context + ": " + detail + ")"};
   }
 
@@ -301,7 +350,8 @@ struct MapDatabase::Impl {
 
   StorageStatus ReadGridResolution() {
     Statement s;
-    StorageStatus st = Prepare("SELECT resolution_m FROM grid_tiles LIMIT 1", &s, "reading the grid");
+    StorageStatus st =
+        Prepare("SELECT resolution_m FROM grid_tiles LIMIT 1", &s, "reading the grid");
     bool row = false;
     if (st.ok()) st = Step(s, &row, "reading the grid");
     if (!st.ok()) return st;
@@ -334,9 +384,11 @@ struct MapDatabase::Impl {
     const auto* data = static_cast<const std::uint8_t*>(sqlite3_column_blob(s.get(), 3));
     const std::size_t size = static_cast<std::size_t>(sqlite3_column_bytes(s.get(), 3));
     const auto* encoding = sqlite3_column_text(s.get(), 4);
-    if (encoding == nullptr || std::strcmp(reinterpret_cast<const char*>(encoding), kTileEncoding) != 0) {
-      return Error(StorageErrorKind::kCorrupt, "tile (" + std::to_string(tx) + ", " +
-                                                   std::to_string(ty) + ") has an unknown encoding");
+    if (encoding == nullptr ||
+        std::strcmp(reinterpret_cast<const char*>(encoding), kTileEncoding) != 0) {
+      return Error(
+          StorageErrorKind::kCorrupt,
+          "tile (" + std::to_string(tx) + ", " + std::to_string(ty) + ") has an unknown encoding");
     }
     std::string error;
     TiledGrid::Tile& tile = grid->mutable_tiles()[{tx, ty}];
@@ -430,12 +482,13 @@ StorageStatus MapDatabase::Open(const std::string& path, OpenMode mode,
       in.read(reinterpret_cast<char*>(header.data()), header.size());
       const std::size_t got = static_cast<std::size_t>(in.gcount());
       if (got < 16 || std::memcmp(header.data(), "SQLite format 3", 16) != 0) {
-        return impl->Error(StorageErrorKind::kNotADatabase,
-                           "not an SQLite database (the file does not start with the SQLite header)");
+        return impl->Error(
+            StorageErrorKind::kNotADatabase,
+            "not an SQLite database (the file does not start with the SQLite header)");
       }
       if (got < header.size()) {
-        return impl->Error(StorageErrorKind::kCorrupt, "database file is truncated (" +
-                                                           std::to_string(size) + " bytes)");
+        return impl->Error(StorageErrorKind::kCorrupt,
+                           "database file is truncated (" + std::to_string(size) + " bytes)");
       }
       // A valid in-header page count larger than the file means the file was cut short (unless
       // the missing pages still sit in the write-ahead log).
@@ -446,11 +499,10 @@ StorageStatus MapDatabase::Open(const std::string& path, OpenMode mode,
       const std::int64_t wal_size = FileSize(path + "-wal");
       if (count_valid && page_count > 0 && wal_size <= 0 &&
           size < static_cast<std::int64_t>(page_size) * page_count) {
-        return impl->Error(StorageErrorKind::kCorrupt,
-                           "database file is truncated (" + std::to_string(size) +
-                               " bytes, its header says " +
-                               std::to_string(static_cast<std::int64_t>(page_size) * page_count) +
-                               ")");
+        return impl->Error(
+            StorageErrorKind::kCorrupt,
+            "database file is truncated (" + std::to_string(size) + " bytes, its header says " +
+                std::to_string(static_cast<std::int64_t>(page_size) * page_count) + ")");
       }
     }
   }
@@ -465,7 +517,8 @@ StorageStatus MapDatabase::Open(const std::string& path, OpenMode mode,
   if (mode != OpenMode::kReadOnly && sqlite3_db_readonly(impl->db, "main") == 1) {
     return impl->Error(StorageErrorKind::kReadOnly, "file is read-only (opened for writing)");
   }
-  st = impl->Check(sqlite3_busy_timeout(impl->db, options.busy_timeout_ms), "setting the busy timeout");
+  st = impl->Check(sqlite3_busy_timeout(impl->db, options.busy_timeout_ms),
+                   "setting the busy timeout");
   if (!st.ok()) return st;
 
   // The first read of the schema is where SQLite notices a file that is not a database.
@@ -505,9 +558,9 @@ StorageStatus MapDatabase::Open(const std::string& path, OpenMode mode,
       st = impl->Exec("PRAGMA journal_mode = WAL", "switching to WAL mode");
       if (!st.ok()) return st;
     }
-    st = impl->Exec(options.synchronous_full ? "PRAGMA synchronous = FULL"
-                                             : "PRAGMA synchronous = NORMAL",
-                    "setting synchronous");
+    st = impl->Exec(
+        options.synchronous_full ? "PRAGMA synchronous = FULL" : "PRAGMA synchronous = NORMAL",
+        "setting synchronous");
     if (st.ok() && options.max_page_count > 0) {
       const std::string sql = "PRAGMA max_page_count = " + std::to_string(options.max_page_count);
       st = impl->Exec(sql.c_str(), "setting the page limit");
@@ -528,8 +581,8 @@ StorageStatus MapDatabase::Open(const std::string& path, OpenMode mode,
       if (st.ok()) st = impl->Exec(m.sql, "migrating the schema");
       Statement s;
       if (st.ok()) {
-        st = impl->Prepare("INSERT INTO schema_migrations (version, description) VALUES (?, ?)",
-                           &s, "migrating the schema");
+        st = impl->Prepare("INSERT INTO schema_migrations (version, description) VALUES (?, ?)", &s,
+                           "migrating the schema");
       }
       if (st.ok()) st = impl->BindInt(s, 1, m.version, "migrating the schema");
       if (st.ok()) st = impl->BindText(s, 2, m.description, "migrating the schema");
@@ -543,10 +596,10 @@ StorageStatus MapDatabase::Open(const std::string& path, OpenMode mode,
     st = impl->Exec("PRAGMA foreign_keys = ON", "enabling foreign keys");
     if (!st.ok()) return st;
   } else if (version < kSchemaVersion) {
-    return impl->Error(StorageErrorKind::kNotAMap,
-                       "map schema version " + std::to_string(version) +
-                           " is older than this program's (" + std::to_string(kSchemaVersion) +
-                           "); open it for writing once to migrate it");
+    return impl->Error(StorageErrorKind::kNotAMap, "map schema version " + std::to_string(version) +
+                                                       " is older than this program's (" +
+                                                       std::to_string(kSchemaVersion) +
+                                                       "); open it for writing once to migrate it");
   }
   impl->schema_version = static_cast<int>(version);
   st = impl->ReadGridResolution();
@@ -631,7 +684,8 @@ StorageStatus MapDatabase::WriteKeyframe(std::int64_t run_id, const FrameRecord&
   });
 }
 
-StorageStatus MapDatabase::WriteFrames(std::int64_t run_id, const std::vector<FrameRecord>& frames) {
+StorageStatus MapDatabase::WriteFrames(std::int64_t run_id,
+                                       const std::vector<FrameRecord>& frames) {
   constexpr const char* kContext = "writing frames";
   Impl& d = *impl_;
   return d.InTransaction(run_id, kContext, [&] {
@@ -669,7 +723,8 @@ StorageStatus MapDatabase::WriteGridTiles(std::int64_t run_id, const TiledGrid& 
     EncodedTile e;
     const auto it = grid.tiles().find(key);
     std::string error;
-    if (it != grid.tiles().end() && !EncodeTile(it->second, d.options.compression_level, &e, &error)) {
+    if (it != grid.tiles().end() &&
+        !EncodeTile(it->second, d.options.compression_level, &e, &error)) {
       return d.Error(StorageErrorKind::kInvalidArgument, std::string(kContext) + ": " + error);
     }
     encoded.emplace_back(key, std::move(e));
@@ -817,10 +872,11 @@ StorageStatus MapDatabase::ReadTrajectory(std::optional<std::int64_t> run_id, Po
   trajectory->clear();
   Statement s;
   const std::string sql =
-      std::string(source == PoseSource::kRaw
-                      ? "SELECT run_id, frame_index, stamp_ns, is_keyframe, raw_x, raw_y, raw_yaw "
-                      : "SELECT run_id, frame_index, stamp_ns, is_keyframe, coalesce(opt_x, raw_x), "
-                        "coalesce(opt_y, raw_y), coalesce(opt_yaw, raw_yaw) ") +
+      std::string(
+          source == PoseSource::kRaw
+              ? "SELECT run_id, frame_index, stamp_ns, is_keyframe, raw_x, raw_y, raw_yaw "
+              : "SELECT run_id, frame_index, stamp_ns, is_keyframe, coalesce(opt_x, raw_x), "
+                "coalesce(opt_y, raw_y), coalesce(opt_yaw, raw_yaw) ") +
       "FROM frames" + (run_id ? " WHERE run_id = ?" : "") + " ORDER BY run_id, frame_index";
   StorageStatus st = impl_->Prepare(sql.c_str(), &s, kContext);
   if (st.ok() && run_id) st = impl_->BindInt(s, 1, *run_id, kContext);
@@ -851,7 +907,8 @@ StorageStatus MapDatabase::ReadLocalMap(std::int64_t run_id, std::int64_t frame_
   bool row = false;
   if (st.ok()) st = impl_->Step(s, &row, kContext);
   if (!st.ok()) return st;
-  const std::string which = "run " + std::to_string(run_id) + " frame " + std::to_string(frame_index);
+  const std::string which =
+      "run " + std::to_string(run_id) + " frame " + std::to_string(frame_index);
   if (!row) return impl_->Error(StorageErrorKind::kNotFound, "no local map for " + which);
   GridGeometry g;
   g.resolution_m = sqlite3_column_double(s.get(), 0);
@@ -865,7 +922,8 @@ StorageStatus MapDatabase::ReadLocalMap(std::int64_t run_id, std::int64_t frame_
   if (data == nullptr ||
       !DecodeLocalMapCells(data, static_cast<std::size_t>(sqlite3_column_bytes(s.get(), 5)),
                            local_map_in_base, &error)) {
-    return impl_->Error(StorageErrorKind::kCorrupt, "local map of " + which + " is damaged: " + error);
+    return impl_->Error(StorageErrorKind::kCorrupt,
+                        "local map of " + which + " is damaged: " + error);
   }
   return {};
 }
@@ -878,11 +936,12 @@ StorageStatus MapDatabase::LoadTiledGrid(TiledGrid* grid) {
   Statement s;
   st = impl_->Prepare("SELECT tx, ty, base_ns, data, encoding FROM grid_tiles", &s, kContext);
   if (!st.ok()) return st;
-  return impl_->ForEachRow(s, kContext, [&](sqlite3_stmt*) { return impl_->DecodeTileRow(s, grid); });
+  return impl_->ForEachRow(s, kContext,
+                           [&](sqlite3_stmt*) { return impl_->DecodeTileRow(s, grid); });
 }
 
-StorageStatus MapDatabase::LoadTilesInBox(const Eigen::Vector2d& min_m, const Eigen::Vector2d& max_m,
-                                          TiledGrid* cache) {
+StorageStatus MapDatabase::LoadTilesInBox(const Eigen::Vector2d& min_m,
+                                          const Eigen::Vector2d& max_m, TiledGrid* cache) {
   constexpr const char* kContext = "loading grid tiles";
   if (!impl_->grid_resolution_m) return {};
   const double res = *impl_->grid_resolution_m;
@@ -919,15 +978,17 @@ StorageStatus MapDatabase::LoadTilesInBox(const Eigen::Vector2d& min_m, const Ei
     });
   }
   if (st.ok() && !missing.empty()) {
-    st = impl_->Prepare("SELECT tx, ty, base_ns, data, encoding FROM grid_tiles WHERE tx = ? AND ty = ?",
-                        &blob, kContext);
+    st = impl_->Prepare(
+        "SELECT tx, ty, base_ns, data, encoding FROM grid_tiles WHERE tx = ? AND ty = ?", &blob,
+        kContext);
   }
   for (std::size_t i = 0; i < missing.size() && st.ok(); ++i) {
     sqlite3_reset(blob.get());
     st = impl_->BindInt(blob, 1, missing[i].first, kContext);
     if (st.ok()) st = impl_->BindInt(blob, 2, missing[i].second, kContext);
     if (st.ok()) {
-      st = impl_->ForEachRow(blob, kContext, [&](sqlite3_stmt*) { return impl_->DecodeTileRow(blob, cache); });
+      st = impl_->ForEachRow(blob, kContext,
+                             [&](sqlite3_stmt*) { return impl_->DecodeTileRow(blob, cache); });
     }
   }
   return st;
@@ -946,7 +1007,8 @@ StorageStatus MapDatabase::ReadOctomap(StoredOctomap* octomap) {
   octomap->resolution_m = sqlite3_column_double(s.get(), 1);
   const auto* data = static_cast<const char*>(sqlite3_column_blob(s.get(), 2));
   const int size = sqlite3_column_bytes(s.get(), 2);
-  octomap->bytes.assign(data == nullptr ? "" : data, data == nullptr ? 0 : static_cast<std::size_t>(size));
+  octomap->bytes.assign(data == nullptr ? "" : data,
+                        data == nullptr ? 0 : static_cast<std::size_t>(size));
   return {};
 }
 
@@ -969,11 +1031,13 @@ StorageStatus MapDatabase::ReadLandmarks(std::vector<Landmark>* landmarks) {
   });
 }
 
-StorageStatus MapDatabase::ReadStatistics(std::int64_t run_id, std::map<std::string, double>* stats) {
+StorageStatus MapDatabase::ReadStatistics(std::int64_t run_id,
+                                          std::map<std::string, double>* stats) {
   constexpr const char* kContext = "reading statistics";
   stats->clear();
   Statement s;
-  StorageStatus st = impl_->Prepare("SELECT key, value FROM statistics WHERE run_id = ?", &s, kContext);
+  StorageStatus st =
+      impl_->Prepare("SELECT key, value FROM statistics WHERE run_id = ?", &s, kContext);
   if (st.ok()) st = impl_->BindInt(s, 1, run_id, kContext);
   if (!st.ok()) return st;
   return impl_->ForEachRow(s, kContext, [&](sqlite3_stmt* row) {

@@ -1,5 +1,6 @@
 #pragma once
 
+#include <Eigen/Core>
 #include <cstdint>
 #include <map>
 #include <memory>
@@ -7,8 +8,6 @@
 #include <string>
 #include <utility>
 #include <vector>
-
-#include <Eigen/Core>
 
 #include "perception/geometry/camera_calibration.h"
 #include "perception/geometry/occupancy_grid.h"
@@ -44,8 +43,8 @@ struct FrameRecord {
   std::int64_t index = 0;  // 0-based input index within the run
   TimestampNs stamp_ns = 0;
   bool is_keyframe = false;
-  Pose2 map_from_base_raw;                          // odometry as estimated online
-  std::optional<Pose2> map_from_base_optimised;     // after refinement, when done
+  Pose2 map_from_base_raw;                       // odometry as estimated online
+  std::optional<Pose2> map_from_base_optimised;  // after refinement, when done
 };
 
 enum class PoseSource {
@@ -86,12 +85,12 @@ struct MapInfo {
   std::int64_t local_maps = 0;
   std::int64_t tiles = 0;
   std::int64_t landmarks = 0;
-  std::int64_t octomap_bytes = 0;       // 0 when no OctoMap is stored
-  double resolution_m = 0.0;            // of the global grid; 0 when it has no tiles
+  std::int64_t octomap_bytes = 0;  // 0 when no OctoMap is stored
+  double resolution_m = 0.0;       // of the global grid; 0 when it has no tiles
   // Observed extent of the global grid in the map frame, metres (outer cell edges).
   std::optional<Eigen::Vector2d> extent_min_m;
   std::optional<Eigen::Vector2d> extent_max_m;
-  std::int64_t file_size_bytes = 0;     // the database file plus its write-ahead log
+  std::int64_t file_size_bytes = 0;  // the database file plus its write-ahead log
 };
 
 // The persistent map: one SQLite file (WAL mode, versioned schema) holding runs, frames, keyframe
@@ -104,11 +103,11 @@ struct MapInfo {
 class MapDatabase {
  public:
   struct Options {
-    int busy_timeout_ms = 5000;    // wait for another writer's lock, ms, >= 0
-    bool synchronous_full = false; // fsync every commit (survives power loss); false: survives
-                                   // process crashes, and is much faster
+    int busy_timeout_ms = 5000;       // wait for another writer's lock, ms, >= 0
+    bool synchronous_full = false;    // fsync every commit (survives power loss); false: survives
+                                      // process crashes, and is much faster
     std::int64_t max_page_count = 0;  // cap on the file size in pages (tests, quotas); 0 = none
-    int compression_level = 1;       // zlib level of the tile blobs and local-map PNGs, 0..9
+    int compression_level = 1;        // zlib level of the tile blobs and local-map PNGs, 0..9
 
     bool IsValid(std::string* error) const;
   };

@@ -1,5 +1,6 @@
 #include "storage/map_database.h"
 
+#include <gtest/gtest.h>
 #include <sqlite3.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
@@ -7,8 +8,6 @@
 
 #include <cmath>
 #include <filesystem>
-
-#include <gtest/gtest.h>
 
 #include "storage/test_util.h"
 
@@ -110,9 +109,9 @@ TEST_P(MapDatabaseRoundTrip, EveryRecordTypeComesBack) {
   EXPECT_EQ(raw[0].stamp_ns, 1700000000123456789ll);
   EXPECT_DOUBLE_EQ(raw[0].map_from_base.x, 1.25);
   EXPECT_DOUBLE_EQ(raw[0].map_from_base.yaw, 0.3);
-  EXPECT_DOUBLE_EQ(opt[0].map_from_base.x, 1.2);       // optimised
-  EXPECT_DOUBLE_EQ(opt[2].map_from_base.x, 1.36);      // optimised
-  EXPECT_DOUBLE_EQ(opt[1].map_from_base.x, 1.3);       // raw stands in
+  EXPECT_DOUBLE_EQ(opt[0].map_from_base.x, 1.2);   // optimised
+  EXPECT_DOUBLE_EQ(opt[2].map_from_base.x, 1.36);  // optimised
+  EXPECT_DOUBLE_EQ(opt[1].map_from_base.x, 1.3);   // raw stands in
   EXPECT_EQ(opt[3].run_id, run);
 
   OccupancyGrid back;
@@ -173,7 +172,8 @@ TEST_P(MapDatabaseRoundTrip, EveryRecordTypeComesBack) {
   EXPECT_EQ(cache.tiles().size(), 2u);
 
   // Landmarks, statistics, OctoMap bytes (with a NUL inside).
-  ASSERT_TRUE(db->WriteLandmarks(run, {{5, run, {1.0, 2.0, 0.25}, 3}, {9, run, {-1, 0, 0}, 1}}).ok());
+  ASSERT_TRUE(
+      db->WriteLandmarks(run, {{5, run, {1.0, 2.0, 0.25}, 3}, {9, run, {-1, 0, 0}, 1}}).ok());
   std::vector<Landmark> landmarks;
   ASSERT_TRUE(db->ReadLandmarks(&landmarks).ok());
   ASSERT_EQ(landmarks.size(), 2u);
@@ -231,7 +231,9 @@ TEST_P(MapDatabaseRoundTrip, EveryRecordTypeComesBack) {
 }
 
 INSTANTIATE_TEST_SUITE_P(FileAndMemory, MapDatabaseRoundTrip, ::testing::Values(true, false),
-                         [](const auto& param_info) { return param_info.param ? "File" : "Memory"; });
+                         [](const auto& param_info) {
+                           return param_info.param ? "File" : "Memory";
+                         });
 
 TEST(MapDatabase, SecondRunExtendsTheMapAndUsesWal) {
   TempDir dir;
@@ -372,7 +374,8 @@ TEST(MapDatabase, RefusesANewerSchemaWithItsVersion) {
   TempDir dir;
   const std::string path = dir.File("map.db");
   MakeSmallMap(path);
-  RawExec(path, "INSERT INTO schema_migrations (version, description) VALUES (2, 'from the future')");
+  RawExec(path,
+          "INSERT INTO schema_migrations (version, description) VALUES (2, 'from the future')");
   const std::string before = testing::ReadFileBytes(path);
   for (OpenMode mode : {OpenMode::kReadOnly, OpenMode::kReadWrite, OpenMode::kCreate}) {
     ExpectRefused(path, mode, StorageErrorKind::kNewerSchema,

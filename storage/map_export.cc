@@ -6,10 +6,9 @@
 #include <cstdio>
 #include <cstring>
 #include <fstream>
-#include <sstream>
-
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <sstream>
 
 namespace monoplane {
 namespace {
@@ -121,8 +120,8 @@ cv::Mat RenderMapPicture(const OccupancyGrid& grid, const std::vector<Trajectory
       out[col] = cv::Vec3b(grey, grey, grey);
     }
   }
-  int scale = std::max(1, std::min(options.pixels_per_cell,
-                                   options.max_side_px / std::max(g.width, g.height)));
+  int scale = std::max(
+      1, std::min(options.pixels_per_cell, options.max_side_px / std::max(g.width, g.height)));
   cv::Mat picture;
   cv::resize(cells, picture, cv::Size(g.width * scale, g.height * scale), 0, 0, cv::INTER_NEAREST);
   // Shift 4 bits of sub-pixel precision for smooth lines.
@@ -134,8 +133,8 @@ cv::Mat RenderMapPicture(const OccupancyGrid& grid, const std::vector<Trajectory
     return cv::Point(static_cast<int>(std::lround(u * (1 << kShift))),
                      static_cast<int>(std::lround(v * (1 << kShift))));
   };
-  static const cv::Scalar kColours[] = {{40, 40, 220}, {220, 120, 30}, {40, 170, 40},
-                                        {200, 40, 200}, {30, 160, 220}};
+  static const cv::Scalar kColours[] = {
+      {40, 40, 220}, {220, 120, 30}, {40, 170, 40}, {200, 40, 200}, {30, 160, 220}};
   const int thickness = std::max(1, scale / 2);
   for (std::size_t k = 0; k < trajectory.size(); ++k) {
     const TrajectoryPoint& p = trajectory[k];
@@ -153,7 +152,8 @@ cv::Mat RenderMapPicture(const OccupancyGrid& grid, const std::vector<Trajectory
 }
 
 bool WriteMapPicture(const OccupancyGrid& grid, const std::vector<TrajectoryPoint>& trajectory,
-                     const MapPictureOptions& options, const std::string& path, std::string* error) {
+                     const MapPictureOptions& options, const std::string& path,
+                     std::string* error) {
   if (!options.IsValid(error)) return false;
   const cv::Mat picture = RenderMapPicture(grid, trajectory, options);
   if (picture.empty()) {

@@ -1,9 +1,8 @@
 #pragma once
 
+#include <opencv2/core.hpp>
 #include <string>
 #include <vector>
-
-#include <opencv2/core.hpp>
 
 #include "perception/geometry/occupancy_grid.h"
 #include "storage/map_database.h"
@@ -30,8 +29,8 @@ bool WriteTumTrajectory(const std::vector<TrajectoryPoint>& trajectory, const st
 bool WriteBytesFile(const std::string& bytes, const std::string& path, std::string* error);
 
 struct MapPictureOptions {
-  int pixels_per_cell = 2;       // 1..16; reduced when the picture would exceed max_side_px
-  int max_side_px = 4096;        // >= 64
+  int pixels_per_cell = 2;  // 1..16; reduced when the picture would exceed max_side_px
+  int max_side_px = 4096;   // >= 64
   bool IsValid(std::string* error) const;
 };
 // A picture for people: free white, occupied black, unknown grey, the trajectory of each run in

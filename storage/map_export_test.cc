@@ -1,14 +1,13 @@
 #include "storage/map_export.h"
 
+#include <gtest/gtest.h>
 #include <octomap/OcTree.h>
+#include <yaml-cpp/yaml.h>
 
 #include <cmath>
 #include <fstream>
-#include <sstream>
-
-#include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
-#include <yaml-cpp/yaml.h>
+#include <sstream>
 
 #include "storage/test_util.h"
 
@@ -100,13 +99,13 @@ TEST(MapExport, MapServerYamlAndPgmReadBackIndependently) {
     const int row = pgm.height - 1 - static_cast<int>(std::floor((y - (-0.5)) / 0.1));
     return pgm.At(col, row);
   };
-  EXPECT_EQ(pixel_at(-0.75, 1.25), 0);     // occupied, near the top
-  EXPECT_EQ(pgm.At(2, 2), 0);              // the same cell by raw index: top rows = high y
-  EXPECT_EQ(pixel_at(0.55, -0.25), 254);   // free
-  EXPECT_EQ(pixel_at(0.15, 0.15), 205);    // observed, p = 0.5: unknown
-  EXPECT_EQ(pixel_at(0.0, 0.5), 205);      // never seen
-  EXPECT_EQ(pgm.At(0, 19), 254);           // lower-left corner cell
-  EXPECT_EQ(pgm.At(19, 0), 254);           // upper-right corner cell
+  EXPECT_EQ(pixel_at(-0.75, 1.25), 0);    // occupied, near the top
+  EXPECT_EQ(pgm.At(2, 2), 0);             // the same cell by raw index: top rows = high y
+  EXPECT_EQ(pixel_at(0.55, -0.25), 254);  // free
+  EXPECT_EQ(pixel_at(0.15, 0.15), 205);   // observed, p = 0.5: unknown
+  EXPECT_EQ(pixel_at(0.0, 0.5), 205);     // never seen
+  EXPECT_EQ(pgm.At(0, 19), 254);          // lower-left corner cell
+  EXPECT_EQ(pgm.At(19, 0), 254);          // upper-right corner cell
   int counts[256] = {};
   for (unsigned char p : pgm.pixels) ++counts[p];
   EXPECT_EQ(counts[0], 1);

@@ -10,18 +10,24 @@ namespace monoplane {
 
 const char* CellStateName(CellState state) {
   switch (state) {
-    case CellState::kUnknown: return "unknown";
-    case CellState::kFree: return "free";
-    case CellState::kOccupied: return "occupied";
+    case CellState::kUnknown:
+      return "unknown";
+    case CellState::kFree:
+      return "free";
+    case CellState::kOccupied:
+      return "occupied";
   }
   return "unknown";
 }
 
 const char* PathStateName(PathState state) {
   switch (state) {
-    case PathState::kClear: return "clear";
-    case PathState::kBlocked: return "blocked";
-    case PathState::kNotKnownClear: return "not-known-clear";
+    case PathState::kClear:
+      return "clear";
+    case PathState::kBlocked:
+      return "blocked";
+    case PathState::kNotKnownClear:
+      return "not-known-clear";
   }
   return "not-known-clear";
 }
@@ -127,8 +133,8 @@ RegionQuery QueryRegion(const TiledGrid& grid, const Eigen::Vector2d& corner_a_m
   std::int64_t counts[3] = {0, 0, 0};
   for (int row = 0; row < height; ++row) {
     const int j = q.min_cell.y() + row;
-    std::int8_t* out = want_raster ? q.raster->cells.data() + static_cast<std::size_t>(row) * width
-                                   : nullptr;
+    std::int8_t* out =
+        want_raster ? q.raster->cells.data() + static_cast<std::size_t>(row) * width : nullptr;
     int i = q.min_cell.x();
     while (i <= q.max_cell.x()) {
       // One run of cells inside one tile.
@@ -214,8 +220,8 @@ PathClearance QueryPathClearance(const TiledGrid& grid, const std::vector<Eigen:
     const Eigen::Vector2d a = path_m[k];
     const Eigen::Vector2d b = path_m.size() == 1 ? a : path_m[k + 1];
     const double length = (b - a).norm();
-    segments.push_back({a, length > 0 ? Eigen::Vector2d((b - a) / length) : Eigen::Vector2d::Zero(),
-                        length, s});
+    segments.push_back(
+        {a, length > 0 ? Eigen::Vector2d((b - a) / length) : Eigen::Vector2d::Zero(), length, s});
     s += length;
   }
   // The arc length at which the robot's disk, moving along the path, first touches a cell's
@@ -244,8 +250,8 @@ PathClearance QueryPathClearance(const TiledGrid& grid, const std::vector<Eigen:
         }
         if (t0 <= t1) best = std::min(best, t0);
       }
-      for (const Eigen::Vector2d& corner : {lo, hi, Eigen::Vector2d(lo.x(), hi.y()),
-                                           Eigen::Vector2d(hi.x(), lo.y())}) {
+      for (const Eigen::Vector2d& corner :
+           {lo, hi, Eigen::Vector2d(lo.x(), hi.y()), Eigen::Vector2d(hi.x(), lo.y())}) {
         const Eigen::Vector2d w = corner - seg.a;
         const double t = w.dot(seg.u);
         const double h2 = w.squaredNorm() - t * t;

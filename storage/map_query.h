@@ -1,10 +1,9 @@
 #pragma once
 
+#include <Eigen/Core>
 #include <cstdint>
 #include <optional>
 #include <vector>
-
-#include <Eigen/Core>
 
 #include "perception/geometry/occupancy_grid.h"
 #include "perception/geometry/tiled_grid.h"
@@ -27,9 +26,9 @@ struct PointQuery {
   Eigen::Vector2i cell = Eigen::Vector2i::Zero();  // global cell index
   CellState state = CellState::kUnknown;
   bool observed = false;
-  double probability = 0.5;          // of occupancy; 0.5 when never observed
-  std::optional<double> height_m;    // highest obstacle point seen in the cell
-  TimestampNs last_seen_ns = 0;      // 0 = never
+  double probability = 0.5;        // of occupancy; 0.5 when never observed
+  std::optional<double> height_m;  // highest obstacle point seen in the cell
+  TimestampNs last_seen_ns = 0;    // 0 = never
 };
 PointQuery QueryPoint(const TiledGrid& grid, const Eigen::Vector2d& point_m,
                       const TrinaryThresholds& thresholds = {});

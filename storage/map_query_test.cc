@@ -9,8 +9,8 @@ namespace {
 
 using testing::MarkCell;
 
-constexpr float kOcc = 2.0f;   // p = 0.88
-constexpr float kFree = -2.0f; // p = 0.12
+constexpr float kOcc = 2.0f;    // p = 0.88
+constexpr float kFree = -2.0f;  // p = 0.12
 
 // A corridor along x at 0.1 m: free floor for y in [0, 1) and x in [0, 5), walls (occupied) at
 // rows y = -0.1 and y = 1.0, and a wall across the corridor at x = 3.0 .. 3.1. Cells beyond

@@ -2,8 +2,8 @@
 // its own copy of the nav_msgs/OccupancyGrid layout receives the saved map exactly as the database
 // holds it; map queries over DDS answer what storage's queries answer on the same file; a change
 // written to the file by another process is published again; Ctrl-C stops it with exit 130.
-#include "interfaces/test/loopback.h"
-
+#include <dds/dds.h>
+#include <gtest/gtest.h>
 #include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -12,10 +12,8 @@
 #include <filesystem>
 #include <string>
 
-#include <dds/dds.h>
-#include <gtest/gtest.h>
-
 #include "interfaces/map_query_server.h"
+#include "interfaces/test/loopback.h"
 #include "storage/map_database.h"
 #include "storage/map_query.h"
 #include "test/late_joiner_grid.h"
@@ -32,7 +30,8 @@ class IndependentMapReader {
     participant_ = dds_create_participant(kDomain, nullptr, nullptr);
     dds_topic_descriptor_t descriptor = late_joiner_Grid_desc;
     descriptor.m_typename = "nav_msgs::msg::dds_::OccupancyGrid_";
-    const dds_entity_t topic = dds_create_topic(participant_, &descriptor, "rt/map", nullptr, nullptr);
+    const dds_entity_t topic =
+        dds_create_topic(participant_, &descriptor, "rt/map", nullptr, nullptr);
     dds_qos_t* qos = dds_create_qos();
     dds_qset_reliability(qos, DDS_RELIABILITY_RELIABLE, DDS_MSECS(100));
     dds_qset_durability(qos, DDS_DURABILITY_TRANSIENT_LOCAL);
@@ -120,8 +119,8 @@ TEST(ServeTest, PublishesAnswersReloadsAndStops) {
   ASSERT_TRUE(client->WaitForServer(10.0));
   interfaces::MapQueryRequest point;
   point.kind = interfaces::MapQueryRequest::Kind::kPoint;
-  for (const Eigen::Vector2d p : {Eigen::Vector2d(3.05, 0.55), Eigen::Vector2d(1.0, 0.5),
-                                  Eigen::Vector2d(-0.5, 0.5)}) {
+  for (const Eigen::Vector2d p :
+       {Eigen::Vector2d(3.05, 0.55), Eigen::Vector2d(1.0, 0.5), Eigen::Vector2d(-0.5, 0.5)}) {
     point.point_m = p;
     const auto reply = client->Query(point, 5.0, &error);
     ASSERT_TRUE(reply) << error;

@@ -29,15 +29,20 @@ int main(int argc, char** argv) {
   g.width = 40;
   g.height = 30;
   OccupancyGrid grid(g, kCellUnknown);
-  for (int col = 0; col < 40; ++col) grid.At(col, 0) = kCellOccupied;           // 40 occupied
+  for (int col = 0; col < 40; ++col) grid.At(col, 0) = kCellOccupied;  // 40 occupied
   for (int row = 1; row < 11; ++row) {
-    for (int col = 0; col < 40; ++col) grid.At(col, row) = kCellFree;         // 400 free
+    for (int col = 0; col < 40; ++col) grid.At(col, row) = kCellFree;  // 400 free
   }
   if (publisher->PublishMap(grid, 42 * 1000000000LL + 5, &error) != PublishStatus::kSent) {
     std::fprintf(stderr, "publish_test_map: %s\n", error.c_str());
     return 1;
   }
   // Stay until a reader has come and gone (the echo under test), at most 30 s.
-  if (!publisher->WaitForReaders(MapPublisher::Topic::kMap, [](int n) { return n > 0; }, 30.0)) return 1;
-  return publisher->WaitForReaders(MapPublisher::Topic::kMap, [](int n) { return n == 0; }, 30.0) ? 0 : 1;
+  if (!publisher->WaitForReaders(
+          MapPublisher::Topic::kMap, [](int n) { return n > 0; }, 30.0))
+    return 1;
+  return publisher->WaitForReaders(
+             MapPublisher::Topic::kMap, [](int n) { return n == 0; }, 30.0)
+             ? 0
+             : 1;
 }

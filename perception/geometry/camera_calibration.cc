@@ -1,13 +1,13 @@
 #include "perception/geometry/camera_calibration.h"
 
+#include <yaml-cpp/yaml.h>
+
 #include <cmath>
 #include <fstream>
+#include <opencv2/core.hpp>
 #include <set>
 #include <sstream>
 #include <vector>
-
-#include <opencv2/core.hpp>
-#include <yaml-cpp/yaml.h>
 
 namespace monoplane {
 namespace {
@@ -74,8 +74,8 @@ class MapReader {
       try {
         out->push_back(v[i].as<double>());
       } catch (const YAML::Exception&) {
-        return Fail(key, "element " + std::to_string(i) + " must be a number (got " +
-                             Describe(v[i]) + ")");
+        return Fail(
+            key, "element " + std::to_string(i) + " must be a number (got " + Describe(v[i]) + ")");
       }
       if (!std::isfinite(out->back())) {
         return Fail(key, "element " + std::to_string(i) + " must be finite");
@@ -118,8 +118,8 @@ class MapReader {
 };
 
 // A ROS-style matrix node {rows, cols, data}; checks the shape.
-bool ReadRosMatrix(const YAML::Node& node, const std::string& path, int rows,
-                   int cols, std::vector<double>* data, std::string* error) {
+bool ReadRosMatrix(const YAML::Node& node, const std::string& path, int rows, int cols,
+                   std::vector<double>* data, std::string* error) {
   MapReader reader(node, path);
   int r = 0, c = 0;
   reader.Int("rows", &r);
@@ -132,8 +132,8 @@ bool ReadRosMatrix(const YAML::Node& node, const std::string& path, int rows,
                             std::to_string(r) + "x" + std::to_string(c) + ")");
   }
   if (reader.ok() && static_cast<int>(data->size()) != r * c) {
-    reader.Fail("data", "has " + std::to_string(data->size()) + " values, rows*cols = " +
-                            std::to_string(r * c));
+    reader.Fail("data", "has " + std::to_string(data->size()) +
+                            " values, rows*cols = " + std::to_string(r * c));
   }
   if (!reader.ok()) *error = reader.error();
   return reader.ok();
@@ -195,8 +195,8 @@ bool ParseCameraSection(const YAML::Node& camera, CameraIntrinsics* in, std::str
     }
     if (camera["distortion_coefficients"].IsDefined()) {
       std::vector<double> d;
-      if (!ReadRosMatrix(camera["distortion_coefficients"],
-                         "camera.distortion_coefficients", 1, -1, &d, error)) {
+      if (!ReadRosMatrix(camera["distortion_coefficients"], "camera.distortion_coefficients", 1, -1,
+                         &d, error)) {
         return false;
       }
       if (!ParseDistortion(d, "camera.distortion_coefficients", &in->distortion, error)) {
@@ -314,11 +314,16 @@ bool CameraCalibration::IsValid(std::string* error) const {
   if (in.height <= 0) {
     return fail("camera.height", "must be > 0 pixels (got " + Num(in.height) + ")");
   }
-  const std::pair<const char*, double> finite[] = {
-      {"camera.fx", in.fx},          {"camera.fy", in.fy},          {"camera.cx", in.cx},
-      {"camera.cy", in.cy},          {"mount.x", mount.x_m},        {"mount.y", mount.y_m},
-      {"mount.height", mount.height_m}, {"mount.pitch_deg", mount.pitch_deg},
-      {"mount.roll_deg", mount.roll_deg}, {"mount.yaw_deg", mount.yaw_deg}};
+  const std::pair<const char*, double> finite[] = {{"camera.fx", in.fx},
+                                                   {"camera.fy", in.fy},
+                                                   {"camera.cx", in.cx},
+                                                   {"camera.cy", in.cy},
+                                                   {"mount.x", mount.x_m},
+                                                   {"mount.y", mount.y_m},
+                                                   {"mount.height", mount.height_m},
+                                                   {"mount.pitch_deg", mount.pitch_deg},
+                                                   {"mount.roll_deg", mount.roll_deg},
+                                                   {"mount.yaw_deg", mount.yaw_deg}};
   for (const auto& [key, value] : finite) {
     if (!std::isfinite(value)) return fail(key, "must be a finite number");
   }
@@ -341,7 +346,8 @@ bool CameraCalibration::IsValid(std::string* error) const {
     return fail("mount.height", "must be > 0 m above the floor (got " + Num(mount.height_m) + ")");
   }
   if (std::abs(mount.pitch_deg) >= 90) {
-    return fail("mount.pitch_deg", "must be in (-90, 90) degrees (got " + Num(mount.pitch_deg) + ")");
+    return fail("mount.pitch_deg",
+                "must be in (-90, 90) degrees (got " + Num(mount.pitch_deg) + ")");
   }
   if (std::abs(mount.roll_deg) >= 90) {
     return fail("mount.roll_deg", "must be in (-90, 90) degrees (got " + Num(mount.roll_deg) + ")");
@@ -397,8 +403,7 @@ bool LoadCalibrationFile(const std::string& path, CameraCalibration* calibration
   return true;
 }
 
-bool LoadIntrinsicsFile(const std::string& path, CameraIntrinsics* intrinsics,
-                        std::string* error) {
+bool LoadIntrinsicsFile(const std::string& path, CameraIntrinsics* intrinsics, std::string* error) {
   const std::string text = ReadFile(path, error);
   if (!error->empty()) return false;
   const bool opencv_flavour = text.rfind("%YAML:1.0", 0) == 0 || text.rfind("<?xml", 0) == 0 ||
@@ -443,8 +448,8 @@ bool LoadIntrinsicsFile(const std::string& path, CameraIntrinsics* intrinsics,
     try {
       root = YAML::Load(text);
     } catch (const YAML::Exception& e) {
-      *error = path + ": YAML syntax error at line " + std::to_string(e.mark.line + 1) + ": " +
-               e.msg;
+      *error =
+          path + ": YAML syntax error at line " + std::to_string(e.mark.line + 1) + ": " + e.msg;
       return false;
     }
     if (!root.IsMap()) {

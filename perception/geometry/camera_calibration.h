@@ -1,17 +1,16 @@
 #pragma once
 
-#include <array>
-#include <string>
-
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <array>
+#include <string>
 
 namespace monoplane {
 
 // Pinhole intrinsics in pixels, OpenCV conventions (the centre of the top-left pixel is (0, 0)).
 struct CameraIntrinsics {
-  int width = 0;   // image width, pixels, > 0
-  int height = 0;  // image height, pixels, > 0
+  int width = 0;              // image width, pixels, > 0
+  int height = 0;             // image height, pixels, > 0
   double fx = 0.0, fy = 0.0;  // focal lengths, pixels, > 0
   double cx = 0.0, cy = 0.0;  // principal point, pixels, inside the image
   // OpenCV plumb-bob coefficients k1 k2 p1 p2 k3 (zeros: no distortion).
@@ -23,15 +22,16 @@ struct CameraIntrinsics {
   CameraIntrinsics Scaled(int new_width, int new_height) const;
 };
 
-// Where the camera sits on the robot base, REP-103 base frame (x forward, y left, z up, the floor is
-// z = 0). Angles in degrees as in the calibration file.
+// Where the camera sits on the robot base, REP-103 base frame (x forward, y left, z up, the floor
+// is z = 0). Angles in degrees as in the calibration file.
 struct CameraMount {
-  double x_m = 0.0;       // ahead of the base origin
-  double y_m = 0.0;       // to the left of the base origin
-  double height_m = 0.0;  // above the floor, > 0
-  double pitch_deg = 0.0; // positive: optical axis tilted down; |pitch| < 90
-  double roll_deg = 0.0;  // about the optical axis; positive: the camera's right side dips; |roll| < 90
-  double yaw_deg = 0.0;   // positive: looking to the left; |yaw| <= 180
+  double x_m = 0.0;        // ahead of the base origin
+  double y_m = 0.0;        // to the left of the base origin
+  double height_m = 0.0;   // above the floor, > 0
+  double pitch_deg = 0.0;  // positive: optical axis tilted down; |pitch| < 90
+  double roll_deg =
+      0.0;  // about the optical axis; positive: the camera's right side dips; |roll| < 90
+  double yaw_deg = 0.0;  // positive: looking to the left; |yaw| <= 180
 };
 
 struct CameraCalibration {

@@ -1,10 +1,10 @@
 #include "perception/geometry/camera_calibration.h"
 
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <filesystem>
 #include <fstream>
-
-#include <gtest/gtest.h>
 #include <opencv2/core.hpp>
 
 namespace monoplane {
@@ -72,12 +72,11 @@ TEST(CameraCalibration, ReadsRosCameraSectionAndIntrinsicsFiles) {
       "distortion_model: plumb_bob\n"
       "distortion_coefficients:\n  rows: 1\n  cols: 5\n  data: [-0.1, 0.02, 0.001, 0.0, 0.0]\n"
       "rectification_matrix:\n  rows: 3\n  cols: 3\n  data: [1, 0, 0, 0, 1, 0, 0, 0, 1]\n"
-      "projection_matrix:\n  rows: 3\n  cols: 4\n  data: [450, 0, 320, 0, 0, 451, 241, 0, 0, 0, 1, 0]\n";
+      "projection_matrix:\n  rows: 3\n  cols: 4\n  data: [450, 0, 320, 0, 0, 451, 241, 0, 0, 0, 1, "
+      "0]\n";
   const auto dir = std::filesystem::temp_directory_path() / "monoplane_calib_test";
   std::filesystem::create_directories(dir);
-  {
-    std::ofstream(dir / "ost.yaml") << ros;
-  }
+  { std::ofstream(dir / "ost.yaml") << ros; }
   CameraIntrinsics in;
   std::string error;
   ASSERT_TRUE(LoadIntrinsicsFile((dir / "ost.yaml").string(), &in, &error)) << error;
@@ -143,32 +142,31 @@ TEST_P(MalformedCalibration, IsRejectedNamingTheKey) {
 
 INSTANTIATE_TEST_SUITE_P(
     AllFiles, MalformedCalibration,
-    ::testing::Values(
-        BadCase{"missing_camera.yaml", "camera:", "missing key"},
-        BadCase{"missing_mount.yaml", "mount:", "missing key"},
-        BadCase{"missing_fx.yaml", "camera.fx:", "missing key"},
-        BadCase{"unknown_camera_key.yaml", "camera.fz:", "unknown key"},
-        BadCase{"unknown_top_key.yaml", "robot:", "unknown key"},
-        BadCase{"unknown_mount_key.yaml", "mount.z:", "unknown key"},
-        BadCase{"fx_zero.yaml", "camera.fx:", "must be > 0"},
-        BadCase{"fy_negative.yaml", "camera.fy:", "must be > 0"},
-        BadCase{"cx_outside.yaml", "camera.cx:", "outside the image"},
-        BadCase{"cy_outside.yaml", "camera.cy:", "outside the image"},
-        BadCase{"height_zero.yaml", "mount.height:", "must be > 0"},
-        BadCase{"height_negative.yaml", "mount.height:", "must be > 0"},
-        BadCase{"pitch_90.yaml", "mount.pitch_deg:", "(-90, 90)"},
-        BadCase{"roll_95.yaml", "mount.roll_deg:", "(-90, 90)"},
-        BadCase{"nan_fy.yaml", "camera.fy:", "finite"},
-        BadCase{"yaw_inf.yaml", "mount.yaw_deg:", "finite"},
-        BadCase{"string_fx.yaml", "camera.fx:", "must be a number"},
-        BadCase{"width_float.yaml", "camera.width:", "must be an integer"},
-        BadCase{"width_zero.yaml", "camera.width:", "must be > 0"},
-        BadCase{"distortion_short.yaml", "camera.distortion:", "4 or 5 coefficients"},
-        BadCase{"distortion_scalar.yaml", "camera.distortion:", "must be a list"},
-        BadCase{"distortion_string.yaml", "camera.distortion:", "element 1"},
-        BadCase{"mount_list.yaml", "mount:", "must be a map"},
-        BadCase{"syntax_error.yaml", "YAML syntax error", "line"},
-        BadCase{"ros_matrix_shape.yaml", "camera.camera_matrix.rows:", "3x3"}),
+    ::testing::Values(BadCase{"missing_camera.yaml", "camera:", "missing key"},
+                      BadCase{"missing_mount.yaml", "mount:", "missing key"},
+                      BadCase{"missing_fx.yaml", "camera.fx:", "missing key"},
+                      BadCase{"unknown_camera_key.yaml", "camera.fz:", "unknown key"},
+                      BadCase{"unknown_top_key.yaml", "robot:", "unknown key"},
+                      BadCase{"unknown_mount_key.yaml", "mount.z:", "unknown key"},
+                      BadCase{"fx_zero.yaml", "camera.fx:", "must be > 0"},
+                      BadCase{"fy_negative.yaml", "camera.fy:", "must be > 0"},
+                      BadCase{"cx_outside.yaml", "camera.cx:", "outside the image"},
+                      BadCase{"cy_outside.yaml", "camera.cy:", "outside the image"},
+                      BadCase{"height_zero.yaml", "mount.height:", "must be > 0"},
+                      BadCase{"height_negative.yaml", "mount.height:", "must be > 0"},
+                      BadCase{"pitch_90.yaml", "mount.pitch_deg:", "(-90, 90)"},
+                      BadCase{"roll_95.yaml", "mount.roll_deg:", "(-90, 90)"},
+                      BadCase{"nan_fy.yaml", "camera.fy:", "finite"},
+                      BadCase{"yaw_inf.yaml", "mount.yaw_deg:", "finite"},
+                      BadCase{"string_fx.yaml", "camera.fx:", "must be a number"},
+                      BadCase{"width_float.yaml", "camera.width:", "must be an integer"},
+                      BadCase{"width_zero.yaml", "camera.width:", "must be > 0"},
+                      BadCase{"distortion_short.yaml", "camera.distortion:", "4 or 5 coefficients"},
+                      BadCase{"distortion_scalar.yaml", "camera.distortion:", "must be a list"},
+                      BadCase{"distortion_string.yaml", "camera.distortion:", "element 1"},
+                      BadCase{"mount_list.yaml", "mount:", "must be a map"},
+                      BadCase{"syntax_error.yaml", "YAML syntax error", "line"},
+                      BadCase{"ros_matrix_shape.yaml", "camera.camera_matrix.rows:", "3x3"}),
     [](const ::testing::TestParamInfo<BadCase>& param_info) {
       std::string name = param_info.param.file;
       return name.substr(0, name.find('.'));

@@ -1,7 +1,6 @@
 #include "perception/geometry/camera_model.h"
 
 #include <cmath>
-
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core.hpp>
 
@@ -44,7 +43,8 @@ std::optional<Eigen::Vector2d> CameraModel::PixelToFloor(const Eigen::Vector2d& 
   return (c + s * ray).head<2>();
 }
 
-std::optional<Eigen::Vector2d> CameraModel::ProjectToPixel(const Eigen::Vector3d& point_in_base) const {
+std::optional<Eigen::Vector2d> CameraModel::ProjectToPixel(
+    const Eigen::Vector3d& point_in_base) const {
   const Eigen::Vector3d p = camera_from_base_ * point_in_base;
   if (p.z() <= 1e-9) return std::nullopt;
   return (k_ * p).hnormalized();
@@ -78,8 +78,8 @@ Eigen::Vector2d CameraModel::UndistortPixel(const Eigen::Vector2d& distorted) co
   if (!in.HasDistortion()) return distorted;
   std::vector<cv::Point2d> src{{distorted.x(), distorted.y()}}, dst;
   const cv::Matx33d k(in.fx, 0, in.cx, 0, in.fy, in.cy, 0, 0, 1);
-  const cv::Vec<double, 5> d(in.distortion[0], in.distortion[1], in.distortion[2],
-                             in.distortion[3], in.distortion[4]);
+  const cv::Vec<double, 5> d(in.distortion[0], in.distortion[1], in.distortion[2], in.distortion[3],
+                             in.distortion[4]);
   cv::undistortPoints(src, dst, k, d, cv::noArray(), k,
                       cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 50, 1e-12));
   return {dst[0].x, dst[0].y};
@@ -100,9 +100,12 @@ FloorCoverage ComputeFloorCoverage(const CameraModel& camera, double max_range_m
   const Eigen::Vector2d c = camera.CameraCentreInBase().head<2>();
   const int steps = 32;
   std::vector<Eigen::Vector2d> border;
-  for (int i = 0; i < steps; ++i) border.emplace_back((in.width - 1.0) * i / steps, in.height - 1.0);
-  for (int i = 0; i < steps; ++i) border.emplace_back(in.width - 1.0, (in.height - 1.0) * (1 - i / double(steps)));
-  for (int i = 0; i < steps; ++i) border.emplace_back((in.width - 1.0) * (1 - i / double(steps)), 0.0);
+  for (int i = 0; i < steps; ++i)
+    border.emplace_back((in.width - 1.0) * i / steps, in.height - 1.0);
+  for (int i = 0; i < steps; ++i)
+    border.emplace_back(in.width - 1.0, (in.height - 1.0) * (1 - i / double(steps)));
+  for (int i = 0; i < steps; ++i)
+    border.emplace_back((in.width - 1.0) * (1 - i / double(steps)), 0.0);
   for (int i = 0; i < steps; ++i) border.emplace_back(0.0, (in.height - 1.0) * i / double(steps));
   for (const auto& px : border) {
     const Eigen::Vector3d ray = camera.RayInBase(px);

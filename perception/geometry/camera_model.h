@@ -1,10 +1,9 @@
 #pragma once
 
-#include <optional>
-#include <vector>
-
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <optional>
+#include <vector>
 
 #include "perception/geometry/camera_calibration.h"
 #include "perception/geometry/pose2.h"
@@ -77,8 +76,8 @@ inline Eigen::Vector2d ApplyHomography(const Eigen::Matrix3d& h, const Eigen::Ve
 
 // Plane + parallax: a point seen at pixel1 from pose 1 and at pixel2 from pose 2.
 struct ParallaxPoint {
-  Eigen::Vector3d point_in_base1;  // base frame of pose 1; z is the height above the floor
-  double depth_m = 0.0;            // along camera 1's optical axis
+  Eigen::Vector3d point_in_base1;     // base frame of pose 1; z is the height above the floor
+  double depth_m = 0.0;               // along camera 1's optical axis
   double epipolar_residual_px = 0.0;  // distance of pixel2 from the epipolar line of pixel1
 };
 // Triangulates along the ray of pixel1 with the known motion. nullopt when the motion gives no

@@ -1,9 +1,9 @@
 #include "perception/geometry/camera_model.h"
 
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <random>
-
-#include <gtest/gtest.h>
 
 namespace monoplane {
 namespace {
@@ -25,7 +25,7 @@ std::vector<CameraCalibration> Mounts() {
 }
 std::vector<Pose2> Motions() {
   return {{0.03, 0.0, 0.0},   {0.05, 0.01, 0.02}, {-0.04, 0.0, -0.01},
-          {0.02, -0.02, 0.1}, {0.5, 0.1, -0.3},  {0.0, 0.05, 0.0}};
+          {0.02, -0.02, 0.1}, {0.5, 0.1, -0.3},   {0.0, 0.05, 0.0}};
 }
 
 TEST(CameraModel, FloorRoundTripAndHorizon) {
@@ -160,9 +160,9 @@ TEST(CameraModel, ZeroDisparityGrowsWithHeightAndFlipsBelowFloor) {
   EXPECT_LT(below->signed_px, 0.0);
   const auto at_floor = ZeroDisparityAtHeight(camera, base2_from_base1, pixel, 0.0);
   EXPECT_NEAR(at_floor->signed_px, 0.0, 1e-12);
-  EXPECT_NEAR((at_floor->actual - ApplyHomography(FloorHomography(camera, base2_from_base1), pixel))
-                  .norm(),
-              0.0, 1e-9);
+  EXPECT_NEAR(
+      (at_floor->actual - ApplyHomography(FloorHomography(camera, base2_from_base1), pixel)).norm(),
+      0.0, 1e-9);
 }
 
 TEST(CameraModel, SideViewModelReproducesClosedForm) {
@@ -180,15 +180,19 @@ TEST(CameraModel, SideViewModelReproducesClosedForm) {
         const double closed = SideViewZeroDisparity(f, hc, z, d, h);
         // In the side view the zero disparity is purely vertical.
         EXPECT_NEAR(e->actual.x(), e->floor_predicted.x(), 1e-9);
-        EXPECT_NEAR(e->actual.y() - e->floor_predicted.y(), closed, 1e-9) << "d " << d << " z " << z << " h " << h;
+        EXPECT_NEAR(e->actual.y() - e->floor_predicted.y(), closed, 1e-9)
+            << "d " << d << " z " << z << " h " << h;
         EXPECT_NEAR(std::abs(e->signed_px), std::abs(closed), 1e-9);
       }
     }
   }
   // e grows with h and with travel, and falls with distance.
-  EXPECT_GT(SideViewZeroDisparity(f, hc, 2.0, 0.05, 0.1), SideViewZeroDisparity(f, hc, 2.0, 0.05, 0.05));
-  EXPECT_GT(SideViewZeroDisparity(f, hc, 2.0, 0.05, 0.1), SideViewZeroDisparity(f, hc, 2.0, 0.02, 0.1));
-  EXPECT_GT(SideViewZeroDisparity(f, hc, 1.0, 0.05, 0.1), SideViewZeroDisparity(f, hc, 3.0, 0.05, 0.1));
+  EXPECT_GT(SideViewZeroDisparity(f, hc, 2.0, 0.05, 0.1),
+            SideViewZeroDisparity(f, hc, 2.0, 0.05, 0.05));
+  EXPECT_GT(SideViewZeroDisparity(f, hc, 2.0, 0.05, 0.1),
+            SideViewZeroDisparity(f, hc, 2.0, 0.02, 0.1));
+  EXPECT_GT(SideViewZeroDisparity(f, hc, 1.0, 0.05, 0.1),
+            SideViewZeroDisparity(f, hc, 3.0, 0.05, 0.1));
 }
 
 TEST(CameraModel, DistortionRoundTrip) {

@@ -1,11 +1,10 @@
 #pragma once
 
+#include <Eigen/Core>
 #include <cmath>
 #include <cstdint>
 #include <optional>
 #include <vector>
-
-#include <Eigen/Core>
 
 namespace monoplane {
 
@@ -36,9 +35,7 @@ struct GridGeometry {
   Eigen::Vector2d CellCenter(int col, int row) const {
     return {origin_x_m + (col + 0.5) * resolution_m, origin_y_m + (row + 0.5) * resolution_m};
   }
-  std::size_t Index(int col, int row) const {
-    return static_cast<std::size_t>(row) * width + col;
-  }
+  std::size_t Index(int col, int row) const { return static_cast<std::size_t>(row) * width + col; }
 };
 
 // A 2-D occupancy grid value: geometry plus one int8 per cell (see kCell*).

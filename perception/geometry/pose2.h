@@ -1,8 +1,7 @@
 #pragma once
 
-#include <cmath>
-
 #include <Eigen/Core>
+#include <cmath>
 
 namespace monoplane {
 

@@ -1,5 +1,6 @@
 #pragma once
 
+#include <Eigen/Core>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -8,27 +9,25 @@
 #include <utility>
 #include <vector>
 
-#include <Eigen/Core>
-
 #include "perception/geometry/occupancy_grid.h"
 #include "perception/geometry/timestamp.h"
 
 namespace monoplane {
 
 // The global 2-D map: an unbounded grid of square cells stored in fixed-size tiles that exist only
-// where something was observed. Cell (i, j) covers [i * res, (i + 1) * res) x [j * res, (j + 1) * res)
-// in the map frame (metres); tile (tx, ty) holds cells i in [tx * kTileSize, (tx + 1) * kTileSize).
-// A value type shared by mapping (which updates it), storage (which persists tiles) and interfaces
-// (which publish it). Not thread-safe; copy to share across threads.
+// where something was observed. Cell (i, j) covers [i * res, (i + 1) * res) x [j * res, (j + 1) *
+// res) in the map frame (metres); tile (tx, ty) holds cells i in [tx * kTileSize, (tx + 1) *
+// kTileSize). A value type shared by mapping (which updates it), storage (which persists tiles) and
+// interfaces (which publish it). Not thread-safe; copy to share across threads.
 class TiledGrid {
  public:
   static constexpr int kTileSize = 256;
 
   struct Tile {
     // Per cell, row-major (row = j - ty * kTileSize, lowest y first), kTileSize^2 entries each.
-    std::vector<float> log_odds;             // 0 = never observed (unknown)
-    std::vector<float> height_m;             // highest obstacle point seen in the cell; NaN = none
-    std::vector<TimestampNs> last_seen_ns;   // 0 = never observed
+    std::vector<float> log_odds;            // 0 = never observed (unknown)
+    std::vector<float> height_m;            // highest obstacle point seen in the cell; NaN = none
+    std::vector<TimestampNs> last_seen_ns;  // 0 = never observed
     Tile()
         : log_odds(kTileSize * kTileSize, 0.0f),
           height_m(kTileSize * kTileSize, std::numeric_limits<float>::quiet_NaN()),
@@ -79,8 +78,8 @@ class TiledGrid {
     Eigen::Vector2i hi(std::numeric_limits<int>::min(), std::numeric_limits<int>::min());
     for (const auto& [key, tile] : tiles_) {
       lo = lo.cwiseMin(Eigen::Vector2i(key.first * kTileSize, key.second * kTileSize));
-      hi = hi.cwiseMax(Eigen::Vector2i((key.first + 1) * kTileSize - 1,
-                                       (key.second + 1) * kTileSize - 1));
+      hi = hi.cwiseMax(
+          Eigen::Vector2i((key.first + 1) * kTileSize - 1, (key.second + 1) * kTileSize - 1));
     }
     return std::make_pair(lo, hi);
   }
@@ -88,7 +87,9 @@ class TiledGrid {
   static float Probability(float log_odds) { return 1.0f / (1.0f + std::exp(-log_odds)); }
 
  private:
-  static int FloorDiv(int i) { return i >= 0 ? i / kTileSize : -((-i + kTileSize - 1) / kTileSize); }
+  static int FloorDiv(int i) {
+    return i >= 0 ? i / kTileSize : -((-i + kTileSize - 1) / kTileSize);
+  }
 
   double resolution_m_;
   std::map<TileKey, Tile> tiles_;
@@ -102,7 +103,8 @@ struct TrinaryThresholds {
 
 // The dense OccupancyGrid (cells -1 / 0 / 100) over the observed extent of a TiledGrid, with only
 // observed cells known. Empty grid (width 0) when nothing was observed.
-inline OccupancyGrid ToOccupancyGrid(const TiledGrid& grid, const TrinaryThresholds& thresholds = {}) {
+inline OccupancyGrid ToOccupancyGrid(const TiledGrid& grid,
+                                     const TrinaryThresholds& thresholds = {}) {
   const auto bounds = grid.TileBounds();
   if (!bounds) return OccupancyGrid();
   // Shrink the tile bounds to the cells actually observed.

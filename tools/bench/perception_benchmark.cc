@@ -3,15 +3,15 @@
 // same rendered frames (counters obstacle_recall, floor_false, coverage).
 //
 //   build/tools/bench/bench_perception [--benchmark_filter=...]
+#include <benchmark/benchmark.h>
+
 #include <cstdlib>
 #include <map>
 #include <memory>
-#include <string>
-#include <vector>
-
-#include <benchmark/benchmark.h>
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
+#include <string>
+#include <vector>
 
 #include "perception/floor_features.h"
 #include "perception/ground_motion.h"
@@ -43,7 +43,8 @@ const Data& GetData() {
     for (const char* name : kScenes) {
       sim::Scene scene;
       std::string error;
-      const std::string path = std::string(MONOPLANE_SOURCE_DIR) + "/tests/data/scenes/" + name + ".yaml";
+      const std::string path =
+          std::string(MONOPLANE_SOURCE_DIR) + "/tests/data/scenes/" + name + ".yaml";
       if (!sim::LoadSceneFile(path, &scene, &error)) {
         std::fprintf(stderr, "bench_perception: %s\n", error.c_str());
         std::exit(2);
@@ -75,8 +76,10 @@ DetectorOptions OptionsFor(int method) {
     o.zero_disparity.finest_level = std::atoi(level);
     o.classification.sample_stride = o.zero_disparity.finest_level >= 2 ? 1 : 2;
   }
-  if (const char* window = std::getenv("MONOPLANE_BENCH_WINDOW")) o.zero_disparity.window_px = std::atoi(window);
-  if (const char* it = std::getenv("MONOPLANE_BENCH_ITER")) o.zero_disparity.iterations_per_level = std::atoi(it);
+  if (const char* window = std::getenv("MONOPLANE_BENCH_WINDOW"))
+    o.zero_disparity.window_px = std::atoi(window);
+  if (const char* it = std::getenv("MONOPLANE_BENCH_ITER"))
+    o.zero_disparity.iterations_per_level = std::atoi(it);
   o.zero_disparity.method = method == 0 ? ZeroDisparityOptions::Method::kEpipolar
                                         : ZeroDisparityOptions::Method::kFarneback;
   return o;
@@ -124,7 +127,8 @@ void BM_GroundMotion(benchmark::State& state) {
   const CameraModel camera(data.calibration);
   const auto& p = data.pairs[1];
   for (auto _ : state) {
-    benchmark::DoNotOptimize(EstimateGroundMotion(p.reference, p.current, camera, GroundMotionOptions{}));
+    benchmark::DoNotOptimize(
+        EstimateGroundMotion(p.reference, p.current, camera, GroundMotionOptions{}));
   }
 }
 BENCHMARK(BM_GroundMotion)->Unit(benchmark::kMillisecond);
@@ -135,8 +139,8 @@ void BM_ZeroDisparity(benchmark::State& state) {
   const DetectorOptions options = OptionsFor(static_cast<int>(state.range(0)));
   const auto& p = data.pairs[1];
   for (auto _ : state) {
-    benchmark::DoNotOptimize(ComputeZeroDisparity(p.reference, p.current, camera,
-                                                  p.motion.base2_from_base1, options.zero_disparity));
+    benchmark::DoNotOptimize(ComputeZeroDisparity(
+        p.reference, p.current, camera, p.motion.base2_from_base1, options.zero_disparity));
   }
   state.SetLabel(state.range(0) == 0 ? "epipolar" : "farneback");
 }
@@ -158,7 +162,8 @@ BENCHMARK(BM_Detect)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
 void BM_SequenceFrame(benchmark::State& state) {
   sim::Scene scene;
   std::string error;
-  sim::LoadSceneFile(std::string(MONOPLANE_SOURCE_DIR) + "/tests/data/scenes/office.yaml", &scene, &error);
+  sim::LoadSceneFile(std::string(MONOPLANE_SOURCE_DIR) + "/tests/data/scenes/office.yaml", &scene,
+                     &error);
   const sim::SceneRenderer renderer(scene, scene.calibration);
   std::vector<cv::Mat> frames;
   for (int i = 0; i < 40; ++i) frames.push_back(renderer.RenderAtTime(i / scene.fps).image);
@@ -184,7 +189,8 @@ BENCHMARK(BM_SequenceFrame)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
 void BM_FloorFeatures(benchmark::State& state) {
   sim::Scene scene;
   std::string error;
-  sim::LoadSceneFile(std::string(MONOPLANE_SOURCE_DIR) + "/tests/data/scenes/loop.yaml", &scene, &error);
+  sim::LoadSceneFile(std::string(MONOPLANE_SOURCE_DIR) + "/tests/data/scenes/loop.yaml", &scene,
+                     &error);
   const sim::SceneRenderer renderer(scene, scene.calibration);
   const ObstacleDetector detector(scene.calibration, DetectorOptions{});
   std::vector<cv::Mat> frames;
@@ -204,7 +210,8 @@ void BM_FloorFeatures(benchmark::State& state) {
     benchmark::DoNotOptimize(f.descriptors.data);
     next = (next + 1) % frames.size();
   }
-  state.counters["features"] = static_cast<double>(features) / static_cast<double>(state.iterations());
+  state.counters["features"] =
+      static_cast<double>(features) / static_cast<double>(state.iterations());
 }
 BENCHMARK(BM_FloorFeatures)->Arg(300)->Arg(500)->Arg(1000)->Unit(benchmark::kMillisecond);
 

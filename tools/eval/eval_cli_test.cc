@@ -1,4 +1,5 @@
 // Runs the monoplane-eval program on small generated inputs: exit codes, JSON values, messages.
+#include <gtest/gtest.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -7,10 +8,8 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
-#include <string>
-
-#include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
+#include <string>
 
 #include "tools/eval/eval_test_fixtures.h"
 
@@ -68,7 +67,8 @@ TEST_F(EvalCliTest, TrajectoryJsonAndTable) {
       pred << 0.1 * i + 0.005 << " " << 0.1 * i + 0.3 << " 0.4 0 0 0 0 1\n";
     }
   }
-  const RunResult json = RunEval("traj --pred " + Path("pred.txt") + " --gt " + Path("gt.txt") + " --json");
+  const RunResult json =
+      RunEval("traj --pred " + Path("pred.txt") + " --gt " + Path("gt.txt") + " --json");
   ASSERT_EQ(json.exit_code, 0) << json.output;
   EXPECT_EQ(JsonNumber(json.output, "matched_poses"), 21);
   EXPECT_NEAR(JsonNumber(json.output, "rmse", "\"ate_m\""), 0.5, 1e-6);
@@ -108,7 +108,8 @@ TEST_F(EvalCliTest, GridShiftWithTolerance) {
   };
   write_map("gt", 10);
   write_map("pred", 12);
-  const std::string args = "grid --pred " + Path("pred.yaml") + " --gt " + Path("gt.yaml") + " --json";
+  const std::string args =
+      "grid --pred " + Path("pred.yaml") + " --gt " + Path("gt.yaml") + " --json";
   const RunResult strict = RunEval(args + " --tolerance 1");
   ASSERT_EQ(strict.exit_code, 0) << strict.output;
   EXPECT_EQ(JsonNumber(strict.output, "precision"), 0.0);
@@ -149,7 +150,9 @@ TEST_F(EvalCliTest, LabelsJsonAndUnreadableImage) {
 TEST_F(EvalCliTest, MissingSubcommandOrOptionIsBadInput) {
   EXPECT_EQ(RunEval("").exit_code, 2);
   EXPECT_EQ(RunEval("traj --pred x.txt").exit_code, 2);
-  EXPECT_EQ(RunEval("kitti --pred " + Path("p") + " --kitti " + Path("k") + " --frames 5-2").exit_code, 2);
+  EXPECT_EQ(
+      RunEval("kitti --pred " + Path("p") + " --kitti " + Path("k") + " --frames 5-2").exit_code,
+      2);
 }
 
 }  // namespace

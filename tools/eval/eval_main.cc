@@ -1,9 +1,8 @@
 // monoplane-eval: scores per-frame labels, grids and trajectories against ground truth.
 // Exit codes: 0 scored, 2 unreadable or invalid input (one line naming the file and the reason).
+#include <CLI/CLI.hpp>
 #include <iostream>
 #include <string>
-
-#include <CLI/CLI.hpp>
 
 #include "tools/eval/eval_report.h"
 
@@ -30,15 +29,23 @@ int main(int argc, char** argv) {
   // labels
   std::string labels_pred, labels_gt;
   LabelEvalOptions label_options;
-  CLI::App* labels = app.add_subcommand("labels", "per-frame labels vs a simulated sequence's ground truth");
-  labels->add_option("--pred", labels_pred, "per-frame output folder (labels/, height/)")->required();
+  CLI::App* labels =
+      app.add_subcommand("labels", "per-frame labels vs a simulated sequence's ground truth");
+  labels->add_option("--pred", labels_pred, "per-frame output folder (labels/, height/)")
+      ->required();
   labels->add_option("--gt", labels_gt, "simulated sequence folder (calib.yaml, gt/)")->required();
-  labels->add_option("--min-obstacle-height", label_options.min_obstacle_height_m,
-                     "GT obstacles at least this high are scored, m")->capture_default_str();
-  labels->add_option("--min-drop", label_options.min_drop_m,
-                     "GT drop-offs at least this deep are scored, m")->capture_default_str();
-  labels->add_option("--max-height-distance", label_options.max_height_error_distance_m,
-                     "height errors within this ground distance, m")->capture_default_str();
+  labels
+      ->add_option("--min-obstacle-height", label_options.min_obstacle_height_m,
+                   "GT obstacles at least this high are scored, m")
+      ->capture_default_str();
+  labels
+      ->add_option("--min-drop", label_options.min_drop_m,
+                   "GT drop-offs at least this deep are scored, m")
+      ->capture_default_str();
+  labels
+      ->add_option("--max-height-distance", label_options.max_height_error_distance_m,
+                   "height errors within this ground distance, m")
+      ->capture_default_str();
   labels->add_flag("--json", json, "print JSON instead of a table");
   labels->callback([&] {
     LabelEvalResult result;
@@ -54,10 +61,12 @@ int main(int argc, char** argv) {
   std::string kitti_pred, kitti_dir, kitti_frames;
   KittiEvalOptions kitti_options;
   CLI::App* kitti = app.add_subcommand("kitti", "per-frame labels vs KITTI Velodyne points");
-  kitti->add_option("--pred", kitti_pred, "per-frame output folder (labels/NNNNNN.png)")->required();
+  kitti->add_option("--pred", kitti_pred, "per-frame output folder (labels/NNNNNN.png)")
+      ->required();
   kitti->add_option("--kitti", kitti_dir, "KITTI raw drive folder (velodyne_points/, calib_*.txt)")
       ->required();
-  kitti->add_option("--frames", kitti_frames, "frames to score, e.g. 0-5 or 0,25,45 (default: all)");
+  kitti->add_option("--frames", kitti_frames,
+                    "frames to score, e.g. 0-5 or 0,25,45 (default: all)");
   kitti->add_flag("--json", json, "print JSON instead of a table");
   kitti->callback([&] {
     std::vector<int> frames;
@@ -77,7 +86,8 @@ int main(int argc, char** argv) {
   // grid
   std::string grid_pred, grid_gt, grid_trajectory;
   GridEvalOptions grid_options;
-  CLI::App* grid = app.add_subcommand("grid", "occupancy grid vs a ground-truth grid (map_server YAML)");
+  CLI::App* grid =
+      app.add_subcommand("grid", "occupancy grid vs a ground-truth grid (map_server YAML)");
   grid->add_option("--pred", grid_pred, "predicted map YAML")->required();
   grid->add_option("--gt", grid_gt, "ground-truth map YAML")->required();
   grid->add_option("--tolerance", grid_options.tolerance_cells, "matching tolerance, GT cells")

@@ -161,13 +161,13 @@ std::string LabelReportTable(const LabelEvalResult& result) {
   std::vector<LabelMetrics> rows = result.bands;
   rows.push_back(result.overall);
   for (const LabelMetrics& m : rows) {
-    out += Row({m.name, Percent(m.obstacle_recall), Percent(m.obstacle_recall_with_moving),
-                Percent(m.floor_false_obstacle_rate), Percent(m.floor_false_obstacle_rate_all),
-                Percent(m.dropoff_recall), Percent(m.moving_recall), Percent(m.coverage),
-                Percent(m.dangerous_rate), Fixed(m.height_error_median_m),
-                Fixed(m.height_error_mean_m), std::to_string(m.counts.gt_obstacle),
-                std::to_string(m.counts.gt_floor)},
-               w);
+    out += Row(
+        {m.name, Percent(m.obstacle_recall), Percent(m.obstacle_recall_with_moving),
+         Percent(m.floor_false_obstacle_rate), Percent(m.floor_false_obstacle_rate_all),
+         Percent(m.dropoff_recall), Percent(m.moving_recall), Percent(m.coverage),
+         Percent(m.dangerous_rate), Fixed(m.height_error_median_m), Fixed(m.height_error_mean_m),
+         std::to_string(m.counts.gt_obstacle), std::to_string(m.counts.gt_floor)},
+        w);
   }
   return out;
 }
@@ -244,8 +244,8 @@ std::string GridReportTable(const GridEvalResult& r) {
   std::ostringstream out;
   out << "GT cells scored:      " << r.gt_cells_scored << " (known " << r.gt_known << ", occupied "
       << r.gt_occupied << ")\n"
-      << "precision:            " << Percent(r.precision) << " (" << r.pred_occupied_matched << " / "
-      << r.pred_occupied << " predicted occupied)\n"
+      << "precision:            " << Percent(r.precision) << " (" << r.pred_occupied_matched
+      << " / " << r.pred_occupied << " predicted occupied)\n"
       << "recall:               " << Percent(r.recall) << " (" << r.gt_occupied_recalled << " / "
       << r.gt_occupied << " GT occupied)\n"
       << "F1:                   " << Fixed(r.f1) << "\n"
@@ -288,8 +288,8 @@ std::string TrajectoryReportTable(const TrajectoryEvalResult& r) {
       << "ATE (m), no alignment:   " << stats(r.ate_m, 4) << "\n"
       << "ATE (m), SE(2) aligned:  " << stats(r.ate_aligned_m, 4) << "\n"
       << "  alignment gt_from_pred: x " << Fixed(r.gt_from_pred.x, 4) << " m, y "
-      << Fixed(r.gt_from_pred.y, 4) << " m, yaw "
-      << Fixed(r.gt_from_pred.yaw * 180.0 / M_PI, 3) << " deg\n"
+      << Fixed(r.gt_from_pred.y, 4) << " m, yaw " << Fixed(r.gt_from_pred.yaw * 180.0 / M_PI, 3)
+      << " deg\n"
       << "RPE per metre (KITTI): " << Fixed(r.rpe_translation_percent, 3) << " %, "
       << Fixed(r.rpe_rotation_deg_per_m, 4) << " deg/m over " << r.rpe_count << " segments\n";
   for (const SegmentRpe& s : r.rpe_segments) {

@@ -3,9 +3,8 @@
 
 #include <filesystem>
 #include <fstream>
-#include <string>
-
 #include <opencv2/imgcodecs.hpp>
+#include <string>
 
 #include "perception/geometry/camera_calibration.h"
 #include "tools/eval/label_metrics.h"
@@ -25,7 +24,9 @@ inline CameraCalibration TinyCalibration() {
   return c;
 }
 
-inline std::uint16_t HeightValue(int mm) { return static_cast<std::uint16_t>(mm + kHeightOffsetMm); }
+inline std::uint16_t HeightValue(int mm) {
+  return static_cast<std::uint16_t>(mm + kHeightOffsetMm);
+}
 
 // The hand-counted frame (rows: 0 at 3 m, 1 at 1.5 m, 2 at 0.5 m ahead):
 //   GT labels   2 2 2 2 / 1 1 1 1 / 3 4 0 1, obstacle heights 100 100 30 200 mm, drop -100 mm
@@ -57,7 +58,8 @@ inline LabelFrame HandCountedFrame() {
 // frames the hand-counted one) and predictions DIR/pred for frame 0 only.
 inline bool WriteLabelSequenceFixture(const std::filesystem::path& dir, std::string* error) {
   namespace fs = std::filesystem;
-  for (const char* sub : {"seq/gt/labels", "seq/gt/height", "seq/gt/depth", "pred/labels", "pred/height"}) {
+  for (const char* sub :
+       {"seq/gt/labels", "seq/gt/height", "seq/gt/depth", "pred/labels", "pred/height"}) {
     fs::create_directories(dir / sub);
   }
   std::ofstream(dir / "seq" / "calib.yaml") << CalibrationToYaml(TinyCalibration());

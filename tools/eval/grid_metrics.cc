@@ -10,8 +10,8 @@ namespace monoplane::eval {
 
 bool GridEvalOptions::IsValid(std::string* error) const {
   if (tolerance_cells < 0) {
-    *error = "GridEvalOptions::tolerance_cells = " + std::to_string(tolerance_cells) +
-             ": must be >= 0";
+    *error =
+        "GridEvalOptions::tolerance_cells = " + std::to_string(tolerance_cells) + ": must be >= 0";
     return false;
   }
   if (!(radius_m >= 0.0) || !std::isfinite(radius_m)) {
@@ -52,12 +52,14 @@ bool CompareGrids(const MapServerMap& pred, const MapServerMap& gt, const GridEv
     for (const Eigen::Vector2d& position : positions_in_map) {
       // Work in the GT grid's own (unrotated) frame.
       const Eigen::Vector2d origin(g.origin_x_m, g.origin_y_m);
-      const Eigen::Vector2d local = Pose2{0.0, 0.0, -gt.origin_yaw_rad} * (position - origin) + origin;
+      const Eigen::Vector2d local =
+          Pose2{0.0, 0.0, -gt.origin_yaw_rad} * (position - origin) + origin;
       const int c0 = static_cast<int>(std::floor((local.x() - g.origin_x_m) / g.resolution_m));
       const int r0 = static_cast<int>(std::floor((local.y() - g.origin_y_m) / g.resolution_m));
       for (int row = std::max(0, r0 - reach); row <= std::min(h - 1, r0 + reach); ++row) {
         for (int col = std::max(0, c0 - reach); col <= std::min(w - 1, c0 + reach); ++col) {
-          if ((g.CellCenter(col, row) - local).squaredNorm() <= radius_sq) scored[g.Index(col, row)] = 1;
+          if ((g.CellCenter(col, row) - local).squaredNorm() <= radius_sq)
+            scored[g.Index(col, row)] = 1;
         }
       }
     }
@@ -110,8 +112,8 @@ bool CompareGrids(const MapServerMap& pred, const MapServerMap& gt, const GridEv
     const double sum = *result->precision + *result->recall;
     result->f1 = sum > 0.0 ? 2.0 * *result->precision * *result->recall / sum : 0.0;
   }
-  result->dangerous_share = Ratio(static_cast<double>(result->dangerous),
-                                  static_cast<double>(result->gt_occupied));
+  result->dangerous_share =
+      Ratio(static_cast<double>(result->dangerous), static_cast<double>(result->gt_occupied));
   result->unknown_share = Ratio(static_cast<double>(result->gt_known_pred_unknown),
                                 static_cast<double>(result->gt_known));
   return true;

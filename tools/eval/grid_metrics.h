@@ -1,11 +1,10 @@
 #pragma once
 
+#include <Eigen/Core>
 #include <cstdint>
 #include <optional>
 #include <string>
 #include <vector>
-
-#include <Eigen/Core>
 
 #include "tools/eval/map_server_map.h"
 
@@ -27,16 +26,16 @@ enum class CellState : std::uint8_t { kUnknown, kFree, kOccupied, kOutside };
 CellState StateOfValue(std::int8_t value);
 
 struct GridEvalResult {
-  std::int64_t gt_cells_scored = 0;     // GT cells considered (all, or within the radius)
-  std::int64_t gt_known = 0;            // ... of them free or occupied in GT
+  std::int64_t gt_cells_scored = 0;  // GT cells considered (all, or within the radius)
+  std::int64_t gt_known = 0;         // ... of them free or occupied in GT
   std::int64_t gt_occupied = 0;
-  std::int64_t gt_occupied_recalled = 0;  // a pred-occupied cell within tolerance
-  std::int64_t pred_occupied = 0;         // pred occupied at the centres of scored GT cells
-  std::int64_t pred_occupied_matched = 0; // ... with a GT-occupied cell within tolerance
-  std::int64_t dangerous = 0;   // GT occupied, pred free there, no pred occupied within tolerance
+  std::int64_t gt_occupied_recalled = 0;   // a pred-occupied cell within tolerance
+  std::int64_t pred_occupied = 0;          // pred occupied at the centres of scored GT cells
+  std::int64_t pred_occupied_matched = 0;  // ... with a GT-occupied cell within tolerance
+  std::int64_t dangerous = 0;  // GT occupied, pred free there, no pred occupied within tolerance
   std::int64_t gt_known_pred_unknown = 0;  // GT known, pred unknown or outside its grid
-  std::optional<double> precision;       // pred_occupied_matched / pred_occupied
-  std::optional<double> recall;          // gt_occupied_recalled / gt_occupied
+  std::optional<double> precision;         // pred_occupied_matched / pred_occupied
+  std::optional<double> recall;            // gt_occupied_recalled / gt_occupied
   std::optional<double> f1;
   std::optional<double> dangerous_share;  // dangerous / gt_occupied
   std::optional<double> unknown_share;    // gt_known_pred_unknown / gt_known

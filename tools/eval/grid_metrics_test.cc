@@ -1,11 +1,11 @@
 #include "tools/eval/grid_metrics.h"
 
+#include <gtest/gtest.h>
+#include <unistd.h>
+
 #include <filesystem>
 #include <fstream>
-
-#include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
-#include <unistd.h>
 
 namespace monoplane::eval {
 namespace {
@@ -15,8 +15,9 @@ namespace fs = std::filesystem;
 class GridMetricsTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("monoplane_grid_test_" + std::to_string(getpid()) + "_" +
-                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    dir_ = fs::temp_directory_path() /
+           ("monoplane_grid_test_" + std::to_string(getpid()) + "_" +
+            ::testing::UnitTest::GetInstance()->current_test_info()->name());
     fs::create_directories(dir_);
   }
   void TearDown() override { fs::remove_all(dir_); }
@@ -126,7 +127,8 @@ TEST_F(GridMetricsTest, ShiftByKCellsScoresZeroBelowAndOneAtTolerance) {
 
 TEST_F(GridMetricsTest, ComparesInMetresAcrossOriginsAndResolutions) {
   // The same world at half the cell size and an origin 0.5 m further left and down: the GT wall
-  // cell column 10 covers x in [-0.5, -0.45); in the finer map that is columns 20, 21 + 20 = 40, 41.
+  // cell column 10 covers x in [-0.5, -0.45); in the finer map that is columns 20, 21 + 20 =
+  // 40, 41.
   const MapServerMap gt = WriteAndLoad("gt", WallImage(10), 0.05, -1.0, -1.0);
   cv::Mat fine(100, 100, CV_8UC1, cv::Scalar(254));
   // GT image rows 5..34 cover y in [-1 + (40-35)*0.05, -1 + (40-5)*0.05) = [-0.75, 0.75).

@@ -1,16 +1,15 @@
 #include "tools/eval/kitti_lidar.h"
 
+#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <opencv2/imgcodecs.hpp>
 #include <random>
 #include <sstream>
-
-#include <Eigen/Eigenvalues>
-#include <opencv2/imgcodecs.hpp>
 
 #include "tools/eval/error_stats.h"
 #include "tools/eval/label_metrics.h"
@@ -57,7 +56,8 @@ bool ReadKittiCalibFile(const std::string& path, std::map<std::string, std::vect
 }
 
 bool Take(const std::map<std::string, std::vector<double>>& values, const std::string& key,
-          std::size_t count, const std::string& path, std::vector<double>* out, std::string* error) {
+          std::size_t count, const std::string& path, std::vector<double>* out,
+          std::string* error) {
   const auto it = values.find(key);
   if (it == values.end()) {
     *error = path + ": " + key + ": missing";
@@ -112,7 +112,8 @@ bool LoadKittiCalibration(const std::string& drive_dir, KittiCalibration* calibr
   return true;
 }
 
-bool LoadVelodyne(const std::string& path, std::vector<Eigen::Vector4f>* points, std::string* error) {
+bool LoadVelodyne(const std::string& path, std::vector<Eigen::Vector4f>* points,
+                  std::string* error) {
   points->clear();
   std::ifstream in(path, std::ios::binary);
   if (!in) {
@@ -123,7 +124,8 @@ bool LoadVelodyne(const std::string& path, std::vector<Eigen::Vector4f>* points,
   const std::streamoff bytes = in.tellg();
   in.seekg(0, std::ios::beg);
   if (bytes <= 0 || bytes % (4 * sizeof(float)) != 0) {
-    *error = path + ": size " + std::to_string(bytes) + " bytes is not a whole number of float32 x y z r";
+    *error = path + ": size " + std::to_string(bytes) +
+             " bytes is not a whole number of float32 x y z r";
     return false;
   }
   std::vector<float> raw(static_cast<std::size_t>(bytes) / sizeof(float));
@@ -303,8 +305,8 @@ bool TallyKittiFrame(int frame_index, const KittiCalibration& calibration,
       pred_labels.rows != calibration.height) {
     *error = "pred labels: expected an 8-bit single-channel " + std::to_string(calibration.width) +
              "x" + std::to_string(calibration.height) + " image, got " +
-             std::to_string(pred_labels.cols) + "x" + std::to_string(pred_labels.rows) +
-             " with " + std::to_string(pred_labels.channels()) + " channel(s)";
+             std::to_string(pred_labels.cols) + "x" + std::to_string(pred_labels.rows) + " with " +
+             std::to_string(pred_labels.channels()) + " channel(s)";
     return false;
   }
   const std::size_t num_bands = options.band_edges_m.size() - 1;
@@ -336,7 +338,8 @@ bool TallyKittiFrame(int frame_index, const KittiCalibration& calibration,
     if (u < 0 || v < 0 || u >= calibration.width || v >= calibration.height) continue;
     ++geometry.points_projected;
     const double distance_m = std::hypot(p.x(), p.y());
-    const auto it = std::upper_bound(options.band_edges_m.begin(), options.band_edges_m.end(), distance_m);
+    const auto it =
+        std::upper_bound(options.band_edges_m.begin(), options.band_edges_m.end(), distance_m);
     const std::ptrdiff_t band = (it - options.band_edges_m.begin()) - 1;
     if (band < 0 || band >= static_cast<std::ptrdiff_t>(num_bands)) continue;
     KittiCounts& c = counts[static_cast<std::size_t>(band)];
@@ -386,12 +389,14 @@ KittiEvalResult SummarizeKitti(const KittiTally& tally, const KittiEvalOptions& 
   for (std::size_t b = 0; b + 1 < options.band_edges_m.size(); ++b) {
     const double lo = options.band_edges_m[b], hi = options.band_edges_m[b + 1];
     const KittiCounts c = b < tally.bands.size() ? tally.bands[b] : KittiCounts{};
-    result.bands.push_back(KittiMetricsOf(FormatBandEdge(lo) + "-" + FormatBandEdge(hi) + " m", lo, hi, c));
+    result.bands.push_back(
+        KittiMetricsOf(FormatBandEdge(lo) + "-" + FormatBandEdge(hi) + " m", lo, hi, c));
     overall.Add(c);
     if (hi <= options.recall_max_distance_m + 1e-9) within.Add(c);
   }
-  result.within_recall_distance = KittiMetricsOf(
-      "0-" + FormatBandEdge(options.recall_max_distance_m) + " m", 0.0, options.recall_max_distance_m, within);
+  result.within_recall_distance =
+      KittiMetricsOf("0-" + FormatBandEdge(options.recall_max_distance_m) + " m", 0.0,
+                     options.recall_max_distance_m, within);
   result.overall = KittiMetricsOf("overall", 0.0, options.band_edges_m.back(), overall);
   double height_sum = 0.0, horizon_sum = 0.0;
   int with_plane = 0;

@@ -1,13 +1,12 @@
 #pragma once
 
+#include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <cstdint>
+#include <opencv2/core.hpp>
 #include <optional>
 #include <string>
 #include <vector>
-
-#include <Eigen/Core>
-#include <Eigen/Geometry>
-#include <opencv2/core.hpp>
 
 namespace monoplane::eval {
 
@@ -17,7 +16,7 @@ struct KittiCalibration {
   Eigen::Isometry3d cam0_from_velo = Eigen::Isometry3d::Identity();  // calib_velo_to_cam R, T
   Eigen::Matrix3d rect_from_cam0 = Eigen::Matrix3d::Identity();      // R_rect_00
   Eigen::Matrix<double, 3, 4> p_rect_02 = Eigen::Matrix<double, 3, 4>::Zero();  // pixels, metres
-  int width = 0;   // S_rect_02, pixels
+  int width = 0;                                                                // S_rect_02, pixels
   int height = 0;
 
   // The 3x4 projection from Velodyne coordinates (metres) to homogeneous image_02 pixels.
@@ -37,7 +36,8 @@ bool LoadKittiCalibration(const std::string& drive_dir, KittiCalibration* calibr
 
 // Reads a KITTI Velodyne scan (float32 x y z reflectance per point, metres, Velodyne frame:
 // x forward, y left, z up).
-bool LoadVelodyne(const std::string& path, std::vector<Eigen::Vector4f>* points, std::string* error);
+bool LoadVelodyne(const std::string& path, std::vector<Eigen::Vector4f>* points,
+                  std::string* error);
 
 struct ProjectedPoint {
   Eigen::Vector2d pixel;  // image_02 pixel (the centre of the top-left pixel is (0, 0))
@@ -57,9 +57,9 @@ struct Plane {
 };
 
 struct RoadPlaneOptions {
-  double expected_z_m = -1.73;      // road height in the Velodyne frame (the LiDAR's mounting)
-  double z_window_m = 0.3;          // candidates within this of expected_z_m, > 0
-  double min_forward_m = 3.0;       // candidates with x in [min_forward_m, max_forward_m]
+  double expected_z_m = -1.73;  // road height in the Velodyne frame (the LiDAR's mounting)
+  double z_window_m = 0.3;      // candidates within this of expected_z_m, > 0
+  double min_forward_m = 3.0;   // candidates with x in [min_forward_m, max_forward_m]
   double max_forward_m = 40.0;
   double max_lateral_m = 10.0;      // and |y| <= this
   double inlier_distance_m = 0.05;  // RANSAC inlier threshold, > 0
@@ -71,9 +71,9 @@ struct RoadPlaneOptions {
 };
 
 struct RoadPlaneFit {
-  Plane plane;          // in the Velodyne frame, normal up
-  int candidates = 0;   // points considered
-  int inliers = 0;      // within inlier_distance_m of the refined plane
+  Plane plane;         // in the Velodyne frame, normal up
+  int candidates = 0;  // points considered
+  int inliers = 0;     // within inlier_distance_m of the refined plane
 };
 
 // RANSAC over three-point planes of the candidate points, then a least-squares refit to the
@@ -101,12 +101,12 @@ struct KittiEvalOptions {
 
 // Point counts of one band, over frames.
 struct KittiCounts {
-  std::int64_t road_points = 0;         // projected into the image
-  std::int64_t road_as_obstacle = 0;    // predicted obstacle
-  std::int64_t road_as_not_floor = 0;   // predicted obstacle, drop-off or moving
+  std::int64_t road_points = 0;        // projected into the image
+  std::int64_t road_as_obstacle = 0;   // predicted obstacle
+  std::int64_t road_as_not_floor = 0;  // predicted obstacle, drop-off or moving
   std::int64_t road_unknown = 0;
   std::int64_t obstacle_points = 0;
-  std::int64_t obstacle_detected = 0;   // predicted obstacle or moving
+  std::int64_t obstacle_detected = 0;  // predicted obstacle or moving
   std::int64_t obstacle_as_floor = 0;
   std::int64_t obstacle_unknown = 0;
 
@@ -118,9 +118,9 @@ struct KittiMetrics {
   double min_distance_m = 0.0;
   double max_distance_m = 0.0;
   KittiCounts counts;
-  std::optional<double> obstacle_recall;        // obstacle_detected / obstacle_points
-  std::optional<double> road_as_obstacle_share; // road_as_obstacle / road_points
-  std::optional<double> road_coverage;          // road points predicted not unknown
+  std::optional<double> obstacle_recall;         // obstacle_detected / obstacle_points
+  std::optional<double> road_as_obstacle_share;  // road_as_obstacle / road_points
+  std::optional<double> road_coverage;           // road points predicted not unknown
 };
 
 // Per-frame geometry of the fitted road plane.

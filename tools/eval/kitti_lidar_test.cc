@@ -1,11 +1,11 @@
 #include "tools/eval/kitti_lidar.h"
 
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <random>
-
-#include <gtest/gtest.h>
 
 #include "tools/eval/label_metrics.h"
 
@@ -14,7 +14,8 @@ namespace {
 
 namespace fs = std::filesystem;
 
-const fs::path kDrive = fs::path(MONOPLANE_SHARED_DIR) / "data" / "kitti_2011_09_26_drive_0001_mini";
+const fs::path kDrive =
+    fs::path(MONOPLANE_SHARED_DIR) / "data" / "kitti_2011_09_26_drive_0001_mini";
 
 std::string ScanPath(int frame) {
   char name[32];
@@ -126,10 +127,11 @@ TEST_F(KittiSharedData, CameraHeightHorizonAndRoadProjection) {
     EXPECT_GE(far_inside, 0.98 * far_in_columns)
         << "frame " << frame << ": " << far_inside << " of " << far_in_columns;
     if (frame == 0) {
-      std::printf("frame 0: camera height %.3f m, horizon row %.1f, plane inliers %d, road points "
-                  "in image %d of %d in its columns (%d in front); beyond 8 m %d of %d\n",
-                  camera_height_m, *horizon_centre, fit->inliers, road_inside, road_in_columns,
-                  road_in_front, far_inside, far_in_columns);
+      std::printf(
+          "frame 0: camera height %.3f m, horizon row %.1f, plane inliers %d, road points "
+          "in image %d of %d in its columns (%d in front); beyond 8 m %d of %d\n",
+          camera_height_m, *horizon_centre, fit->inliers, road_inside, road_in_columns,
+          road_in_front, far_inside, far_in_columns);
     }
   }
 }
@@ -143,7 +145,8 @@ TEST_F(KittiSharedData, LabelImagesScoreWhatTheyMust) {
   KittiTally all_obstacle;
   const cv::Mat obstacle_labels(calibration_.height, calibration_.width, CV_8UC1,
                                 cv::Scalar(kLabelObstacle));
-  ASSERT_TRUE(TallyKittiFrame(0, calibration_, points, obstacle_labels, options, &all_obstacle, &error))
+  ASSERT_TRUE(
+      TallyKittiFrame(0, calibration_, points, obstacle_labels, options, &all_obstacle, &error))
       << error;
   const KittiEvalResult a = SummarizeKitti(all_obstacle, options);
   ASSERT_TRUE(a.within_recall_distance.obstacle_recall.has_value());
@@ -154,7 +157,8 @@ TEST_F(KittiSharedData, LabelImagesScoreWhatTheyMust) {
   EXPECT_NEAR(*a.mean_camera_height_m, 1.65, 0.1);
   // Everything floor: no obstacle found, no road point wrong.
   KittiTally all_floor;
-  const cv::Mat floor_labels(calibration_.height, calibration_.width, CV_8UC1, cv::Scalar(kLabelFloor));
+  const cv::Mat floor_labels(calibration_.height, calibration_.width, CV_8UC1,
+                             cv::Scalar(kLabelFloor));
   ASSERT_TRUE(TallyKittiFrame(0, calibration_, points, floor_labels, options, &all_floor, &error));
   const KittiEvalResult f = SummarizeKitti(all_floor, options);
   EXPECT_DOUBLE_EQ(*f.within_recall_distance.obstacle_recall, 0.0);

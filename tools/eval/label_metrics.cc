@@ -4,7 +4,6 @@
 #include <cmath>
 #include <filesystem>
 #include <limits>
-
 #include <opencv2/imgcodecs.hpp>
 
 #include "tools/eval/error_stats.h"
@@ -152,8 +151,8 @@ bool TallyLabelFrame(const LabelFrame& frame, const CameraModel& camera,
             (gt_depth_row[u] * 1e-3) * (k_inv * pixel.homogeneous());
         const Eigen::Vector3d point_in_base = base_from_camera * point_in_camera;
         distance_m = std::hypot(point_in_base.x(), point_in_base.y());
-        const auto it = std::upper_bound(options.band_edges_m.begin(), options.band_edges_m.end(),
-                                         distance_m);
+        const auto it =
+            std::upper_bound(options.band_edges_m.begin(), options.band_edges_m.end(), distance_m);
         const std::size_t band = static_cast<std::size_t>(
             std::max<std::ptrdiff_t>(0, (it - options.band_edges_m.begin()) - 1));
         counts = &frame_tally.bands[band];
@@ -180,7 +179,8 @@ bool TallyLabelFrame(const LabelFrame& frame, const CameraModel& camera,
           if (pl == kLabelMoving) ++counts->obstacle_as_moving;
           if (pl == kLabelFloor) ++counts->obstacle_as_floor;
           if (pl == kLabelUnknown) ++counts->obstacle_unknown;
-          if (height_errors && distance_m <= options.max_height_error_distance_m && pred_height_row) {
+          if (height_errors && distance_m <= options.max_height_error_distance_m &&
+              pred_height_row) {
             if (const auto pred_height_m = HeightOf(pred_height_row[u])) {
               height_errors->push_back(static_cast<float>(std::abs(*pred_height_m - *gt_height_m)));
               ++counts->height_error_samples;
@@ -259,8 +259,9 @@ LabelEvalResult SummarizeLabels(const LabelTally& tally, const LabelEvalOptions&
         b < tally.abs_height_errors_m.size() ? tally.abs_height_errors_m[b] : std::vector<float>{};
     const double lo = options.band_edges_m[b];
     const double hi = b + 1 < num_bands ? options.band_edges_m[b + 1] : inf;
-    const std::string name =
-        b + 1 < num_bands ? FormatBandEdge(lo) + "-" + FormatBandEdge(hi) + " m" : FormatBandEdge(lo) + "+ m";
+    const std::string name = b + 1 < num_bands
+                                 ? FormatBandEdge(lo) + "-" + FormatBandEdge(hi) + " m"
+                                 : FormatBandEdge(lo) + "+ m";
     result.bands.push_back(MetricsOf(name, lo, hi, counts, errors));
     overall.Add(counts);
     all_errors.insert(all_errors.end(), errors.begin(), errors.end());
@@ -320,10 +321,8 @@ bool EvaluateLabelSequence(const std::string& pred_dir, const std::string& seq_d
     LabelFrame frame;
     const fs::path gt_height_path = fs::path(seq_dir) / "gt" / "height" / name;
     const fs::path gt_depth_path = fs::path(seq_dir) / "gt" / "depth" / name;
-    if (!read(gt_labels_dir / name, &frame.gt_labels) ||
-        !read(gt_height_path, &frame.gt_height) ||
-        !read(gt_depth_path, &frame.gt_depth) ||
-        !read(pred_labels_path, &frame.pred_labels)) {
+    if (!read(gt_labels_dir / name, &frame.gt_labels) || !read(gt_height_path, &frame.gt_height) ||
+        !read(gt_depth_path, &frame.gt_depth) || !read(pred_labels_path, &frame.pred_labels)) {
       return false;
     }
     const fs::path pred_height_path = fs::path(pred_dir) / "height" / name;

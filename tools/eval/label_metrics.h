@@ -1,11 +1,10 @@
 #pragma once
 
 #include <cstdint>
+#include <opencv2/core.hpp>
 #include <optional>
 #include <string>
 #include <vector>
-
-#include <opencv2/core.hpp>
 
 #include "perception/geometry/camera_model.h"
 
@@ -40,13 +39,13 @@ struct LabelCounts {
   std::int64_t gt_obstacle_low = 0;       // GT obstacle lower than that or without height
   std::int64_t obstacle_as_obstacle = 0;
   std::int64_t obstacle_as_moving = 0;
-  std::int64_t obstacle_as_floor = 0;     // dangerous
+  std::int64_t obstacle_as_floor = 0;  // dangerous
   std::int64_t obstacle_unknown = 0;
   std::int64_t gt_floor = 0;
-  std::int64_t floor_predicted = 0;       // predicted not unknown
-  std::int64_t floor_as_not_floor = 0;    // predicted obstacle, drop-off or moving
-  std::int64_t gt_drop = 0;               // GT drop-off with GT height <= -min_drop_m
-  std::int64_t gt_drop_shallow = 0;       // GT drop-off shallower or without height
+  std::int64_t floor_predicted = 0;     // predicted not unknown
+  std::int64_t floor_as_not_floor = 0;  // predicted obstacle, drop-off or moving
+  std::int64_t gt_drop = 0;             // GT drop-off with GT height <= -min_drop_m
+  std::int64_t gt_drop_shallow = 0;     // GT drop-off shallower or without height
   std::int64_t drop_as_drop = 0;
   std::int64_t gt_moving = 0;
   std::int64_t moving_as_moving = 0;
@@ -58,7 +57,7 @@ struct LabelCounts {
 // The tallies of any number of frames: per band and overall, with the height errors kept for the
 // median. A value type; fill with TallyLabelFrame, turn into metrics with SummarizeLabels.
 struct LabelTally {
-  std::vector<LabelCounts> bands;           // one per options.band_edges_m
+  std::vector<LabelCounts> bands;                       // one per options.band_edges_m
   std::vector<std::vector<float>> abs_height_errors_m;  // per band
   LabelCounts no_depth;  // GT surface pixels without GT depth (no band; counted in overall)
   int frames_scored = 0;
@@ -85,18 +84,18 @@ bool TallyLabelFrame(const LabelFrame& frame, const CameraModel& camera,
 
 // Rates of one band (or overall); nullopt where the denominator is 0.
 struct LabelMetrics {
-  std::string name;         // "0-1 m", ..., "16+ m", "overall"
+  std::string name;  // "0-1 m", ..., "16+ m", "overall"
   double min_distance_m = 0.0;
   double max_distance_m = 0.0;  // +inf for the last band and overall
   LabelCounts counts;
-  std::optional<double> obstacle_recall;            // as obstacle / gt_obstacle
-  std::optional<double> obstacle_recall_with_moving;  // as obstacle or moving / gt_obstacle
-  std::optional<double> floor_false_obstacle_rate;  // floor_as_not_floor / floor_predicted
+  std::optional<double> obstacle_recall;                // as obstacle / gt_obstacle
+  std::optional<double> obstacle_recall_with_moving;    // as obstacle or moving / gt_obstacle
+  std::optional<double> floor_false_obstacle_rate;      // floor_as_not_floor / floor_predicted
   std::optional<double> floor_false_obstacle_rate_all;  // floor_as_not_floor / gt_floor
-  std::optional<double> dropoff_recall;             // drop_as_drop / gt_drop
-  std::optional<double> moving_recall;              // moving_as_moving / gt_moving
-  std::optional<double> coverage;                   // gt_surface_predicted / gt_surface
-  std::optional<double> dangerous_rate;             // obstacle_as_floor / gt_obstacle
+  std::optional<double> dropoff_recall;                 // drop_as_drop / gt_drop
+  std::optional<double> moving_recall;                  // moving_as_moving / gt_moving
+  std::optional<double> coverage;                       // gt_surface_predicted / gt_surface
+  std::optional<double> dangerous_rate;                 // obstacle_as_floor / gt_obstacle
   // |pred height - GT height| over GT obstacle pixels (>= min height, within
   // max_height_error_distance_m) with a predicted height.
   std::optional<double> height_error_median_m;

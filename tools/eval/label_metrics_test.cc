@@ -1,11 +1,11 @@
 #include "tools/eval/label_metrics.h"
 
+#include <gtest/gtest.h>
+#include <unistd.h>
+
 #include <filesystem>
 #include <fstream>
-
-#include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
-#include <unistd.h>
 
 #include "tools/eval/eval_test_fixtures.h"
 

@@ -1,11 +1,11 @@
 #include "tools/eval/map_server_map.h"
 
+#include <yaml-cpp/yaml.h>
+
 #include <cmath>
 #include <filesystem>
-
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
-#include <yaml-cpp/yaml.h>
 
 #include "perception/geometry/pose2.h"
 
@@ -107,7 +107,8 @@ bool LoadMapServerMap(const std::string& yaml_path, MapServerMap* map, std::stri
     return false;
   }
   if (!(free_thresh >= 0.0 && free_thresh <= occupied_thresh && occupied_thresh <= 1.0)) {
-    *error = yaml_path + ": free_thresh, occupied_thresh: need 0 <= free_thresh <= occupied_thresh <= 1";
+    *error =
+        yaml_path + ": free_thresh, occupied_thresh: need 0 <= free_thresh <= occupied_thresh <= 1";
     return false;
   }
   std::string mode = "trinary";

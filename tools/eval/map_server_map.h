@@ -1,10 +1,9 @@
 #pragma once
 
+#include <Eigen/Core>
 #include <cstdint>
 #include <optional>
 #include <string>
-
-#include <Eigen/Core>
 
 #include "perception/geometry/occupancy_grid.h"
 
@@ -15,9 +14,9 @@ namespace monoplane::eval {
 // pixel); grid row 0 is the image's bottom row (lowest y). The map frame point p lies in grid
 // cell CellOf(R(-origin_yaw) (p - origin) + origin).
 struct MapServerMap {
-  OccupancyGrid grid;            // cells kCellUnknown / kCellFree / kCellOccupied (raw: 0..100)
-  double origin_yaw_rad = 0.0;   // YAML origin yaw, counter-clockwise
-  std::string image_path;        // resolved image path
+  OccupancyGrid grid;           // cells kCellUnknown / kCellFree / kCellOccupied (raw: 0..100)
+  double origin_yaw_rad = 0.0;  // YAML origin yaw, counter-clockwise
+  std::string image_path;       // resolved image path
 
   // The cell value at a map-frame point, nullopt outside the grid.
   std::optional<std::int8_t> ValueAt(const Eigen::Vector2d& point_in_map) const;
@@ -30,8 +29,8 @@ struct MapServerMap {
 // its image (relative paths are relative to the YAML's folder). Pixels are classified as
 // map_server does: p = (255 - v) / 255 (v / 255 when negated); p > occupied_thresh occupied,
 // p < free_thresh free, otherwise unknown. In trinary mode the pixel 205 that map_saver writes for
-// unknown stays unknown whatever free_thresh says (with free_thresh 0.25, as nav2 writes, map_server
-// would read it as free: navigation2 PR #5278). Errors name the file and the key.
+// unknown stays unknown whatever free_thresh says (with free_thresh 0.25, as nav2 writes,
+// map_server would read it as free: navigation2 PR #5278). Errors name the file and the key.
 bool LoadMapServerMap(const std::string& yaml_path, MapServerMap* map, std::string* error);
 
 }  // namespace monoplane::eval

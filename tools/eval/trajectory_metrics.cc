@@ -60,7 +60,8 @@ std::vector<StampedPose2> ToPlanar(const std::vector<TumPose>& poses) {
   std::vector<StampedPose2> planar;
   planar.reserve(poses.size());
   for (const TumPose& p : poses) {
-    planar.push_back({p.stamp_s, Pose2{p.position.x(), p.position.y(), YawOfQuaternion(p.orientation)}});
+    planar.push_back(
+        {p.stamp_s, Pose2{p.position.x(), p.position.y(), YawOfQuaternion(p.orientation)}});
   }
   return planar;
 }
@@ -91,7 +92,8 @@ std::vector<std::pair<std::size_t, std::size_t>> AssociateByTimestamp(
   return pairs;
 }
 
-Pose2 AlignSe2(const std::vector<Eigen::Vector2d>& pred_xy, const std::vector<Eigen::Vector2d>& gt_xy) {
+Pose2 AlignSe2(const std::vector<Eigen::Vector2d>& pred_xy,
+               const std::vector<Eigen::Vector2d>& gt_xy) {
   const std::size_t n = std::min(pred_xy.size(), gt_xy.size());
   if (n == 0) return Pose2::Identity();
   Eigen::Vector2d mean_pred = Eigen::Vector2d::Zero(), mean_gt = Eigen::Vector2d::Zero();
@@ -186,7 +188,8 @@ bool EvaluateTrajectory(const std::vector<StampedPose2>& pred, const std::vector
   for (double length : options.rpe_segment_lengths_m) {
     if (length <= result->gt_path_length_m) lengths.push_back(length);
   }
-  if (lengths.empty() && result->gt_path_length_m > 0.0) lengths.push_back(result->gt_path_length_m);
+  if (lengths.empty() && result->gt_path_length_m > 0.0)
+    lengths.push_back(result->gt_path_length_m);
   double t_sum_all = 0.0, r_sum_all = 0.0;
   for (double length : lengths) {
     SegmentRpe segment;

@@ -1,12 +1,11 @@
 #pragma once
 
+#include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <cstddef>
 #include <string>
 #include <utility>
 #include <vector>
-
-#include <Eigen/Core>
-#include <Eigen/Geometry>
 
 #include "perception/geometry/pose2.h"
 #include "tools/eval/error_stats.h"
@@ -45,7 +44,8 @@ std::vector<std::pair<std::size_t, std::size_t>> AssociateByTimestamp(
 // The rigid planar motion gt_from_pred minimising sum |gt_from_pred * pred_i - gt_i|^2 over x, y
 // (closed-form 2-D Horn/Umeyama without scale). Identity for fewer than 1 pair; for one pair a
 // pure translation.
-Pose2 AlignSe2(const std::vector<Eigen::Vector2d>& pred_xy, const std::vector<Eigen::Vector2d>& gt_xy);
+Pose2 AlignSe2(const std::vector<Eigen::Vector2d>& pred_xy,
+               const std::vector<Eigen::Vector2d>& gt_xy);
 
 struct TrajectoryEvalOptions {
   double max_dt_s = 0.02;  // association tolerance, seconds, >= 0
@@ -61,8 +61,8 @@ struct TrajectoryEvalOptions {
 struct SegmentRpe {
   double length_m = 0.0;
   std::size_t count = 0;
-  double translation_percent = 0.0;   // mean |t_err| / length * 100
-  double rotation_deg_per_m = 0.0;    // mean |yaw_err| / length
+  double translation_percent = 0.0;  // mean |t_err| / length * 100
+  double rotation_deg_per_m = 0.0;   // mean |yaw_err| / length
 };
 
 struct TrajectoryEvalResult {
@@ -77,8 +77,8 @@ struct TrajectoryEvalResult {
   Pose2 gt_from_pred;        // the alignment
 
   std::vector<SegmentRpe> rpe_segments;
-  std::size_t rpe_count = 0;                  // segments over all lengths
-  double rpe_translation_percent = 0.0;       // mean over all segments of all lengths
+  std::size_t rpe_count = 0;             // segments over all lengths
+  double rpe_translation_percent = 0.0;  // mean over all segments of all lengths
   double rpe_rotation_deg_per_m = 0.0;
 
   // evo-style RPE with delta 1 frame: per consecutive matched pair, translation (m) and

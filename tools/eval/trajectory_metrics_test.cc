@@ -1,11 +1,11 @@
 #include "tools/eval/trajectory_metrics.h"
 
+#include <gtest/gtest.h>
+#include <unistd.h>
+
 #include <cmath>
 #include <filesystem>
 #include <fstream>
-
-#include <gtest/gtest.h>
-#include <unistd.h>
 
 namespace monoplane::eval {
 namespace {
@@ -141,8 +141,8 @@ TEST(TrajectoryMetrics, TooFewMatchesIsAnError) {
 }
 
 TEST(TrajectoryMetrics, LoadsTumAndReadsYaw) {
-  const auto dir = std::filesystem::temp_directory_path() /
-                   ("monoplane_traj_test_" + std::to_string(getpid()));
+  const auto dir =
+      std::filesystem::temp_directory_path() / ("monoplane_traj_test_" + std::to_string(getpid()));
   std::filesystem::create_directories(dir);
   const std::string path = (dir / "t.txt").string();
   {

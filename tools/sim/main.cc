@@ -1,22 +1,24 @@
 // monoplane-sim: renders a synthetic scene into an input folder with ground truth.
+#include <CLI/CLI.hpp>
 #include <cstdio>
 #include <string>
-
-#include <CLI/CLI.hpp>
 
 #include "tools/sim/scene.h"
 #include "tools/sim/sequence.h"
 
 int main(int argc, char** argv) {
-  CLI::App app{"monoplane-sim: render a synthetic scene (YAML) into images/, times.txt, calib.yaml "
-               "and gt/ (labels, height, depth, trajectory, map, OctoMap)"};
+  CLI::App app{
+      "monoplane-sim: render a synthetic scene (YAML) into images/, times.txt, calib.yaml "
+      "and gt/ (labels, height, depth, trajectory, map, OctoMap)"};
   std::string scene_path, out_dir;
   int frames = -1;
   long long seed = -1;
   app.add_option("scene", scene_path, "scene YAML file (schema: tools/sim/README.md)")->required();
   app.add_option("--out", out_dir, "output folder (created)")->required();
-  app.add_option("--frames", frames, "number of frames (default: the scene's)")->check(CLI::Range(1, 1000000));
-  app.add_option("--seed", seed, "random seed (default: the scene's)")->check(CLI::Range(0LL, 4294967295LL));
+  app.add_option("--frames", frames, "number of frames (default: the scene's)")
+      ->check(CLI::Range(1, 1000000));
+  app.add_option("--seed", seed, "random seed (default: the scene's)")
+      ->check(CLI::Range(0LL, 4294967295LL));
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

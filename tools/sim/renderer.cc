@@ -1,11 +1,10 @@
 #include "tools/sim/renderer.h"
 
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <limits>
-
-#include <Eigen/Geometry>
 #include <opencv2/calib3d.hpp>
 
 #include "perception/geometry/camera_model.h"
@@ -40,7 +39,8 @@ struct Prepared {
   void SetOrigin(const Eigen::Vector3d& o) {
     const Eigen::Vector3d r = o - center3;
     origin_local = shape.type == ShapeType::kBox
-                       ? Eigen::Vector3d(cos_yaw * r.x() + sin_yaw * r.y(), -sin_yaw * r.x() + cos_yaw * r.y(), r.z())
+                       ? Eigen::Vector3d(cos_yaw * r.x() + sin_yaw * r.y(),
+                                         -sin_yaw * r.x() + cos_yaw * r.y(), r.z())
                        : r;
     bound_oc = o - bound_center;
     bound_c = bound_oc.squaredNorm() - bound_radius * bound_radius;
@@ -87,7 +87,8 @@ struct Hit {
 bool IntersectBox(const Prepared& p, const Eigen::Vector3d& d, Hit* hit) {
   // Into the box frame (rotation by -yaw about z); the origin was transformed once per frame.
   const Eigen::Vector3d& ol = p.origin_local;
-  const Eigen::Vector3d dl(p.cos_yaw * d.x() + p.sin_yaw * d.y(), -p.sin_yaw * d.x() + p.cos_yaw * d.y(), d.z());
+  const Eigen::Vector3d dl(p.cos_yaw * d.x() + p.sin_yaw * d.y(),
+                           -p.sin_yaw * d.x() + p.cos_yaw * d.y(), d.z());
   const Eigen::Vector3d h = p.shape.size / 2;
   double t_near = -kInf, t_far = kInf;
   int axis = -1;
@@ -111,9 +112,11 @@ bool IntersectBox(const Prepared& p, const Eigen::Vector3d& d, Hit* hit) {
   nl[axis] = dl[axis] > 0 ? -1.0 : 1.0;
   const Eigen::Vector3d q = ol + t_near * dl + h + p.uv_offset;  // 0..size inside the whole box
   hit->t = t_near;
-  hit->normal = {p.cos_yaw * nl.x() - p.sin_yaw * nl.y(), p.sin_yaw * nl.x() + p.cos_yaw * nl.y(), nl.z()};
-  hit->uv = axis == 0 ? Eigen::Vector2d(q.y(), q.z())
-                      : axis == 1 ? Eigen::Vector2d(q.x(), q.z()) : Eigen::Vector2d(q.x(), q.y());
+  hit->normal = {p.cos_yaw * nl.x() - p.sin_yaw * nl.y(), p.sin_yaw * nl.x() + p.cos_yaw * nl.y(),
+                 nl.z()};
+  hit->uv = axis == 0   ? Eigen::Vector2d(q.y(), q.z())
+            : axis == 1 ? Eigen::Vector2d(q.x(), q.z())
+                        : Eigen::Vector2d(q.x(), q.y());
   return true;
 }
 
@@ -170,9 +173,12 @@ bool IntersectSphere(const Prepared& p, const Eigen::Vector3d& d, Hit* hit) {
   const Eigen::Vector3d n = hit->normal;
   // Planar mapping along the dominant normal axis.
   const Eigen::Vector3d q = oc + t * d + Eigen::Vector3d::Constant(r);
-  if (std::abs(n.z()) >= std::abs(n.x()) && std::abs(n.z()) >= std::abs(n.y())) hit->uv = {q.x(), q.y()};
-  else if (std::abs(n.x()) >= std::abs(n.y())) hit->uv = {q.y(), q.z()};
-  else hit->uv = {q.x(), q.z()};
+  if (std::abs(n.z()) >= std::abs(n.x()) && std::abs(n.z()) >= std::abs(n.y()))
+    hit->uv = {q.x(), q.y()};
+  else if (std::abs(n.x()) >= std::abs(n.y()))
+    hit->uv = {q.y(), q.z()};
+  else
+    hit->uv = {q.x(), q.z()};
   return true;
 }
 
@@ -185,9 +191,12 @@ bool Intersect(const Prepared& p, const Eigen::Vector3d& d, double d_norm2, Hit*
   const double disc = b * b - a * p.bound_c;
   if (disc < 0) return false;
   switch (p.shape.type) {
-    case ShapeType::kBox: return IntersectBox(p, d, hit);
-    case ShapeType::kCylinder: return IntersectCylinder(p, d, hit);
-    case ShapeType::kSphere: return IntersectSphere(p, d, hit);
+    case ShapeType::kBox:
+      return IntersectBox(p, d, hit);
+    case ShapeType::kCylinder:
+      return IntersectCylinder(p, d, hit);
+    case ShapeType::kSphere:
+      return IntersectSphere(p, d, hit);
   }
   return false;
 }
@@ -227,7 +236,9 @@ struct SceneRenderer::Impl {
   std::vector<double> tile_half_angle, tile_cos_half, tile_sin_half;
 
   Impl(const Scene& s, const CameraCalibration& calibration)
-      : scene(s), camera(calibration), width(calibration.intrinsics.width),
+      : scene(s),
+        camera(calibration),
+        width(calibration.intrinsics.width),
         height(calibration.intrinsics.height) {
     rays.resize(static_cast<std::size_t>(width) * height);
     const Eigen::Matrix3d k_inv = camera.K().inverse();
@@ -241,8 +252,9 @@ struct SceneRenderer::Impl {
       const cv::Matx33d k(in.fx, 0, in.cx, 0, in.fy, in.cy, 0, 0, 1);
       const cv::Vec<double, 5> dist(in.distortion[0], in.distortion[1], in.distortion[2],
                                     in.distortion[3], in.distortion[4]);
-      cv::undistortPoints(src, dst, k, dist, cv::noArray(), cv::noArray(),
-                          cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 50, 1e-12));
+      cv::undistortPoints(
+          src, dst, k, dist, cv::noArray(), cv::noArray(),
+          cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 50, 1e-12));
       for (std::size_t i = 0; i < dst.size(); ++i) rays[i] = {dst[i].x, dst[i].y, 1.0};
     } else {
       for (int v = 0; v < height; ++v) {
@@ -280,8 +292,9 @@ struct SceneRenderer::Impl {
           Shape piece = o;
           piece.size.x() = o.size.x() / nx;
           piece.size.y() = o.size.y() / ny;
-          piece.center = world_from_box * Eigen::Vector2d(-o.size.x() / 2 + (ix + 0.5) * piece.size.x(),
-                                                          -o.size.y() / 2 + (iy + 0.5) * piece.size.y());
+          piece.center =
+              world_from_box * Eigen::Vector2d(-o.size.x() / 2 + (ix + 0.5) * piece.size.x(),
+                                               -o.size.y() / 2 + (iy + 0.5) * piece.size.y());
           statics.push_back(Prepare(piece, kLabelObstacle));
           statics.back().id = id;
           statics.back().uv_offset = {ix * piece.size.x(), iy * piece.size.y(), 0.0};
@@ -299,14 +312,17 @@ struct SceneRenderer::Impl {
     for (int ty = 0; ty < tiles_y; ++ty) {
       for (int tx = 0; tx < tiles_x; ++tx) {
         const int u0 = tx * kTile, v0 = ty * kTile;
-        const int u1 = std::min(width - 1, u0 + kTile - 1), v1 = std::min(height - 1, v0 + kTile - 1);
+        const int u1 = std::min(width - 1, u0 + kTile - 1),
+                  v1 = std::min(height - 1, v0 + kTile - 1);
         const Eigen::Vector3d axis = (Ray(u0, v0).normalized() + Ray(u1, v1).normalized() +
-                                      Ray(u0, v1).normalized() + Ray(u1, v0).normalized()).normalized();
+                                      Ray(u0, v1).normalized() + Ray(u1, v0).normalized())
+                                         .normalized();
         double half = 0.0;
         for (int v = v0; v <= v1; ++v) {
           for (int u = u0; u <= u1; ++u) {
             if (v != v0 && v != v1 && u != u0 && u != u1) continue;
-            half = std::max(half, std::acos(std::clamp(axis.dot(Ray(u, v).normalized()), -1.0, 1.0)));
+            half =
+                std::max(half, std::acos(std::clamp(axis.dot(Ray(u, v).normalized()), -1.0, 1.0)));
           }
         }
         tile_axis.push_back(axis);
@@ -334,7 +350,7 @@ struct SceneRenderer::Impl {
   // Per-frame state.
   struct Frame {
     Eigen::Matrix3d world_from_camera_r;
-    Eigen::Vector3d origin;  // camera centre in the world
+    Eigen::Vector3d origin;        // camera centre in the world
     std::vector<Prepared> shapes;  // statics then movers
     std::vector<std::vector<int>> tile_shapes;
   };
@@ -342,7 +358,8 @@ struct SceneRenderer::Impl {
   Frame MakeFrame(const Pose2& world_from_base, double time_s) const {
     Frame f;
     Eigen::Isometry3d world_from_base3 = Eigen::Isometry3d::Identity();
-    world_from_base3.linear() = Eigen::AngleAxisd(world_from_base.yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    world_from_base3.linear() =
+        Eigen::AngleAxisd(world_from_base.yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
     world_from_base3.translation() = Eigen::Vector3d(world_from_base.x, world_from_base.y, 0);
     const Eigen::Isometry3d world_from_camera = world_from_base3 * camera.base_from_camera();
     f.world_from_camera_r = world_from_camera.linear();
@@ -449,7 +466,8 @@ struct SceneRenderer::Impl {
   }
 
   // Albedo of the z = 0 floor at p with the pixel footprint's floor derivatives du, dv.
-  double FloorAlbedo(const Eigen::Vector2d& p, const Eigen::Vector2d& du, const Eigen::Vector2d& dv) const {
+  double FloorAlbedo(const Eigen::Vector2d& p, const Eigen::Vector2d& du,
+                     const Eigen::Vector2d& dv) const {
     const bool u_major = du.squaredNorm() >= dv.squaredNorm();
     const Eigen::Vector2d major = u_major ? du : dv;
     const double minor = (u_major ? dv : du).norm();
@@ -458,7 +476,8 @@ struct SceneRenderer::Impl {
     for (const auto& r : scene.regions) {
       const double margin = std::max(wx, wy) + r.seam_m;
       if (p.x() < r.rect.min.x() - margin || p.x() > r.rect.max.x() + margin ||
-          p.y() < r.rect.min.y() - margin || p.y() > r.rect.max.y() + margin) continue;
+          p.y() < r.rect.min.y() - margin || p.y() > r.rect.max.y() + margin)
+        continue;
       const double cov = Coverage1d(p.x(), r.rect.min.x(), r.rect.max.x(), wx) *
                          Coverage1d(p.y(), r.rect.min.y(), r.rect.max.y(), wy);
       if (cov > 0) albedo += cov * (SampleSurface(r.surface, p, major, minor) - albedo);
@@ -478,38 +497,47 @@ struct SceneRenderer::Impl {
       const Eigen::Vector2d rel = p - decal.center;
       const double half_diag = decal_radius[k] + wx + wy;
       if (rel.squaredNorm() > half_diag * half_diag) continue;
-      auto to_local = [&](const Eigen::Vector2d& v) { return Eigen::Vector2d(c * v.x() + s * v.y(), -s * v.x() + c * v.y()); };
+      auto to_local = [&](const Eigen::Vector2d& v) {
+        return Eigen::Vector2d(c * v.x() + s * v.y(), -s * v.x() + c * v.y());
+      };
       const Eigen::Vector2d q = to_local(rel), lu = to_local(du), lv = to_local(dv);
-      const double lwx = std::abs(lu.x()) + std::abs(lv.x()), lwy = std::abs(lu.y()) + std::abs(lv.y());
+      const double lwx = std::abs(lu.x()) + std::abs(lv.x()),
+                   lwy = std::abs(lu.y()) + std::abs(lv.y());
       if (decal.surface.material == Material::kChessboard) {
         // The board and a white margin of one square.
         const double sq = decal.square_m;
         const Eigen::Vector2d half = decal.size / 2 + Eigen::Vector2d(sq, sq);
-        const double cov = Coverage1d(q.x(), -half.x(), half.x(), lwx) * Coverage1d(q.y(), -half.y(), half.y(), lwy);
+        const double cov = Coverage1d(q.x(), -half.x(), half.x(), lwx) *
+                           Coverage1d(q.y(), -half.y(), half.y(), lwy);
         if (cov <= 0) continue;
         const double bx = q.x() + decal.size.x() / 2, by = q.y() + decal.size.y() / 2;
         double sx = FilteredSquareWave(bx, sq, lwx), sy = FilteredSquareWave(by, sq, lwy);
-        // Outside the squares the board is white: the wave is +1 there times the coverage of squares.
-        const double in_x = Coverage1d(bx, 0, decal.size.x(), lwx), in_y = Coverage1d(by, 0, decal.size.y(), lwy);
+        // Outside the squares the board is white: the wave is +1 there times the coverage of
+        // squares.
+        const double in_x = Coverage1d(bx, 0, decal.size.x(), lwx),
+                     in_y = Coverage1d(by, 0, decal.size.y(), lwy);
         const double dark = 0.5 * (1.0 + sx * sy) * in_x * in_y;  // share of dark squares
-        const double white = 0.9 * decal.surface.brightness, black = 0.06 * decal.surface.brightness;
+        const double white = 0.9 * decal.surface.brightness,
+                     black = 0.06 * decal.surface.brightness;
         const double board = white + dark * (black - white);
         albedo += cov * (board - albedo);
       } else {
         const Eigen::Vector2d half = decal.size / 2;
-        const double cov = Coverage1d(q.x(), -half.x(), half.x(), lwx) * Coverage1d(q.y(), -half.y(), half.y(), lwy);
+        const double cov = Coverage1d(q.x(), -half.x(), half.x(), lwx) *
+                           Coverage1d(q.y(), -half.y(), half.y(), lwy);
         if (cov <= 0) continue;
         const bool lu_major = lu.squaredNorm() >= lv.squaredNorm();
         albedo += cov * (SampleSurface(decal.surface, q + half, lu_major ? lu : lv,
-                                       (lu_major ? lv : lu).norm()) - albedo);
+                                       (lu_major ? lv : lu).norm()) -
+                         albedo);
       }
     }
     return albedo;
   }
 
   // Radiance (0..1) of a hit seen along d; du_ray, dv_ray: world ray changes per pixel.
-  double Shade(const Frame& f, const Hit& hit, const Eigen::Vector3d& d, const Eigen::Vector3d& du_ray,
-               const Eigen::Vector3d& dv_ray) const {
+  double Shade(const Frame& f, const Hit& hit, const Eigen::Vector3d& d,
+               const Eigen::Vector3d& du_ray, const Eigen::Vector3d& dv_ray) const {
     const Light& light = scene.light;
     if (hit.label == kLabelNone) return light.sky;
     double albedo;
@@ -531,11 +559,13 @@ struct SceneRenderer::Impl {
                Texture(hit.surface->material).SampleIso(hit.uv * inv, footprint * inv);
     }
     (void)f;
-    return albedo * (light.ambient + light.diffuse * std::max(0.0, hit.normal.dot(light.direction)));
+    return albedo *
+           (light.ambient + light.diffuse * std::max(0.0, hit.normal.dot(light.direction)));
   }
 
   // Renders radiance (and optionally gt) for one pose/time into `radiance`.
-  void RenderInto(const Frame& f, const RenderOptions& options, cv::Mat1f* radiance, RenderedFrame* gt) const {
+  void RenderInto(const Frame& f, const RenderOptions& options, cv::Mat1f* radiance,
+                  RenderedFrame* gt) const {
     *radiance = cv::Mat1f(height, width);
     std::vector<int> ids(static_cast<std::size_t>(width) * height);
     const Eigen::Matrix3d& rot = f.world_from_camera_r;
@@ -574,7 +604,8 @@ struct SceneRenderer::Impl {
         if (gt && hit.label != kLabelNone) {
           gt->label(v, u) = hit.label;
           const double z_mm = (f.origin.z() + hit.t * d.z()) * 1000.0 + kHeightOffsetMm;
-          gt->height(v, u) = static_cast<std::uint16_t>(std::clamp(std::floor(z_mm + 0.5), 1.0, 65535.0));
+          gt->height(v, u) =
+              static_cast<std::uint16_t>(std::clamp(std::floor(z_mm + 0.5), 1.0, 65535.0));
           const double depth_mm = std::floor(hit.t * 1000.0 + 0.5);
           gt->depth(v, u) = depth_mm <= 65535.0 ? static_cast<std::uint16_t>(depth_mm) : 0;
         }
@@ -582,13 +613,16 @@ struct SceneRenderer::Impl {
     }
     if (options.edge_samples < 4) return;
     // Supersample the image where the surface changes between neighbouring pixels.
-    static constexpr double kOffsets[4][2] = {{-0.125, -0.375}, {0.375, -0.125}, {0.125, 0.375}, {-0.375, 0.125}};
+    static constexpr double kOffsets[4][2] = {
+        {-0.125, -0.375}, {0.375, -0.125}, {0.125, 0.375}, {-0.375, 0.125}};
     cv::Mat1f out = radiance->clone();
     for (int v = 0; v < height; ++v) {
       for (int u = 0; u < width; ++u) {
         const int id = ids[v * width + u];
-        const bool edge = (u > 0 && ids[v * width + u - 1] != id) || (u + 1 < width && ids[v * width + u + 1] != id) ||
-                          (v > 0 && ids[(v - 1) * width + u] != id) || (v + 1 < height && ids[(v + 1) * width + u] != id);
+        const bool edge = (u > 0 && ids[v * width + u - 1] != id) ||
+                          (u + 1 < width && ids[v * width + u + 1] != id) ||
+                          (v > 0 && ids[(v - 1) * width + u] != id) ||
+                          (v + 1 < height && ids[(v + 1) * width + u] != id);
         if (!edge) continue;
         const int un = u + 1 < width ? u + 1 : u - 1, vn = v + 1 < height ? v + 1 : v - 1;
         const Eigen::Vector3d du_ray = rot * (Ray(un, v) - Ray(u, v)) * (un > u ? 0.5 : -0.5);
@@ -611,7 +645,8 @@ struct SceneRenderer::Impl {
     const double gain = options.effects ? scene.effects.GainAt(time_s) : 1.0;
     cv::Mat1f grey = radiance * (255.0 * gain);
     if (options.effects && scene.effects.noise_sigma > 0) {
-      cv::RNG rng(static_cast<std::uint64_t>(scene.seed) * 0x9E3779B97F4A7C15ull + options.noise_seed + 1);
+      cv::RNG rng(static_cast<std::uint64_t>(scene.seed) * 0x9E3779B97F4A7C15ull +
+                  options.noise_seed + 1);
       cv::Mat1f noise(height, width);
       rng.fill(noise, cv::RNG::NORMAL, 0.0, scene.effects.noise_sigma);
       grey += noise;
@@ -628,7 +663,8 @@ struct SceneRenderer::Impl {
 
 bool RenderOptions::IsValid(std::string* error) const {
   if (edge_samples != 1 && edge_samples != 4) {
-    if (error) *error = "RenderOptions::edge_samples = " + std::to_string(edge_samples) + ": must be 1 or 4";
+    if (error)
+      *error = "RenderOptions::edge_samples = " + std::to_string(edge_samples) + ": must be 1 or 4";
     return false;
   }
   return true;
@@ -651,7 +687,8 @@ RenderedFrame SceneRenderer::RenderAtTime(double time_s, const RenderOptions& op
   const Scene& scene = impl_->scene;
   RenderedFrame frame;
   cv::Mat1f radiance;
-  impl_->RenderInto(impl_->MakeFrame(RobotPoseAt(scene, time_s), time_s), options, &radiance, &frame);
+  impl_->RenderInto(impl_->MakeFrame(RobotPoseAt(scene, time_s), time_s), options, &radiance,
+                    &frame);
   const int n = options.effects ? scene.effects.motion_blur_samples : 1;
   if (n > 1) {
     // The shutter is centred on time_s; average the radiance of n instants over it.
@@ -668,7 +705,8 @@ RenderedFrame SceneRenderer::RenderAtTime(double time_s, const RenderOptions& op
 }
 
 RenderedFrame RenderFrame(const Scene& scene, const CameraCalibration& calibration,
-                          const Pose2& world_from_base, double time_s, const RenderOptions& options) {
+                          const Pose2& world_from_base, double time_s,
+                          const RenderOptions& options) {
   return SceneRenderer(scene, calibration).Render(world_from_base, time_s, options);
 }
 

@@ -1,10 +1,9 @@
 #pragma once
 
 #include <memory>
+#include <opencv2/core.hpp>
 #include <string>
 #include <vector>
-
-#include <opencv2/core.hpp>
 
 #include "perception/geometry/camera_calibration.h"
 #include "perception/geometry/pose2.h"

@@ -1,10 +1,10 @@
 #include "tools/sim/renderer.h"
 
-#include <cmath>
-#include <string>
-
 #include <gtest/gtest.h>
+
+#include <cmath>
 #include <opencv2/imgproc.hpp>
+#include <string>
 
 #include "perception/geometry/camera_model.h"
 
@@ -34,7 +34,8 @@ floor: {material: plain}
 decals: [{material: chessboard, center: [0.95, 0.05], yaw: 17.188733853924695, rows: 4, cols: 6, square: 0.08}]
 trajectory: {segments: [{v: 0, duration: 1}]}
 )");
-  const RenderedFrame frame = RenderFrame(scene, scene.calibration, Pose2::Identity(), 0.0, Clean());
+  const RenderedFrame frame =
+      RenderFrame(scene, scene.calibration, Pose2::Identity(), 0.0, Clean());
   const CameraModel camera(scene.calibration);
   int checked = 0;
   double worst = 0.0;
@@ -48,13 +49,15 @@ trajectory: {segments: [{v: 0, duration: 1}]}
       // Start the corner search off the truth; it must converge back onto it.
       std::vector<cv::Point2f> corner{cv::Point2f(static_cast<float>(expected.x() + 1.2),
                                                   static_cast<float>(expected.y() - 0.9))};
-      cv::cornerSubPix(frame.image, corner, cv::Size(4, 4), cv::Size(-1, -1),
-                       cv::TermCriteria(cv::TermCriteria::EPS | cv::TermCriteria::COUNT, 100, 1e-4));
+      cv::cornerSubPix(
+          frame.image, corner, cv::Size(4, 4), cv::Size(-1, -1),
+          cv::TermCriteria(cv::TermCriteria::EPS | cv::TermCriteria::COUNT, 100, 1e-4));
       const double error = std::hypot(corner[0].x - expected.x(), corner[0].y - expected.y());
       worst = std::max(worst, error);
       EXPECT_LT(error, 0.5) << "corner " << i << "," << j << " expected " << expected.transpose();
       // Inner corners are floor.
-      EXPECT_EQ(frame.label(static_cast<int>(std::lround(expected.y())), static_cast<int>(std::lround(expected.x()))),
+      EXPECT_EQ(frame.label(static_cast<int>(std::lround(expected.y())),
+                            static_cast<int>(std::lround(expected.x()))),
                 kLabelFloor);
       ++checked;
     }
@@ -127,7 +130,8 @@ TEST_F(GroundTruthTest, BoxTopHeightAndDepth) {
 
 TEST_F(GroundTruthTest, BoxSideHeightVariesWithTheRow) {
   // The face of the box towards the camera (normal rotated 10 deg from -x).
-  const Eigen::Vector2d face_centre = Pose2{1.5, -0.05, 10 * M_PI / 180} * Eigen::Vector2d(-0.15, 0.0);
+  const Eigen::Vector2d face_centre =
+      Pose2{1.5, -0.05, 10 * M_PI / 180} * Eigen::Vector2d(-0.15, 0.0);
   const cv::Point px = PixelOf({face_centre.x(), face_centre.y(), 0.1});
   EXPECT_EQ(frame_.label(px), kLabelObstacle);
   const Eigen::Vector3d n(std::cos(10 * M_PI / 180), std::sin(10 * M_PI / 180), 0.0);
@@ -142,7 +146,8 @@ TEST_F(GroundTruthTest, FloorAndDecalAreFloorAtZeroHeight) {
   const cv::Point decal = PixelOf({1.0, -0.3, 0.0});
   EXPECT_EQ(frame_.label(decal), kLabelFloor);
   EXPECT_EQ(frame_.height(decal), kHeightOffsetMm);
-  EXPECT_NEAR(frame_.depth(decal), DepthOf(RayPlane(decal, Eigen::Vector3d::UnitZ(), 0.0)) * 1000.0, 0.51);
+  EXPECT_NEAR(frame_.depth(decal), DepthOf(RayPlane(decal, Eigen::Vector3d::UnitZ(), 0.0)) * 1000.0,
+              0.51);
   // Paper is brighter than the carpet around it.
   EXPECT_GT(frame_.image(decal), frame_.image(PixelOf({1.0, -0.55, 0.0})) + 40);
 }
@@ -161,7 +166,8 @@ TEST_F(GroundTruthTest, StepDownAndHoleAreDropOffsWithNegativeHeight) {
 
 TEST_F(GroundTruthTest, MovingObjectAndSky) {
   // The side of the person's cylinder that faces the camera (centre (2, 1), radius 0.2).
-  const Eigen::Vector2d toward = (Eigen::Vector2d(0.1, 0.0) - Eigen::Vector2d(2.0, 1.0)).normalized();
+  const Eigen::Vector2d toward =
+      (Eigen::Vector2d(0.1, 0.0) - Eigen::Vector2d(2.0, 1.0)).normalized();
   const Eigen::Vector2d side = Eigen::Vector2d(2.0, 1.0) + 0.2 * toward;
   const cv::Point mover = PixelOf({side.x(), side.y(), 0.3});
   EXPECT_EQ(frame_.label(mover), kLabelMoving);
@@ -180,14 +186,17 @@ light: {direction: [-0.3, 0.8, 0.5]}
 obstacles: [{type: box, center: [1.5, 0.0], size: [0.4, 0.4, 0.25], yaw: 35, material: plain}]
 trajectory: {segments: [{v: 0, duration: 1}]}
 )");
-  const RenderedFrame frame = RenderFrame(scene, scene.calibration, Pose2::Identity(), 0.0, Clean());
+  const RenderedFrame frame =
+      RenderFrame(scene, scene.calibration, Pose2::Identity(), 0.0, Clean());
   const CameraModel camera(scene.calibration);
   auto at = [&](const Eigen::Vector2d& local, double z) {
     const Eigen::Vector2d w = Pose2{1.5, 0.0, 35 * M_PI / 180} * local;
     const auto px = camera.ProjectToPixel(Eigen::Vector3d(w.x(), w.y(), z));
-    return static_cast<int>(frame.image(static_cast<int>(std::lround(px->y())), static_cast<int>(std::lround(px->x()))));
+    return static_cast<int>(frame.image(static_cast<int>(std::lround(px->y())),
+                                        static_cast<int>(std::lround(px->x()))));
   };
-  const int top = at({0, 0}, 0.25), left_face = at({0, 0.2}, 0.12), front_face = at({-0.2, 0}, 0.12);
+  const int top = at({0, 0}, 0.25), left_face = at({0, 0.2}, 0.12),
+            front_face = at({-0.2, 0}, 0.12);
   EXPECT_GT(std::abs(top - left_face), 15);
   EXPECT_GT(std::abs(left_face - front_face), 15);
 }
@@ -195,7 +204,9 @@ trajectory: {segments: [{v: 0, duration: 1}]}
 TEST(RendererTest, DeterministicForASeedAndNoiseDependsOnIt) {
   Scene scene;
   std::string error;
-  ASSERT_TRUE(LoadSceneFile(std::string(MONOPLANE_SOURCE_DIR) + "/tests/data/scenes/effects.yaml", &scene, &error)) << error;
+  ASSERT_TRUE(LoadSceneFile(std::string(MONOPLANE_SOURCE_DIR) + "/tests/data/scenes/effects.yaml",
+                            &scene, &error))
+      << error;
   const SceneRenderer a(scene, scene.calibration), b(scene, scene.calibration);
   const RenderedFrame fa = a.RenderAtTime(1.0), fb = b.RenderAtTime(1.0);
   EXPECT_EQ(cv::norm(fa.image, fb.image, cv::NORM_INF), 0.0);
@@ -203,7 +214,8 @@ TEST(RendererTest, DeterministicForASeedAndNoiseDependsOnIt) {
   scene.seed += 1;
   const RenderedFrame fc = SceneRenderer(scene, scene.calibration).RenderAtTime(1.0);
   EXPECT_GT(cv::norm(fa.image, fc.image, cv::NORM_L1), 0.0);
-  EXPECT_EQ(cv::norm(fa.label, fc.label, cv::NORM_INF), 0.0);  // geometry does not depend on the seed
+  EXPECT_EQ(cv::norm(fa.label, fc.label, cv::NORM_INF),
+            0.0);  // geometry does not depend on the seed
 }
 
 TEST(RendererTest, FineTextureDoesNotShimmerWhenTheCameraCreepsForward) {
@@ -218,7 +230,8 @@ trajectory: {segments: [{v: 0, duration: 1}]}
   const RenderedFrame b = renderer.Render(Pose2{0.001, 0.0, 0.0}, 0.0, Clean());
   // Rows just below the horizon (row ~68 at the centre), where one pixel covers many carpet fibres.
   const cv::Rect far_rows(0, 75, 640, 20);
-  const double mean_change = cv::norm(a.image(far_rows), b.image(far_rows), cv::NORM_L1) / far_rows.area();
+  const double mean_change =
+      cv::norm(a.image(far_rows), b.image(far_rows), cv::NORM_L1) / far_rows.area();
   EXPECT_LT(mean_change, 1.0);
   // The near floor keeps its texture (contrast survives the filtering).
   cv::Scalar mean, stddev;

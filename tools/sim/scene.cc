@@ -1,5 +1,7 @@
 #include "tools/sim/scene.h"
 
+#include <yaml-cpp/yaml.h>
+
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
@@ -7,16 +9,14 @@
 #include <set>
 #include <sstream>
 
-#include <yaml-cpp/yaml.h>
-
 namespace monoplane::sim {
 namespace {
 
 constexpr double kDegToRad = M_PI / 180.0;
 
-const char* const kMaterialNames[kNumMaterials] = {"carpet", "tiles", "wood", "concrete", "plain",
-                                                   "paper", "mat", "tape", "cardboard",
-                                                   "chessboard"};
+const char* const kMaterialNames[kNumMaterials] = {"carpet",    "tiles",     "wood", "concrete",
+                                                   "plain",     "paper",     "mat",  "tape",
+                                                   "cardboard", "chessboard"};
 
 // A failed parse: the message holds the key path.
 struct ParseError {
@@ -109,7 +109,9 @@ Surface GetSurface(const YAML::Node& map, const std::string& path, Material fall
   s.material = fallback;
   if (const YAML::Node m = map["material"]) {
     const auto material = m.IsScalar() ? ParseMaterial(m.Scalar()) : std::nullopt;
-    if (!material) Fail(Child(path, "material"), "unknown material '" + (m.IsScalar() ? m.Scalar() : std::string("?")) + "'");
+    if (!material)
+      Fail(Child(path, "material"),
+           "unknown material '" + (m.IsScalar() ? m.Scalar() : std::string("?")) + "'");
     s.material = *material;
   }
   s.brightness = GetNonNegative(map, path, "brightness", 1.0);
@@ -119,7 +121,8 @@ Surface GetSurface(const YAML::Node& map, const std::string& path, Material fall
 
 Rect GetRect(const YAML::Node& map, const std::string& path) {
   Rect r{GetVec2(map, path, "min"), GetVec2(map, path, "max")};
-  if (!(r.max.x() > r.min.x() && r.max.y() > r.min.y())) Fail(Child(path, "max"), "must exceed min");
+  if (!(r.max.x() > r.min.x() && r.max.y() > r.min.y()))
+    Fail(Child(path, "max"), "must exceed min");
   return r;
 }
 
@@ -135,8 +138,9 @@ Shape ParseShape(const YAML::Node& node, const std::string& path, bool with_cent
   s.z_m = GetDouble(node, path, "z", 0.0);
   s.surface = GetSurface(node, path, Material::kCardboard);
   if (type == "box") {
-    CheckKeys(node, path, {"type", "center", "size", "yaw", "z", "material", "brightness",
-                           "scale", "speed", "waypoints", "loop", "start_time"});
+    CheckKeys(node, path,
+              {"type", "center", "size", "yaw", "z", "material", "brightness", "scale", "speed",
+               "waypoints", "loop", "start_time"});
     if (!node["size"]) Fail(Child(path, "size"), "missing");
     const auto v = Numbers(node["size"], Child(path, "size"), 3);
     for (std::size_t i = 0; i < 3; ++i) {
@@ -146,27 +150,31 @@ Shape ParseShape(const YAML::Node& node, const std::string& path, bool with_cent
     s.size = {v[0], v[1], v[2]};
     s.yaw_rad = GetDouble(node, path, "yaw", 0.0) * kDegToRad;
   } else if (type == "cylinder") {
-    CheckKeys(node, path, {"type", "center", "radius", "height", "z", "material", "brightness",
-                           "scale", "speed", "waypoints", "loop", "start_time"});
+    CheckKeys(node, path,
+              {"type", "center", "radius", "height", "z", "material", "brightness", "scale",
+               "speed", "waypoints", "loop", "start_time"});
     const double r = GetPositive(node, path, "radius", 0.0, true);
     s.type = ShapeType::kCylinder;
     s.size = {2 * r, 2 * r, GetPositive(node, path, "height", 0.0, true)};
   } else if (type == "sphere") {
-    CheckKeys(node, path, {"type", "center", "radius", "z", "material", "brightness", "scale",
-                           "speed", "waypoints", "loop", "start_time"});
+    CheckKeys(node, path,
+              {"type", "center", "radius", "z", "material", "brightness", "scale", "speed",
+               "waypoints", "loop", "start_time"});
     const double r = GetPositive(node, path, "radius", 0.0, true);
     s.type = ShapeType::kSphere;
     s.size = {2 * r, 2 * r, 2 * r};
   } else {
     Fail(Child(path, "type"), "expected box, cylinder or sphere" +
-                                  std::string(with_center ? " or table" : "") + " (got '" + type + "')");
+                                  std::string(with_center ? " or table" : "") + " (got '" + type +
+                                  "')");
   }
   return s;
 }
 
 void ParseTable(const YAML::Node& node, const std::string& path, std::vector<Shape>* out) {
-  CheckKeys(node, path, {"type", "center", "size", "height", "yaw", "top", "leg", "z", "material",
-                         "brightness", "scale"});
+  CheckKeys(node, path,
+            {"type", "center", "size", "height", "yaw", "top", "leg", "z", "material", "brightness",
+             "scale"});
   const Eigen::Vector2d center = GetVec2(node, path, "center");
   const Eigen::Vector2d size = GetVec2(node, path, "size");
   if (!(size.x() > 0 && size.y() > 0)) Fail(Child(path, "size"), "must be > 0");
@@ -189,7 +197,8 @@ void ParseTable(const YAML::Node& node, const std::string& path, std::vector<Sha
   for (int sx : {-1, 1}) {
     for (int sy : {-1, 1}) {
       Shape l = slab;
-      l.center = world_from_table * Eigen::Vector2d(sx * (size.x() - leg) / 2, sy * (size.y() - leg) / 2);
+      l.center =
+          world_from_table * Eigen::Vector2d(sx * (size.x() - leg) / 2, sy * (size.y() - leg) / 2);
       l.z_m = z;
       l.size = {leg, leg, height - top};
       out->push_back(l);
@@ -206,7 +215,8 @@ void ParseWall(const YAML::Node& node, const std::string& path, std::vector<Shap
   s.type = ShapeType::kBox;
   s.center = (a + b) / 2;
   s.yaw_rad = std::atan2(b.y() - a.y(), b.x() - a.x());
-  s.size = {length, GetPositive(node, path, "thickness", 0.1), GetPositive(node, path, "height", 2.5)};
+  s.size = {length, GetPositive(node, path, "thickness", 0.1),
+            GetPositive(node, path, "height", 2.5)};
   s.surface = GetSurface(node, path, Material::kPlain);
   if (!node["brightness"]) s.surface.brightness = 0.9;
   out->push_back(s);
@@ -260,15 +270,16 @@ void ParseTrajectory(const YAML::Node& node, Scene* scene) {
       const auto v = Numbers(list[i], Index("trajectory.waypoints", i), 2);
       waypoints.emplace_back(v[0], v[1]);
     }
-    scene->segments = WaypointSegments(scene->start, waypoints,
-                                       GetPositive(node, path, "speed", 0.5),
-                                       GetPositive(node, path, "turn_rate", 60.0) * kDegToRad);
+    scene->segments =
+        WaypointSegments(scene->start, waypoints, GetPositive(node, path, "speed", 0.5),
+                         GetPositive(node, path, "turn_rate", 60.0) * kDegToRad);
   }
 }
 
 void ParseScene(const YAML::Node& root, Scene* scene, const std::string& base_dir) {
-  CheckKeys(root, "", {"calibration", "fps", "frames", "seed", "bounds", "light", "effects",
-                       "floor", "decals", "drops", "obstacles", "walls", "movers", "trajectory"});
+  CheckKeys(root, "",
+            {"calibration", "fps", "frames", "seed", "bounds", "light", "effects", "floor",
+             "decals", "drops", "obstacles", "walls", "movers", "trajectory"});
   *scene = Scene();
   scene->calibration = DefaultSimCalibration();
   if (const YAML::Node c = root["calibration"]) {
@@ -342,8 +353,9 @@ void ParseScene(const YAML::Node& root, Scene* scene, const std::string& base_di
     const YAML::Node& list = CheckSequence(root["decals"], "decals");
     for (std::size_t i = 0; i < list.size(); ++i) {
       const std::string p = Index("decals", i);
-      CheckKeys(list[i], p, {"material", "center", "size", "yaw", "brightness", "scale", "rows",
-                             "cols", "square"});
+      CheckKeys(
+          list[i], p,
+          {"material", "center", "size", "yaw", "brightness", "scale", "rows", "cols", "square"});
       Decal d;
       d.surface = GetSurface(list[i], p, Material::kPaper);
       d.center = GetVec2(list[i], p, "center");
@@ -352,7 +364,8 @@ void ParseScene(const YAML::Node& root, Scene* scene, const std::string& base_di
         d.rows = GetInt(list[i], p, "rows", 0, 2);
         d.cols = GetInt(list[i], p, "cols", 0, 2);
         d.square_m = GetPositive(list[i], p, "square", 0.0, true);
-        if (list[i]["size"]) Fail(p + ".size", "derived from rows, cols and square for a chessboard");
+        if (list[i]["size"])
+          Fail(p + ".size", "derived from rows, cols and square for a chessboard");
         d.size = {d.cols * d.square_m, d.rows * d.square_m};
       } else {
         for (const char* k : {"rows", "cols", "square"}) {
@@ -391,7 +404,8 @@ void ParseScene(const YAML::Node& root, Scene* scene, const std::string& base_di
   }
   if (root["walls"]) {
     const YAML::Node& list = CheckSequence(root["walls"], "walls");
-    for (std::size_t i = 0; i < list.size(); ++i) ParseWall(list[i], Index("walls", i), &scene->obstacles);
+    for (std::size_t i = 0; i < list.size(); ++i)
+      ParseWall(list[i], Index("walls", i), &scene->obstacles);
   }
   if (root["movers"]) {
     const YAML::Node& list = CheckSequence(root["movers"], "movers");
@@ -428,9 +442,7 @@ void ParseScene(const YAML::Node& root, Scene* scene, const std::string& base_di
 
 }  // namespace
 
-const char* MaterialName(Material material) {
-  return kMaterialNames[static_cast<int>(material)];
-}
+const char* MaterialName(Material material) { return kMaterialNames[static_cast<int>(material)]; }
 
 std::optional<Material> ParseMaterial(const std::string& name) {
   for (int i = 0; i < kNumMaterials; ++i) {
@@ -444,7 +456,8 @@ double Effects::GainAt(double time_s) const {
   if (time_s <= exposure.front().time_s) return exposure.front().gain;
   for (std::size_t i = 1; i < exposure.size(); ++i) {
     if (time_s <= exposure[i].time_s) {
-      const double a = (time_s - exposure[i - 1].time_s) / (exposure[i].time_s - exposure[i - 1].time_s);
+      const double a =
+          (time_s - exposure[i - 1].time_s) / (exposure[i].time_s - exposure[i - 1].time_s);
       return exposure[i - 1].gain + a * (exposure[i].gain - exposure[i - 1].gain);
     }
   }

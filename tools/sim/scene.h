@@ -29,15 +29,18 @@
 //     scale: 1.0            # pattern scale (2 = features twice as large)
 //     regions: [{min: [x, y], max: [x, y], material: tiles, brightness: 1, scale: 1, seam: 0.01}]
 //                           # seam: width in metres of a dark joint drawn along the region border
-//   decals:                 # flat things lying on the floor (z = 0): labelled floor, never obstacles
+//   decals:                 # flat things lying on the floor (z = 0): labelled floor, never
+//   obstacles
 //     - {material: paper, center: [x, y], size: [length_x, width_y], yaw: 0, brightness: 1}
 //     - {material: chessboard, center: [x, y], yaw: 0, rows: 6, cols: 8, square: 0.05}
 //                           # chessboard: rows x cols squares (square edge in metres) centred at
 //                           # `center`, rows along the decal's y axis; the square at (row 0, col 0)
 //                           # is dark and lies at the (-x, -y) corner. size is derived.
-//   drops:                  # floor below z = 0: a step down or a hole (its vertical faces included)
+//   drops:                  # floor below z = 0: a step down or a hole (its vertical faces
+//   included)
 //     - {min: [x, y], max: [x, y], depth: 0.08, material: concrete, brightness: 1, scale: 1}
-//   obstacles:              # static, labelled obstacle; `z` = bottom (default 0, or depth of a drop)
+//   obstacles:              # static, labelled obstacle; `z` = bottom (default 0, or depth of a
+//   drop)
 //     - {type: box, center: [x, y], size: [sx, sy, sz], yaw: 0, z: 0, material: cardboard,
 //        brightness: 1, scale: 1}
 //     - {type: cylinder, center: [x, y], radius: r, height: h, z: 0, ...}
@@ -50,8 +53,8 @@
 //     - {type: cylinder, radius: 0.25, height: 1.7, speed: 1.0, waypoints: [[x, y], ...],
 //        loop: false, start_time: 0, material: mat, brightness: 1}
 //                           # type box takes size: [sx, sy, sz]; loop false: back and forth along
-//                           # the waypoints; loop true: back to the first one; before start_time the
-//                           # object waits at the first waypoint
+//                           # the waypoints; loop true: back to the first one; before start_time
+//                           the # object waits at the first waypoint
 //   trajectory:             # required: the robot base
 //     start: [x, y, yaw]
 //     segments:             # either segments ...
@@ -61,11 +64,10 @@
 //     speed: 0.5                # turn_rate (deg/s), then drive straight at speed (m/s)
 //     turn_rate: 60
 
+#include <Eigen/Core>
 #include <optional>
 #include <string>
 #include <vector>
-
-#include <Eigen/Core>
 
 #include "perception/geometry/camera_calibration.h"
 #include "perception/geometry/pose2.h"
@@ -73,8 +75,18 @@
 namespace monoplane::sim {
 
 // Procedural materials (textures baked by texture.h).
-enum class Material { kCarpet, kTiles, kWood, kConcrete, kPlain, kPaper, kMat, kTape, kCardboard,
-                      kChessboard };
+enum class Material {
+  kCarpet,
+  kTiles,
+  kWood,
+  kConcrete,
+  kPlain,
+  kPaper,
+  kMat,
+  kTape,
+  kCardboard,
+  kChessboard
+};
 inline constexpr int kNumMaterials = 10;
 const char* MaterialName(Material material);
 std::optional<Material> ParseMaterial(const std::string& name);
@@ -104,8 +116,8 @@ struct Decal {
   Eigen::Vector2d center{0, 0};
   Eigen::Vector2d size{0, 0};  // along the decal's x and y axes, metres
   double yaw_rad = 0.0;
-  int rows = 0, cols = 0;      // chessboard only
-  double square_m = 0.0;       // chessboard only
+  int rows = 0, cols = 0;  // chessboard only
+  double square_m = 0.0;   // chessboard only
 };
 
 struct Drop {
@@ -119,16 +131,16 @@ enum class ShapeType { kBox, kCylinder, kSphere };
 // One solid primitive in the world frame (tables and walls are expanded into boxes).
 struct Shape {
   ShapeType type = ShapeType::kBox;
-  Eigen::Vector2d center{0, 0};  // of the footprint
-  double z_m = 0.0;              // bottom
-  Eigen::Vector3d size{0, 0, 0}; // box: full sizes; cylinder: (2r, 2r, height); sphere: (2r,2r,2r)
-  double yaw_rad = 0.0;          // box only
+  Eigen::Vector2d center{0, 0};   // of the footprint
+  double z_m = 0.0;               // bottom
+  Eigen::Vector3d size{0, 0, 0};  // box: full sizes; cylinder: (2r, 2r, height); sphere: (2r,2r,2r)
+  double yaw_rad = 0.0;           // box only
   Surface surface;
   double Top() const { return z_m + size.z(); }
 };
 
 struct Mover {
-  Shape shape;                          // center ignored: it follows the waypoints
+  Shape shape;  // center ignored: it follows the waypoints
   std::vector<Eigen::Vector2d> waypoints;
   double speed_mps = 1.0;
   bool loop = false;
@@ -155,9 +167,9 @@ struct ExposureKey {
 };
 
 struct Effects {
-  double noise_sigma = 0.0;       // grey levels
-  int motion_blur_samples = 1;    // >= 1; 1 = no blur
-  double shutter_s = 0.02;        // exposure time for the blur
+  double noise_sigma = 0.0;           // grey levels
+  int motion_blur_samples = 1;        // >= 1; 1 = no blur
+  double shutter_s = 0.02;            // exposure time for the blur
   std::vector<ExposureKey> exposure;  // empty: gain 1
   double GainAt(double time_s) const;
 };

@@ -1,9 +1,9 @@
 #include "tools/sim/scene.h"
 
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <string>
-
-#include <gtest/gtest.h>
 
 namespace monoplane::sim {
 namespace {
@@ -39,21 +39,28 @@ TEST(SceneTest, ErrorsNameTheKey) {
   EXPECT_EQ(ParseError(traj), "bounds: missing");
   EXPECT_EQ(ParseError("bounds: [0, 0, 1, 1]\ncolour: red\n" + traj), "colour: unknown key");
   EXPECT_EQ(ParseError("bounds: [0, 0, 1]\n" + traj), "bounds: expected 4 numbers");
-  EXPECT_EQ(ParseError("bounds: [0, 0, 1, 1]\nobstacles: [{type: box, center: [1, 0], size: [1, 1]}]\n" + traj),
-            "obstacles[0].size: expected 3 numbers");
+  EXPECT_EQ(
+      ParseError("bounds: [0, 0, 1, 1]\nobstacles: [{type: box, center: [1, 0], size: [1, 1]}]\n" +
+                 traj),
+      "obstacles[0].size: expected 3 numbers");
   EXPECT_EQ(ParseError("bounds: [0, 0, 1, 1]\nobstacles: [{type: cone, center: [1, 0]}]\n" + traj),
             "obstacles[0].type: expected box, cylinder or sphere or table (got 'cone')");
-  EXPECT_EQ(ParseError("bounds: [0, 0, 1, 1]\nobstacles: [{type: box, center: [1, 0], size: [1, 1, 1], hue: 3}]\n" + traj),
+  EXPECT_EQ(ParseError("bounds: [0, 0, 1, 1]\nobstacles: [{type: box, center: [1, 0], size: [1, 1, "
+                       "1], hue: 3}]\n" +
+                       traj),
             "obstacles[0].hue: unknown key");
   EXPECT_EQ(ParseError("bounds: [0, 0, 1, 1]\nfloor: {material: lava}\n" + traj),
             "floor.material: unknown material 'lava'");
   EXPECT_EQ(ParseError("bounds: [0, 0, 1, 1]\ntrajectory: {segments: [{v: 0.5, duration: -1}]}\n"),
             "trajectory.segments[0].duration: must be > 0 (got -1.000000)");
-  EXPECT_EQ(ParseError("bounds: [0, 0, 1, 1]\nfps: fast\n" + traj), "fps: expected a number (got 'fast')");
+  EXPECT_EQ(ParseError("bounds: [0, 0, 1, 1]\nfps: fast\n" + traj),
+            "fps: expected a number (got 'fast')");
   EXPECT_EQ(ParseError("bounds: [0, 0, 1, 1]\ndrops: [{min: [0, 0], max: [1, 1]}]\n" + traj),
             "drops[0].depth: missing");
-  EXPECT_EQ(ParseError("bounds: [0, 0, 1, 1]\nmovers: [{type: cylinder, radius: 0.2, height: 1.7}]\n" + traj),
-            "movers[0].waypoints: missing");
+  EXPECT_EQ(
+      ParseError("bounds: [0, 0, 1, 1]\nmovers: [{type: cylinder, radius: 0.2, height: 1.7}]\n" +
+                 traj),
+      "movers[0].waypoints: missing");
   const std::string calib_error =
       ParseError("bounds: [0, 0, 1, 1]\ncalibration: {camera: {width: 640}}\n" + traj);
   EXPECT_EQ(calib_error.rfind("calibration: ", 0), 0u) << calib_error;
@@ -63,9 +70,11 @@ TEST(SceneTest, ErrorsNameTheKey) {
 TEST(SceneTest, TableExpandsIntoTopAndFourLegs) {
   Scene scene;
   std::string error;
-  ASSERT_TRUE(ParseSceneYaml(std::string(kMinimal) +
-                                 "obstacles: [{type: table, center: [2, 0], size: [1.2, 0.8], height: 0.75, top: 0.03, leg: 0.05}]\n",
-                             &scene, &error)) << error;
+  ASSERT_TRUE(
+      ParseSceneYaml(std::string(kMinimal) + "obstacles: [{type: table, center: [2, 0], size: "
+                                             "[1.2, 0.8], height: 0.75, top: 0.03, leg: 0.05}]\n",
+                     &scene, &error))
+      << error;
   ASSERT_EQ(scene.obstacles.size(), 5u);
   EXPECT_NEAR(scene.obstacles[0].z_m, 0.72, 1e-12);
   EXPECT_NEAR(scene.obstacles[0].Top(), 0.75, 1e-12);
@@ -76,9 +85,12 @@ TEST(SceneTest, TableExpandsIntoTopAndFourLegs) {
 TEST(SceneTest, WaypointTrajectoryTurnsOnTheSpotThenDrives) {
   Scene scene;
   std::string error;
-  ASSERT_TRUE(ParseSceneYaml("bounds: [-1, -1, 3, 3]\n"
-                             "trajectory: {start: [0, 0, 0], waypoints: [[2, 0], [2, 2], [0, 0]], speed: 0.5, turn_rate: 90}\n",
-                             &scene, &error)) << error;
+  ASSERT_TRUE(
+      ParseSceneYaml("bounds: [-1, -1, 3, 3]\n"
+                     "trajectory: {start: [0, 0, 0], waypoints: [[2, 0], [2, 2], [0, 0]], speed: "
+                     "0.5, turn_rate: 90}\n",
+                     &scene, &error))
+      << error;
   // 2 m straight (4 s), 90 deg (1 s), 2 m (4 s), 135 deg (1.5 s), 2.83 m.
   ASSERT_EQ(scene.segments.size(), 5u);
   const Pose2 corner = RobotPoseAt(scene, 4.0);
@@ -96,9 +108,11 @@ TEST(SceneTest, ArcSegmentIntegratesExactly) {
   Scene scene;
   std::string error;
   // A full circle of radius 1: v = 1 m/s, omega = 1 rad/s for 2 pi s returns to the start.
-  ASSERT_TRUE(ParseSceneYaml("bounds: [-3, -3, 3, 3]\ntrajectory: {start: [0, 0, 0], segments: "
-                             "[{v: 1, omega: 57.29577951308232, duration: 6.283185307179586}]}\n",
-                             &scene, &error)) << error;
+  ASSERT_TRUE(
+      ParseSceneYaml("bounds: [-3, -3, 3, 3]\ntrajectory: {start: [0, 0, 0], segments: "
+                     "[{v: 1, omega: 57.29577951308232, duration: 6.283185307179586}]}\n",
+                     &scene, &error))
+      << error;
   const Pose2 quarter = RobotPoseAt(scene, M_PI / 2);
   EXPECT_NEAR(quarter.x, 1.0, 1e-9);
   EXPECT_NEAR(quarter.y, 1.0, 1e-9);
@@ -123,21 +137,24 @@ TEST(SceneTest, MoverGoesBackAndForth) {
 }
 
 TEST(SceneTest, AllSuiteScenesParse) {
-  const char* const names[] = {"corridor", "office", "low_obstacles", "newspaper_on_carpet",
-                               "door_threshold", "step_down", "person_crossing",
-                               "textureless_floor", "loop", "standstill_turn", "effects"};
+  const char* const names[] = {
+      "corridor",       "office",          "low_obstacles",   "newspaper_on_carpet",
+      "door_threshold", "step_down",       "person_crossing", "textureless_floor",
+      "loop",           "standstill_turn", "effects"};
   for (const char* name : names) {
     Scene scene;
     std::string error;
-    EXPECT_TRUE(LoadSceneFile(std::string(MONOPLANE_SOURCE_DIR) + "/tests/data/scenes/" + name + ".yaml",
-                              &scene, &error)) << error;
+    EXPECT_TRUE(LoadSceneFile(
+        std::string(MONOPLANE_SOURCE_DIR) + "/tests/data/scenes/" + name + ".yaml", &scene, &error))
+        << error;
     EXPECT_GE(scene.NumFrames(), 100) << name;
     EXPECT_LE(scene.NumFrames(), 300) << name;
   }
   // The loop returns to its start.
   Scene loop;
   std::string error;
-  ASSERT_TRUE(LoadSceneFile(std::string(MONOPLANE_SOURCE_DIR) + "/tests/data/scenes/loop.yaml", &loop, &error));
+  ASSERT_TRUE(LoadSceneFile(std::string(MONOPLANE_SOURCE_DIR) + "/tests/data/scenes/loop.yaml",
+                            &loop, &error));
   const Pose2 end = RobotPoseAt(loop, loop.DurationS());
   EXPECT_NEAR(end.TranslationNorm(), 0.0, 1e-9);
 }

@@ -1,13 +1,13 @@
 #include "tools/sim/sequence.h"
 
+#include <octomap/OcTree.h>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <limits>
-
-#include <octomap/OcTree.h>
 #include <opencv2/imgcodecs.hpp>
 
 #include "tools/sim/renderer.h"
@@ -31,7 +31,8 @@ Eigen::Vector2d LocalXy(const Shape& s, const Eigen::Vector2d& p) {
 }
 
 bool ShapeBlocksColumn(const Shape& s, const Eigen::Vector2d& p) {
-  const double lo = std::max(s.z_m, kMapMinObstacleHeightM), hi = std::min(s.Top(), kMapMaxObstacleHeightM);
+  const double lo = std::max(s.z_m, kMapMinObstacleHeightM),
+               hi = std::min(s.Top(), kMapMaxObstacleHeightM);
   if (hi < lo - 1e-9) return false;
   switch (s.type) {
     case ShapeType::kBox: {
@@ -58,7 +59,8 @@ bool InsideShape(const Shape& s, const Eigen::Vector3d& p) {
       return std::abs(q.x()) <= s.size.x() / 2 && std::abs(q.y()) <= s.size.y() / 2;
     }
     case ShapeType::kCylinder:
-      return p.z() >= s.z_m && p.z() <= s.Top() && (p.head<2>() - s.center).norm() <= s.size.x() / 2;
+      return p.z() >= s.z_m && p.z() <= s.Top() &&
+             (p.head<2>() - s.center).norm() <= s.size.x() / 2;
     case ShapeType::kSphere: {
       const double r = s.size.z() / 2;
       return (p - Eigen::Vector3d(s.center.x(), s.center.y(), s.z_m + r)).norm() <= r;
@@ -95,7 +97,8 @@ bool SequenceOptions::IsValid(std::string* error) const {
     if (error) *error = "SequenceOptions::" + m;
     return false;
   };
-  if (frames == 0 || frames < -1) return fail("frames = " + std::to_string(frames) + ": must be >= 1 or -1");
+  if (frames == 0 || frames < -1)
+    return fail("frames = " + std::to_string(frames) + ": must be >= 1 or -1");
   if (!(map_resolution_m > 0)) return fail("map_resolution_m: must be > 0");
   if (!(octomap_resolution_m > 0)) return fail("octomap_resolution_m: must be > 0");
   return true;
@@ -118,13 +121,14 @@ bool InsideStaticObstacle(const Scene& scene, const Eigen::Vector3d& p) {
   return false;
 }
 
-OccupancyGrid StaticObstacleGrid(const Scene& scene, const Pose2& world_from_map, double resolution_m) {
+OccupancyGrid StaticObstacleGrid(const Scene& scene, const Pose2& world_from_map,
+                                 double resolution_m) {
   const Pose2 map_from_world = world_from_map.Inverse();
   const Rect& b = scene.bounds;
   const double inf = std::numeric_limits<double>::infinity();
   Eigen::Vector2d lo(inf, inf), hi = -lo;
   for (const Eigen::Vector2d& corner : {b.min, b.max, Eigen::Vector2d(b.min.x(), b.max.y()),
-                                       Eigen::Vector2d(b.max.x(), b.min.y())}) {
+                                        Eigen::Vector2d(b.max.x(), b.min.y())}) {
     const Eigen::Vector2d q = map_from_world * corner;
     lo = lo.cwiseMin(q);
     hi = hi.cwiseMax(q);
@@ -151,8 +155,10 @@ OccupancyGrid StaticObstacleGrid(const Scene& scene, const Pose2& world_from_map
           blocked = ColumnBlocked(scene, in_world);
         }
       }
-      if (blocked) grid.At(col, row) = kCellOccupied;
-      else if (inside) grid.At(col, row) = kCellFree;
+      if (blocked)
+        grid.At(col, row) = kCellOccupied;
+      else if (inside)
+        grid.At(col, row) = kCellFree;
     }
   }
   return grid;
@@ -162,7 +168,8 @@ bool WriteMapServer(const OccupancyGrid& grid, const std::string& yaml_path, std
   const GridGeometry& g = grid.geometry;
   const fs::path yaml(yaml_path);
   const fs::path pgm = fs::path(yaml).replace_extension(".pgm");
-  std::string pgm_data = "P5\n" + std::to_string(g.width) + " " + std::to_string(g.height) + "\n255\n";
+  std::string pgm_data =
+      "P5\n" + std::to_string(g.width) + " " + std::to_string(g.height) + "\n255\n";
   for (int row = g.height - 1; row >= 0; --row) {  // top row = highest y
     for (int col = 0; col < g.width; ++col) {
       const std::int8_t c = grid.At(col, row);
@@ -199,16 +206,20 @@ bool WriteObstacleOctree(const Scene& scene, const Pose2& world_from_map, double
     for (unsigned kx = lo[0]; kx <= hi[0]; ++kx) {
       for (unsigned ky = lo[1]; ky <= hi[1]; ++ky) {
         for (unsigned kz = lo[2]; kz <= hi[2]; ++kz) {
-          const octomap::OcTreeKey key(static_cast<octomap::key_type>(kx), static_cast<octomap::key_type>(ky),
+          const octomap::OcTreeKey key(static_cast<octomap::key_type>(kx),
+                                       static_cast<octomap::key_type>(ky),
                                        static_cast<octomap::key_type>(kz));
           const octomap::point3d centre = tree.keyToCoord(key);
           bool hit = false;
           for (int i = 0; i < kSub * kSub * kSub && !hit; ++i) {
-            const double ox = ((i % kSub) + 0.5) / kSub - 0.5, oy = ((i / kSub % kSub) + 0.5) / kSub - 0.5,
+            const double ox = ((i % kSub) + 0.5) / kSub - 0.5,
+                         oy = ((i / kSub % kSub) + 0.5) / kSub - 0.5,
                          oz = ((i / (kSub * kSub)) + 0.5) / kSub - 0.5;
-            const Eigen::Vector2d in_world = world_from_map * Eigen::Vector2d(centre.x() + ox * resolution_m,
-                                                                               centre.y() + oy * resolution_m);
-            hit = InsideShape(s, Eigen::Vector3d(in_world.x(), in_world.y(), centre.z() + oz * resolution_m));
+            const Eigen::Vector2d in_world =
+                world_from_map *
+                Eigen::Vector2d(centre.x() + ox * resolution_m, centre.y() + oy * resolution_m);
+            hit = InsideShape(
+                s, Eigen::Vector3d(in_world.x(), in_world.y(), centre.z() + oz * resolution_m));
           }
           if (hit) tree.updateNode(key, true);
         }
@@ -230,8 +241,8 @@ std::string TumLine(double time_s, const Pose2& pose) {
   return line;
 }
 
-bool GenerateSequence(const Scene& scene_in, const std::string& out_dir, const SequenceOptions& options,
-                      std::string* error) {
+bool GenerateSequence(const Scene& scene_in, const std::string& out_dir,
+                      const SequenceOptions& options, std::string* error) {
   if (!options.IsValid(error)) return false;
   Scene scene = scene_in;
   if (options.seed) scene.seed = *options.seed;

@@ -14,9 +14,9 @@ inline constexpr double kMapMinObstacleHeightM = 0.02;
 inline constexpr double kMapMaxObstacleHeightM = 1.0;
 
 struct SequenceOptions {
-  int frames = -1;               // frames to render, >= 1; -1: scene.NumFrames()
-  std::optional<unsigned> seed;  // overrides the scene's seed
-  double map_resolution_m = 0.05;    // gt map cells, > 0
+  int frames = -1;                     // frames to render, >= 1; -1: scene.NumFrames()
+  std::optional<unsigned> seed;        // overrides the scene's seed
+  double map_resolution_m = 0.05;      // gt map cells, > 0
   double octomap_resolution_m = 0.05;  // gt OctoMap voxels, > 0
 
   bool IsValid(std::string* error) const;
@@ -27,8 +27,8 @@ struct SequenceOptions {
 //   gt/labels|height|depth/NNNNNN.png, gt/trajectory.txt (TUM, map frame = base at frame 0),
 //   gt/map.yaml + gt/map.pgm (map_server trinary), gt/obstacles.bt (OctoMap).
 // Creates the folders. Returns false with a message naming the file on failure.
-bool GenerateSequence(const Scene& scene, const std::string& out_dir, const SequenceOptions& options,
-                      std::string* error);
+bool GenerateSequence(const Scene& scene, const std::string& out_dir,
+                      const SequenceOptions& options, std::string* error);
 
 // True when a static obstacle occupies the vertical column at the world point between
 // kMapMinObstacleHeightM and kMapMaxObstacleHeightM, or the floor drops off there.

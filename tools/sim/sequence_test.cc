@@ -1,16 +1,16 @@
 #include "tools/sim/sequence.h"
 
+#include <gtest/gtest.h>
+#include <octomap/OcTree.h>
+#include <yaml-cpp/yaml.h>
+
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <opencv2/imgcodecs.hpp>
 #include <sstream>
 #include <string>
 #include <vector>
-
-#include <gtest/gtest.h>
-#include <octomap/OcTree.h>
-#include <opencv2/imgcodecs.hpp>
-#include <yaml-cpp/yaml.h>
 
 #include "tools/sim/renderer.h"
 
@@ -74,9 +74,12 @@ TEST_F(SequenceTest, FolderLayoutIsComplete) {
     EXPECT_EQ(image.type(), CV_8UC1);
     EXPECT_EQ(image.cols, 160);
     EXPECT_EQ(image.rows, 120);
-    EXPECT_EQ(cv::imread((out / "gt/labels" / name).string(), cv::IMREAD_UNCHANGED).type(), CV_8UC1);
-    EXPECT_EQ(cv::imread((out / "gt/height" / name).string(), cv::IMREAD_UNCHANGED).type(), CV_16UC1);
-    EXPECT_EQ(cv::imread((out / "gt/depth" / name).string(), cv::IMREAD_UNCHANGED).type(), CV_16UC1);
+    EXPECT_EQ(cv::imread((out / "gt/labels" / name).string(), cv::IMREAD_UNCHANGED).type(),
+              CV_8UC1);
+    EXPECT_EQ(cv::imread((out / "gt/height" / name).string(), cv::IMREAD_UNCHANGED).type(),
+              CV_16UC1);
+    EXPECT_EQ(cv::imread((out / "gt/depth" / name).string(), cv::IMREAD_UNCHANGED).type(),
+              CV_16UC1);
   }
   EXPECT_FALSE(fs::exists(out / "images/000004.png"));
   const auto times = ReadLines(out / "times.txt");
@@ -94,7 +97,8 @@ TEST_F(SequenceTest, FolderLayoutIsComplete) {
 TEST_F(SequenceTest, TrajectoryStartsAtIdentityInTheMapFrame) {
   const auto lines = ReadLines(*out_ / "gt/trajectory.txt");
   ASSERT_EQ(lines.size(), 4u);
-  EXPECT_EQ(lines[0], "0.000000 0.000000 0.000000 0.000000 0.000000 0.000000 0.000000000 1.000000000");
+  EXPECT_EQ(lines[0],
+            "0.000000 0.000000 0.000000 0.000000 0.000000 0.000000 0.000000000 1.000000000");
   // Frame 3 at t = 0.2 s: 0.1 m straight ahead of the start (the robot faces world +y, map +x).
   std::istringstream in(lines[3]);
   double t, x, y, z, qx, qy, qz, qw;
@@ -122,12 +126,12 @@ TEST_F(SequenceTest, GroundTruthMapMarksObstaclesDropsFreeAndUnknown) {
     const int row_from_bottom = static_cast<int>(std::floor((my - oy) / 0.05));
     return static_cast<int>(pgm.at<std::uint8_t>(pgm.rows - 1 - row_from_bottom, col));
   };
-  EXPECT_EQ(value(2.0, 1.0), 0);      // box 0.3 m tall
-  EXPECT_EQ(value(2.0, 0.0), 254);    // 1 cm strip: below 2 cm, free
-  EXPECT_EQ(value(3.25, 1.25), 0);    // drop-off
-  EXPECT_EQ(value(3.0, 0.0), 254);    // the mover's path is free in the static map
-  EXPECT_EQ(value(1.5, -0.5), 254);   // plain floor
-  EXPECT_EQ(value(0.3, 0.0), 205);    // outside the bounds
+  EXPECT_EQ(value(2.0, 1.0), 0);     // box 0.3 m tall
+  EXPECT_EQ(value(2.0, 0.0), 254);   // 1 cm strip: below 2 cm, free
+  EXPECT_EQ(value(3.25, 1.25), 0);   // drop-off
+  EXPECT_EQ(value(3.0, 0.0), 254);   // the mover's path is free in the static map
+  EXPECT_EQ(value(1.5, -0.5), 254);  // plain floor
+  EXPECT_EQ(value(0.3, 0.0), 205);   // outside the bounds
   EXPECT_EQ(value(4.2, 0.0), 205);
 }
 
@@ -143,7 +147,7 @@ TEST_F(SequenceTest, OctomapHoldsTheStaticObstacles) {
   EXPECT_TRUE(occupied(2.0, 0.0, 0.005));  // the thin strip has voxels too
   EXPECT_FALSE(occupied(2.0, 1.0, 0.45));
   EXPECT_FALSE(occupied(1.5, -0.5, 0.1));
-  EXPECT_FALSE(occupied(3.0, 0.0, 1.0));   // movers are not in it
+  EXPECT_FALSE(occupied(3.0, 0.0, 1.0));  // movers are not in it
 }
 
 TEST_F(SequenceTest, FramesOnDiskMatchRenderFrame) {
@@ -152,11 +156,13 @@ TEST_F(SequenceTest, FramesOnDiskMatchRenderFrame) {
   options.noise_seed = 2;
   const RenderedFrame frame = renderer.RenderAtTime(2 / scene_.fps, options);
   const cv::Mat image = cv::imread((*out_ / "images/000002.png").string(), cv::IMREAD_UNCHANGED);
-  const cv::Mat height = cv::imread((*out_ / "gt/height/000002.png").string(), cv::IMREAD_UNCHANGED);
+  const cv::Mat height =
+      cv::imread((*out_ / "gt/height/000002.png").string(), cv::IMREAD_UNCHANGED);
   EXPECT_EQ(cv::norm(image, frame.image, cv::NORM_INF), 0.0);
   EXPECT_EQ(cv::norm(height, frame.height, cv::NORM_INF), 0.0);
   // Every label is one of the documented values and the floor is present.
-  const cv::Mat labels = cv::imread((*out_ / "gt/labels/000002.png").string(), cv::IMREAD_UNCHANGED);
+  const cv::Mat labels =
+      cv::imread((*out_ / "gt/labels/000002.png").string(), cv::IMREAD_UNCHANGED);
   double max_label = 0;
   cv::minMaxLoc(labels, nullptr, &max_label);
   EXPECT_LE(max_label, 4.0);

@@ -2,9 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
-#include <random>
-
 #include <opencv2/imgproc.hpp>
+#include <random>
 
 namespace monoplane::sim {
 namespace {
@@ -79,7 +78,8 @@ cv::Mat1f Bake(Material material, std::mt19937* rng) {
         for (int x = 0; x < kSize; ++x) {
           const bool in_grout = (x % tile) < grout || (y % tile) < grout;
           t(y, x) = in_grout ? 0.33f + 0.02f * white(y, x)
-                             : tone[(y / tile) * 4 + x / tile] + 0.03f * fine(y, x) + 0.015f * white(y, x);
+                             : tone[(y / tile) * 4 + x / tile] + 0.03f * fine(y, x) +
+                                   0.015f * white(y, x);
         }
       }
       break;
@@ -99,8 +99,9 @@ cv::Mat1f Bake(Material material, std::mt19937* rng) {
           const bool joint = (y % width) == 0 || (xs % length) == 0;
           const float grain = std::sin(2.0f * static_cast<float>(M_PI) *
                                        (static_cast<float>(y % width) / 9.0f + 1.5f * warp(y, x)));
-          t(y, x) = joint ? 0.22f
-                          : tone[row * (kSize / length + 1) + plank] + 0.06f * grain + 0.03f * fine(y, x);
+          t(y, x) =
+              joint ? 0.22f
+                    : tone[row * (kSize / length + 1) + plank] + 0.06f * grain + 0.03f * fine(y, x);
         }
       }
       break;

@@ -1,13 +1,12 @@
 #pragma once
 
+#include <Eigen/Core>
 #include <algorithm>
 #include <bit>
-#include <cstdint>
 #include <cmath>
-#include <vector>
-
-#include <Eigen/Core>
+#include <cstdint>
 #include <opencv2/core.hpp>
+#include <vector>
 
 #include "tools/sim/scene.h"
 
@@ -27,7 +26,8 @@ class MipTexture {
   // Albedo at a point in pattern metres for a footprint (pixel extent on the surface): the
   // footprint's long axis `major_m` (a 2-D vector) and its short extent `minor_m`. Up to three
   // trilinear probes along the long axis (anisotropic filtering).
-  float Sample(const Eigen::Vector2d& point_m, const Eigen::Vector2d& major_m, double minor_m) const;
+  float Sample(const Eigen::Vector2d& point_m, const Eigen::Vector2d& major_m,
+               double minor_m) const;
   // Isotropic trilinear sample.
   float SampleIso(const Eigen::Vector2d& point_m, double footprint_m) const;
 
@@ -93,7 +93,7 @@ inline float MipTexture::SampleIso(const Eigen::Vector2d& point_m, double footpr
 }
 
 inline float MipTexture::Sample(const Eigen::Vector2d& point_m, const Eigen::Vector2d& major_m,
-                         double minor_m) const {
+                                double minor_m) const {
   const double inv = 1.0 / texel_m_;
   const double major = major_m.norm() * inv, minor = std::max(minor_m * inv, 1e-6);
   // Probes along the long axis; the level is chosen so that the probes together cover it.
@@ -101,7 +101,8 @@ inline float MipTexture::Sample(const Eigen::Vector2d& point_m, const Eigen::Vec
   const double lod = texture_internal::FastLog2(std::max(minor, major / n));
   const float u = static_cast<float>(point_m.x() * inv), v = static_cast<float>(point_m.y() * inv);
   if (n == 1) return Trilinear(u, v, lod);
-  const float step_u = static_cast<float>(major_m.x() * inv / n), step_v = static_cast<float>(major_m.y() * inv / n);
+  const float step_u = static_cast<float>(major_m.x() * inv / n),
+              step_v = static_cast<float>(major_m.y() * inv / n);
   const float start = 0.5f - 0.5f * static_cast<float>(n);
   float sum = 0.0f;
   for (int i = 0; i < n; ++i) {
