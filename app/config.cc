@@ -1,10 +1,10 @@
 #include "app/config.h"
 
+#include <yaml-cpp/yaml.h>
+
 #include <fstream>
 #include <sstream>
 #include <type_traits>
-
-#include <yaml-cpp/yaml.h>
 
 namespace monoplane::app {
 namespace {
@@ -41,45 +41,68 @@ bool PublishOptions::IsValid(std::string* error) const {
 OptionTable::OptionTable(AppConfig* config) : config_(config) {
   DetectorOptions& d = config->detector;
   GroundMotionOptions& gm = d.ground_motion;
-  AddDouble("ground_motion", "strip_min_x_m", &gm.strip_min_x_m, "floor strip for the motion fit: nearest x, m (>= 0)");
-  AddDouble("ground_motion", "strip_max_x_m", &gm.strip_max_x_m, "floor strip: farthest x, m (> strip_min_x_m)");
-  AddDouble("ground_motion", "strip_half_width_m", &gm.strip_half_width_m, "floor strip: half width, m (> 0)");
+  AddDouble("ground_motion", "strip_min_x_m", &gm.strip_min_x_m,
+            "floor strip for the motion fit: nearest x, m (>= 0)");
+  AddDouble("ground_motion", "strip_max_x_m", &gm.strip_max_x_m,
+            "floor strip: farthest x, m (> strip_min_x_m)");
+  AddDouble("ground_motion", "strip_half_width_m", &gm.strip_half_width_m,
+            "floor strip: half width, m (> 0)");
   AddInt("ground_motion", "max_corners", &gm.max_corners, "Shi-Tomasi corners per frame (> 0)");
-  AddDouble("ground_motion", "corner_quality", &gm.corner_quality, "corner quality relative to the best (0, 1)");
-  AddDouble("ground_motion", "corner_min_distance_px", &gm.corner_min_distance_px, "corner spacing, px (>= 0)");
-  AddInt("ground_motion", "lk_window_px", &gm.lk_window_px, "Lucas-Kanade window side, px (odd, >= 5)");
+  AddDouble("ground_motion", "corner_quality", &gm.corner_quality,
+            "corner quality relative to the best (0, 1)");
+  AddDouble("ground_motion", "corner_min_distance_px", &gm.corner_min_distance_px,
+            "corner spacing, px (>= 0)");
+  AddInt("ground_motion", "lk_window_px", &gm.lk_window_px,
+         "Lucas-Kanade window side, px (odd, >= 5)");
   AddInt("ground_motion", "lk_levels", &gm.lk_levels, "Lucas-Kanade pyramid levels [0, 6]");
-  AddDouble("ground_motion", "forward_backward_max_px", &gm.forward_backward_max_px, "forward-backward tracking check, px (> 0)");
+  AddDouble("ground_motion", "forward_backward_max_px", &gm.forward_backward_max_px,
+            "forward-backward tracking check, px (> 0)");
   AddInt("ground_motion", "ransac_iterations", &gm.ransac_iterations, "RANSAC iterations (> 0)");
-  AddDouble("ground_motion", "inlier_threshold_px", &gm.inlier_threshold_px, "RANSAC inlier threshold in image 2, px (> 0)");
+  AddDouble("ground_motion", "inlier_threshold_px", &gm.inlier_threshold_px,
+            "RANSAC inlier threshold in image 2, px (> 0)");
   AddInt("ground_motion", "min_inliers", &gm.min_inliers, "inliers needed to trust the fit (>= 2)");
-  AddDouble("ground_motion", "min_inlier_ratio", &gm.min_inlier_ratio, "inlier share needed (0, 1]");
+  AddDouble("ground_motion", "min_inlier_ratio", &gm.min_inlier_ratio,
+            "inlier share needed (0, 1]");
   AddUnsigned("ground_motion", "seed", &gm.seed, "RANSAC random seed");
   ZeroDisparityOptions& zd = d.zero_disparity;
-  AddInt("zero_disparity", "finest_level", &zd.finest_level, "finest pyramid level searched [0, 3]");
+  AddInt("zero_disparity", "finest_level", &zd.finest_level,
+         "finest pyramid level searched [0, 3]");
   AddInt("zero_disparity", "num_levels", &zd.num_levels, "pyramid levels, coarse to fine [1, 6]");
-  AddInt("zero_disparity", "iterations_per_level", &zd.iterations_per_level, "Gauss-Newton steps per level [1, 10]");
+  AddInt("zero_disparity", "iterations_per_level", &zd.iterations_per_level,
+         "Gauss-Newton steps per level [1, 10]");
   AddInt("zero_disparity", "window_px", &zd.window_px, "aggregation window side, px (odd, >= 3)");
-  AddDouble("zero_disparity", "max_step_px", &zd.max_step_px, "largest step per iteration, px (> 0)");
+  AddDouble("zero_disparity", "max_step_px", &zd.max_step_px,
+            "largest step per iteration, px (> 0)");
   AddDouble("zero_disparity", "damping", &zd.damping, "step damping, grey^2/px^2 (>= 0)");
   ClassificationOptions& c = d.classification;
-  AddInt("classification", "sample_stride", &c.sample_stride, "sample spacing on the search level, px (>= 1)");
-  AddDouble("classification", "obstacle_min_height_m", &c.obstacle_min_height_m, "obstacle at or above this height, m (> 0)");
-  AddDouble("classification", "drop_off_min_depth_m", &c.drop_off_min_depth_m, "drop-off at or below minus this, m (> 0)");
-  AddDouble("classification", "disparity_sigma_px", &c.disparity_sigma_px, "smallest zero-disparity error assumed, px (> 0)");
-  AddDouble("classification", "min_disparity_sigmas", &c.min_disparity_sigmas, "significance of an obstacle, sigmas (>= 0)");
-  AddDouble("classification", "min_texture", &c.min_texture, "texture along the epipolar line, grey^2/px^2 (> 0)");
-  AddDouble("classification", "max_residual", &c.max_residual, "largest alignment residual, grey levels (> 0)");
-  AddDouble("classification", "moving_min_perpendicular_px", &c.moving_min_perpendicular_px, "off-epipolar motion that means moving, px (> 0)");
+  AddInt("classification", "sample_stride", &c.sample_stride,
+         "sample spacing on the search level, px (>= 1)");
+  AddDouble("classification", "obstacle_min_height_m", &c.obstacle_min_height_m,
+            "obstacle at or above this height, m (> 0)");
+  AddDouble("classification", "drop_off_min_depth_m", &c.drop_off_min_depth_m,
+            "drop-off at or below minus this, m (> 0)");
+  AddDouble("classification", "disparity_sigma_px", &c.disparity_sigma_px,
+            "smallest zero-disparity error assumed, px (> 0)");
+  AddDouble("classification", "min_disparity_sigmas", &c.min_disparity_sigmas,
+            "significance of an obstacle, sigmas (>= 0)");
+  AddDouble("classification", "min_texture", &c.min_texture,
+            "texture along the epipolar line, grey^2/px^2 (> 0)");
+  AddDouble("classification", "max_residual", &c.max_residual,
+            "largest alignment residual, grey levels (> 0)");
+  AddDouble("classification", "moving_min_perpendicular_px", &c.moving_min_perpendicular_px,
+            "off-epipolar motion that means moving, px (> 0)");
   AddDouble("classification", "max_range_m", &c.max_range_m, "farther points are unknown, m (> 0)");
-  AddDouble("classification", "max_footprint_sigma_ratio", &c.max_footprint_sigma_ratio, "obstacle points enter the top view when placed within 0.05 m + this x range (>= 0)");
+  AddDouble("classification", "max_footprint_sigma_ratio", &c.max_footprint_sigma_ratio,
+            "obstacle points enter the top view when placed within 0.05 m + this x range (>= 0)");
   aggregation_ = static_cast<int>(c.aggregation);
   AddChoice("classification", "aggregation", &aggregation_, {"none", "median", "segments"},
             "how samples are combined: none, median (neighbours) or segments (superpixels)");
-  AddInt("classification", "median_radius", &c.median_radius, "median neighbourhood radius, samples (>= 1)");
+  AddInt("classification", "median_radius", &c.median_radius,
+         "median neighbourhood radius, samples (>= 1)");
   AddDouble("classification", "segment_size_px", &c.segment_size_px, "superpixel side, px (>= 4)");
   AddInt("classification", "segment_iterations", &c.segment_iterations, "SLIC iterations (>= 1)");
-  AddInt("classification", "segment_min_samples", &c.segment_min_samples, "measured samples a segment needs (>= 1)");
+  AddInt("classification", "segment_min_samples", &c.segment_min_samples,
+         "measured samples a segment needs (>= 1)");
   LocalMapOptions& lm = d.local_map;
   AddDouble("local_map", "resolution_m", &lm.resolution_m, "cell side, m (> 0)");
   AddDouble("local_map", "min_x_m", &lm.min_x_m, "extent behind the base origin, m");
@@ -87,61 +110,102 @@ OptionTable::OptionTable(AppConfig* config) : config_(config) {
   AddDouble("local_map", "min_y_m", &lm.min_y_m, "extent to the right, m");
   AddDouble("local_map", "max_y_m", &lm.max_y_m, "extent to the left, m (> min_y_m)");
   PairSelectionOptions& ps = d.pair_selection;
-  AddDouble("pair_selection", "min_baseline_m", &ps.min_baseline_m, "camera travel between the frames of a pair, m (> 0)");
-  AddInt("pair_selection", "max_history", &ps.max_history, "frames kept to choose a reference from (>= 2)");
-  AddDouble("pair_selection", "max_rotation_rad", &ps.max_rotation_rad, "largest yaw between the frames of a pair, rad (> 0)");
-  AddInt("pair_selection", "detect_every", &ps.detect_every, "dense detection on every N-th frame, others tracked only (>= 1)");
+  AddDouble("pair_selection", "min_baseline_m", &ps.min_baseline_m,
+            "camera travel between the frames of a pair, m (> 0)");
+  AddInt("pair_selection", "max_history", &ps.max_history,
+         "frames kept to choose a reference from (>= 2)");
+  AddDouble("pair_selection", "max_rotation_rad", &ps.max_rotation_rad,
+            "largest yaw between the frames of a pair, rad (> 0)");
+  AddInt("pair_selection", "detect_every", &ps.detect_every,
+         "dense detection on every N-th frame, others tracked only (>= 1)");
   FloorFeatureOptions& ff = d.floor_features;
-  AddBool("floor_features", "enabled", &ff.enabled, "floor descriptors on every detected frame, for loop closure");
+  AddBool("floor_features", "enabled", &ff.enabled,
+          "floor descriptors on every detected frame, for loop closure");
   AddInt("floor_features", "max_features", &ff.max_features, "floor keypoints per frame (>= 1)");
   Mapper::Options& m = config->mapping;
-  AddDouble("mapping", "keyframe_distance_m", &m.keyframe_distance_m, "travel that makes a keyframe, m (> 0)");
-  AddDouble("mapping", "keyframe_rotation_rad", &m.keyframe_rotation_rad, "rotation that makes a keyframe, rad (> 0)");
-  AddDouble("mapping", "keyframe_min_shared_tracks", &m.keyframe_min_shared_tracks, "early keyframe below this share of tracks [0, 1]");
-  AddDouble("mapping", "odom_sigma_per_m", &m.odom_sigma_per_m, "odometry translation noise per metre (> 0)");
-  AddDouble("mapping", "odom_yaw_sigma_per_rad", &m.odom_yaw_sigma_per_rad, "odometry yaw noise per radian (> 0)");
-  AddInt("mapping", "window_size", &m.window_size, "keyframes per sliding-window adjustment (>= 2)");
-  AddBool("mapping", "refine_camera", &m.window.refine_camera, "refine camera height, pitch and roll in the window");
-  AddDouble("mapping", "pixel_sigma_px", &m.window.pixel_sigma_px, "feature noise in the window, px (> 0)");
-  AddBool("mapping", "loop_closure", &m.loop_closure, "match keyframes against older ones near them");
-  AddDouble("mapping", "loop_min_travel_m", &m.loop_min_travel_m, "path length before a place may close a loop, m (>= 0)");
-  AddDouble("mapping", "loop_candidate_radius_m", &m.loop_candidate_radius_m, "loop candidates within this of the estimate, m (> 0)");
-  AddDouble("mapping", "loop_min_score", &m.loop_match.min_score, "scan-match score a loop needs [0, 1]");
-  AddDouble("mapping", "loop_max_second_ratio", &m.loop_match.max_second_ratio, "second-best / best score allowed (0, 1]");
-  AddDouble("mapping", "loop_linear_window_m", &m.loop_match.linear_window_m, "loop search window in x and y, m (>= 0)");
-  AddDouble("mapping", "loop_angular_window_rad", &m.loop_match.angular_window_rad, "loop search window in yaw, rad (>= 0)");
-  AddBool("mapping", "floor_loop_closure", &m.floor_loop_closure, "close loops on floor features first (scan matching when none is confident)");
-  AddInt("mapping", "floor_min_inliers", &m.floor_match.min_inliers, "floor-feature inliers a loop needs (>= 2)");
-  AddDouble("mapping", "floor_inlier_threshold_m", &m.floor_match.inlier_threshold_m, "floor RANSAC inlier threshold, m (> 0)");
-  AddDouble("mapping", "floor_gate_m", &m.floor_match.gate_m, "floor features match within this of where the estimate puts them, m (> 0)");
-  AddDouble("mapping", "grid_resolution_m", &m.grid_resolution_m, "global grid cell side, m (> 0; a saved map keeps its own)");
-  AddFloat("mapping", "log_odds_hit", &m.log_odds.hit, "log-odds added for an occupied observation (> 0)");
-  AddFloat("mapping", "log_odds_miss", &m.log_odds.miss, "log-odds added for a free observation (< 0)");
+  AddDouble("mapping", "keyframe_distance_m", &m.keyframe_distance_m,
+            "travel that makes a keyframe, m (> 0)");
+  AddDouble("mapping", "keyframe_rotation_rad", &m.keyframe_rotation_rad,
+            "rotation that makes a keyframe, rad (> 0)");
+  AddDouble("mapping", "keyframe_min_shared_tracks", &m.keyframe_min_shared_tracks,
+            "early keyframe below this share of tracks [0, 1]");
+  AddDouble("mapping", "odom_sigma_per_m", &m.odom_sigma_per_m,
+            "odometry translation noise per metre (> 0)");
+  AddDouble("mapping", "odom_yaw_sigma_per_rad", &m.odom_yaw_sigma_per_rad,
+            "odometry yaw noise per radian (> 0)");
+  AddInt("mapping", "window_size", &m.window_size,
+         "keyframes per sliding-window adjustment (>= 2)");
+  AddBool("mapping", "refine_camera", &m.window.refine_camera,
+          "refine camera height, pitch and roll in the window");
+  AddDouble("mapping", "pixel_sigma_px", &m.window.pixel_sigma_px,
+            "feature noise in the window, px (> 0)");
+  AddBool("mapping", "loop_closure", &m.loop_closure,
+          "match keyframes against older ones near them");
+  AddDouble("mapping", "loop_min_travel_m", &m.loop_min_travel_m,
+            "path length before a place may close a loop, m (>= 0)");
+  AddDouble("mapping", "loop_candidate_radius_m", &m.loop_candidate_radius_m,
+            "loop candidates within this of the estimate, m (> 0)");
+  AddDouble("mapping", "loop_min_score", &m.loop_match.min_score,
+            "scan-match score a loop needs [0, 1]");
+  AddDouble("mapping", "loop_max_second_ratio", &m.loop_match.max_second_ratio,
+            "second-best / best score allowed (0, 1]");
+  AddDouble("mapping", "loop_linear_window_m", &m.loop_match.linear_window_m,
+            "loop search window in x and y, m (>= 0)");
+  AddDouble("mapping", "loop_angular_window_rad", &m.loop_match.angular_window_rad,
+            "loop search window in yaw, rad (>= 0)");
+  AddBool("mapping", "floor_loop_closure", &m.floor_loop_closure,
+          "close loops on floor features first (scan matching when none is confident)");
+  AddInt("mapping", "floor_min_inliers", &m.floor_match.min_inliers,
+         "floor-feature inliers a loop needs (>= 2)");
+  AddDouble("mapping", "floor_inlier_threshold_m", &m.floor_match.inlier_threshold_m,
+            "floor RANSAC inlier threshold, m (> 0)");
+  AddDouble("mapping", "floor_gate_m", &m.floor_match.gate_m,
+            "floor features match within this of where the estimate puts them, m (> 0)");
+  AddDouble("mapping", "grid_resolution_m", &m.grid_resolution_m,
+            "global grid cell side, m (> 0; a saved map keeps its own)");
+  AddFloat("mapping", "log_odds_hit", &m.log_odds.hit,
+           "log-odds added for an occupied observation (> 0)");
+  AddFloat("mapping", "log_odds_miss", &m.log_odds.miss,
+           "log-odds added for a free observation (< 0)");
   AddFloat("mapping", "log_odds_min", &m.log_odds.min, "log-odds clamp below (< 0)");
   AddFloat("mapping", "log_odds_max", &m.log_odds.max, "log-odds clamp above (> 0)");
   AddBool("mapping", "build_octree", &m.build_octree, "build the 3-D OctoMap");
-  AddDouble("mapping", "octree_resolution_m", &m.octree.resolution_m, "OctoMap voxel side, m (> 0)");
-  AddDouble("mapping", "octree_max_range_m", &m.octree.max_range_m, "longest ray inserted into the OctoMap, m (> 0)");
-  AddDouble("mapping", "localization_window_m", &m.localization_match.linear_window_m, "search +- this around start when extending a map, m (>= 0)");
-  AddDouble("mapping", "localization_window_rad", &m.localization_match.angular_window_rad, "search +- this in yaw when extending a map, rad (>= 0)");
+  AddDouble("mapping", "octree_resolution_m", &m.octree.resolution_m,
+            "OctoMap voxel side, m (> 0)");
+  AddDouble("mapping", "octree_max_range_m", &m.octree.max_range_m,
+            "longest ray inserted into the OctoMap, m (> 0)");
+  AddDouble("mapping", "localization_window_m", &m.localization_match.linear_window_m,
+            "search +- this around start when extending a map, m (>= 0)");
+  AddDouble("mapping", "localization_window_rad", &m.localization_match.angular_window_rad,
+            "search +- this in yaw when extending a map, rad (>= 0)");
   AddDouble("start", "x_m", &config->start.x_m, "extending a map: map x of the first frame, m");
   AddDouble("start", "y_m", &config->start.y_m, "extending a map: map y of the first frame, m");
-  AddDouble("start", "yaw_rad", &config->start.yaw_rad, "extending a map: map yaw of the first frame, rad");
+  AddDouble("start", "yaw_rad", &config->start.yaw_rad,
+            "extending a map: map yaw of the first frame, rad");
   MapDatabase::Options& st = config->storage;
-  AddBool("storage", "synchronous_full", &st.synchronous_full, "fsync every commit (survives power loss; slower)");
-  AddInt("storage", "busy_timeout_ms", &st.busy_timeout_ms, "wait for another writer's lock, ms (>= 0)");
-  AddInt("storage", "compression_level", &st.compression_level, "zlib level of stored tiles [0, 9]");
-  AddInt64("storage", "max_page_count", &st.max_page_count, "cap on the map file size in pages (0: none)");
+  AddBool("storage", "synchronous_full", &st.synchronous_full,
+          "fsync every commit (survives power loss; slower)");
+  AddInt("storage", "busy_timeout_ms", &st.busy_timeout_ms,
+         "wait for another writer's lock, ms (>= 0)");
+  AddInt("storage", "compression_level", &st.compression_level,
+         "zlib level of stored tiles [0, 9]");
+  AddInt64("storage", "max_page_count", &st.max_page_count,
+           "cap on the map file size in pages (0: none)");
   PublishOptions& p = config->dds;
   AddInt("dds", "domain_id", &p.publisher.domain_id, "DDS domain id [0, 232]");
-  AddString("dds", "topic_prefix", &p.publisher.topic_prefix, "topics rt/<prefix>/map ...; empty: rt/map");
+  AddString("dds", "topic_prefix", &p.publisher.topic_prefix,
+            "topics rt/<prefix>/map ...; empty: rt/map");
   AddString("dds", "map_frame", &p.publisher.map_frame, "frame id of the map");
   AddString("dds", "odom_frame", &p.publisher.odom_frame, "frame id of the odometry");
   AddString("dds", "base_frame", &p.publisher.base_frame, "frame id of the robot base");
-  AddDouble("dds", "max_blocking_time_s", &p.publisher.max_blocking_time_s, "longest a write may wait for a reader, s [0, 1]");
-  AddDouble("dds", "map_period_s", &p.map_period_s, "global map published at most this often, s (>= 0)");
-  AddDouble("input", "fps", &config->input.fps, "frame rate for inputs without timestamps, Hz (> 0)");
-  AddInt("output", "panels_every", &config->output.panels_every, "panels every N-th frame with --frames-out (>= 1)");
+  AddDouble("dds", "max_blocking_time_s", &p.publisher.max_blocking_time_s,
+            "longest a write may wait for a reader, s [0, 1]");
+  AddDouble("dds", "map_period_s", &p.map_period_s,
+            "global map published at most this often, s (>= 0)");
+  AddDouble("input", "fps", &config->input.fps,
+            "frame rate for inputs without timestamps, Hz (> 0)");
+  AddInt("output", "panels_every", &config->output.panels_every,
+         "panels every N-th frame with --frames-out (>= 1)");
 }
 
 namespace {
@@ -188,18 +252,17 @@ void OptionTable::AddInt(const std::string& section, const std::string& key, int
                       [target] { return std::to_string(*target); }});
 }
 
-void OptionTable::AddInt64(const std::string& section, const std::string& key,
-                           std::int64_t* target, const std::string& comment) {
+void OptionTable::AddInt64(const std::string& section, const std::string& key, std::int64_t* target,
+                           const std::string& comment) {
   auto parse = [](const std::string& v, std::size_t* used) { return std::stoll(v, used); };
   entries_.push_back({section, key, comment, NumberSetter(target, parse, "an integer"),
                       [target] { return std::to_string(*target); }});
 }
 
-void OptionTable::AddUnsigned(const std::string& section, const std::string& key,
-                              unsigned* target, const std::string& comment) {
+void OptionTable::AddUnsigned(const std::string& section, const std::string& key, unsigned* target,
+                              const std::string& comment) {
   auto parse = [](const std::string& v, std::size_t* used) { return std::stoul(v, used); };
-  entries_.push_back({section, key, comment,
-                      NumberSetter(target, parse, "a non-negative integer"),
+  entries_.push_back({section, key, comment, NumberSetter(target, parse, "a non-negative integer"),
                       [target] { return std::to_string(*target); }});
 }
 
@@ -220,8 +283,8 @@ void OptionTable::AddBool(const std::string& section, const std::string& key, bo
                       [target] { return std::string(*target ? "true" : "false"); }});
 }
 
-void OptionTable::AddString(const std::string& section, const std::string& key,
-                            std::string* target, const std::string& comment) {
+void OptionTable::AddString(const std::string& section, const std::string& key, std::string* target,
+                            const std::string& comment) {
   entries_.push_back({section, key, comment,
                       [target](const std::string& v, std::string*) {
                         *target = v;

@@ -1,15 +1,14 @@
 #pragma once
 
-// Templated residuals of the mapping layer's least-squares problems, for ceres::AutoDiffCostFunction
-// (ceres itself is included only in .cc files). Parameter blocks:
+// Templated residuals of the mapping layer's least-squares problems, for
+// ceres::AutoDiffCostFunction (ceres itself is included only in .cc files). Parameter blocks:
 //   pose[3]      = map_from_base (x_m, y_m, yaw_rad)
 //   floor[2]     = a floor landmark (x_m, y_m) in the map frame, z = 0
 //   point[3]     = an off-floor landmark (x_m, y_m, z_m) in the map frame
 //   camera[3]    = the refinable mount parameters (pitch_rad, roll_rad, height_m)
 
-#include <cmath>
-
 #include <Eigen/Core>
+#include <cmath>
 
 #include "perception/geometry/camera_calibration.h"
 
@@ -29,7 +28,10 @@ T WrapAngleT(const T& a) {
 struct RelativePoseFunctor {
   RelativePoseFunctor(double dx_m, double dy_m, double dyaw_rad, double sigma_xy_m,
                       double sigma_yaw_rad)
-      : dx_(dx_m), dy_(dy_m), dyaw_(dyaw_rad), inv_xy_(1.0 / sigma_xy_m),
+      : dx_(dx_m),
+        dy_(dy_m),
+        dyaw_(dyaw_rad),
+        inv_xy_(1.0 / sigma_xy_m),
         inv_yaw_(1.0 / sigma_yaw_rad) {}
 
   template <typename T>
@@ -99,8 +101,9 @@ bool ProjectMapPoint(const CameraFixed& cam, const T* pose, const T* camera, con
 
 // Pixel error of a map-frame point, divided by the pixel sigma.
 template <typename T>
-bool ReprojectionResidual(const CameraFixed& cam, const T* pose, const T* camera, const T* point_in_map,
-                          double u, double v, double inv_sigma, T* residual) {
+bool ReprojectionResidual(const CameraFixed& cam, const T* pose, const T* camera,
+                          const T* point_in_map, double u, double v, double inv_sigma,
+                          T* residual) {
   T pixel[2];
   ProjectMapPoint(cam, pose, camera, point_in_map, pixel);  // clamped depth behind the camera
   residual[0] = (pixel[0] - T(u)) * T(inv_sigma);
@@ -142,10 +145,15 @@ struct PointReprojectionFunctor {
 // kDim = 3: off-floor landmark (x, y, z).
 template <int kDim>
 struct FixedCameraReprojectionFunctor {
-  FixedCameraReprojectionFunctor(const Eigen::Matrix3d& k, const Eigen::Matrix3d& camera_from_base_rotation,
-                                 const Eigen::Vector3d& camera_from_base_translation, double u, double v,
-                                 double sigma_px)
-      : k_(k), r_(camera_from_base_rotation), t_(camera_from_base_translation), u_(u), v_(v),
+  FixedCameraReprojectionFunctor(const Eigen::Matrix3d& k,
+                                 const Eigen::Matrix3d& camera_from_base_rotation,
+                                 const Eigen::Vector3d& camera_from_base_translation, double u,
+                                 double v, double sigma_px)
+      : k_(k),
+        r_(camera_from_base_rotation),
+        t_(camera_from_base_translation),
+        u_(u),
+        v_(v),
         inv_sigma_(1.0 / sigma_px) {}
 
   template <typename T>
@@ -154,7 +162,8 @@ struct FixedCameraReprojectionFunctor {
     using std::sin;
     const T c = cos(pose[2]), s = sin(pose[2]);
     const T mx = point_in_map[0] - pose[0], my = point_in_map[1] - pose[1];
-    const Eigen::Matrix<T, 3, 1> p_base(c * mx + s * my, -s * mx + c * my, kDim == 3 ? point_in_map[kDim - 1] : T(0));
+    const Eigen::Matrix<T, 3, 1> p_base(c * mx + s * my, -s * mx + c * my,
+                                        kDim == 3 ? point_in_map[kDim - 1] : T(0));
     const Eigen::Matrix<T, 3, 1> p_cam = r_.cast<T>() * p_base + t_.cast<T>();
     constexpr double kMinDepthM = 0.05;
     const T z = p_cam.z() > T(kMinDepthM) ? p_cam.z() : T(kMinDepthM);
@@ -172,8 +181,8 @@ struct FixedCameraReprojectionFunctor {
 struct CameraPriorFunctor {
   CameraPriorFunctor(double pitch_rad, double roll_rad, double height_m, double sigma_angle_rad,
                      double sigma_height_m)
-      : prior_{pitch_rad, roll_rad, height_m}, inv_{1.0 / sigma_angle_rad, 1.0 / sigma_angle_rad,
-                                                    1.0 / sigma_height_m} {}
+      : prior_{pitch_rad, roll_rad, height_m},
+        inv_{1.0 / sigma_angle_rad, 1.0 / sigma_angle_rad, 1.0 / sigma_height_m} {}
 
   template <typename T>
   bool operator()(const T* camera, T* residual) const {

@@ -1,10 +1,10 @@
 #include "mapping/cost_functors.h"
 
-#include <vector>
-
 #include <ceres/ceres.h>
 #include <ceres/gradient_checker.h>
 #include <gtest/gtest.h>
+
+#include <vector>
 
 #include "perception/geometry/camera_model.h"
 
@@ -116,7 +116,8 @@ TEST(CostFunctors, FixedCameraReprojectionMatchesAndHasRightDerivatives) {
   const CameraCalibration calib = Camera();
   const CameraModel model(calib);
   const cost::CameraFixed fixed = cost::CameraFixed::From(calib);
-  double camera[3] = {calib.mount.pitch_deg * M_PI / 180, calib.mount.roll_deg * M_PI / 180, calib.mount.height_m};
+  double camera[3] = {calib.mount.pitch_deg * M_PI / 180, calib.mount.roll_deg * M_PI / 180,
+                      calib.mount.height_m};
   double pose[3] = {0.3, -0.2, 0.25}, point[3] = {2.2, 0.4, 0.35}, floor[2] = {2.0, -0.3};
   const Eigen::Matrix3d r = model.camera_from_base().linear();
   const Eigen::Vector3d t = model.camera_from_base().translation();

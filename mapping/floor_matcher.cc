@@ -2,12 +2,11 @@
 
 #include <algorithm>
 #include <bit>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <cmath>
 #include <random>
 #include <unordered_map>
-
 
 namespace monoplane {
 
@@ -15,8 +14,9 @@ namespace {
 
 // Inliers of a model: indices with |target - T * source| <= threshold, skipping those marked in
 // `exclude` (when given).
-std::vector<int> Inliers(const std::vector<Eigen::Vector2d>& source, const std::vector<Eigen::Vector2d>& target,
-                         const Pose2& t, double threshold_m, const std::vector<char>* exclude = nullptr) {
+std::vector<int> Inliers(const std::vector<Eigen::Vector2d>& source,
+                         const std::vector<Eigen::Vector2d>& target, const Pose2& t,
+                         double threshold_m, const std::vector<char>* exclude = nullptr) {
   const Eigen::Matrix2d r = t.Rotation();
   const Eigen::Vector2d p = t.Translation();
   const double t2 = threshold_m * threshold_m;
@@ -36,13 +36,17 @@ int Hamming(const std::uint8_t* a, const std::uint8_t* b, int bytes) {
 
 // A programmer's mistake: descriptors not as FloorFeatures documents them.
 void CheckDescriptors(const FloorFeatures& f, int cols) {
-  if (f.descriptors.type() != CV_8U || f.descriptors.rows != f.size() || f.descriptors.cols != cols) {
-    std::fprintf(stderr, "MatchFloorFeatures: descriptors must be CV_8U, one row of %d bytes per point\n", cols);
+  if (f.descriptors.type() != CV_8U || f.descriptors.rows != f.size() ||
+      f.descriptors.cols != cols) {
+    std::fprintf(stderr,
+                 "MatchFloorFeatures: descriptors must be CV_8U, one row of %d bytes per point\n",
+                 cols);
     std::abort();
   }
 }
 
-std::vector<Eigen::Vector2d> Select(const std::vector<Eigen::Vector2d>& points, const std::vector<int>& indices) {
+std::vector<Eigen::Vector2d> Select(const std::vector<Eigen::Vector2d>& points,
+                                    const std::vector<int>& indices) {
   std::vector<Eigen::Vector2d> out;
   out.reserve(indices.size());
   for (int i : indices) out.push_back(points[i]);
@@ -53,16 +57,20 @@ std::vector<Eigen::Vector2d> Select(const std::vector<Eigen::Vector2d>& points, 
 
 bool FloorMatchOptions::IsValid(std::string* error) const {
   auto fail = [&](const std::string& key, double value, const std::string& constraint) {
-    if (error) *error = "FloorMatchOptions::" + key + " = " + std::to_string(value) + ": must be " + constraint;
+    if (error)
+      *error =
+          "FloorMatchOptions::" + key + " = " + std::to_string(value) + ": must be " + constraint;
     return false;
   };
   if (!(gate_m > 0)) return fail("gate_m", gate_m, "> 0");
-  if (!(max_hamming >= 0 && max_hamming <= 256)) return fail("max_hamming", max_hamming, "in [0, 256]");
+  if (!(max_hamming >= 0 && max_hamming <= 256))
+    return fail("max_hamming", max_hamming, "in [0, 256]");
   if (!(ratio > 0 && ratio <= 1)) return fail("ratio", ratio, "in (0, 1]");
   if (ransac_iterations < 1) return fail("ransac_iterations", ransac_iterations, ">= 1");
   if (!(inlier_threshold_m > 0)) return fail("inlier_threshold_m", inlier_threshold_m, "> 0");
   if (min_inliers < 2) return fail("min_inliers", min_inliers, ">= 2");
-  if (!(min_inlier_ratio >= 0 && min_inlier_ratio <= 1)) return fail("min_inlier_ratio", min_inlier_ratio, "in [0, 1]");
+  if (!(min_inlier_ratio >= 0 && min_inlier_ratio <= 1))
+    return fail("min_inlier_ratio", min_inlier_ratio, "in [0, 1]");
   if (!(min_spread_m >= 0)) return fail("min_spread_m", min_spread_m, ">= 0");
   if (!(max_second_ratio >= 0 && max_second_ratio <= 1)) {
     return fail("max_second_ratio", max_second_ratio, "in [0, 1]");
@@ -72,7 +80,8 @@ bool FloorMatchOptions::IsValid(std::string* error) const {
   return true;
 }
 
-Pose2 FitSe2LeastSquares(const std::vector<Eigen::Vector2d>& source, const std::vector<Eigen::Vector2d>& target) {
+Pose2 FitSe2LeastSquares(const std::vector<Eigen::Vector2d>& source,
+                         const std::vector<Eigen::Vector2d>& target) {
   Eigen::Vector2d ms = Eigen::Vector2d::Zero(), mt = Eigen::Vector2d::Zero();
   for (std::size_t i = 0; i < source.size(); ++i) {
     ms += source[i];
@@ -95,8 +104,8 @@ Pose2 FitSe2LeastSquares(const std::vector<Eigen::Vector2d>& source, const std::
   return out;
 }
 
-Se2Fit FitSe2Ransac(const std::vector<Eigen::Vector2d>& source, const std::vector<Eigen::Vector2d>& target,
-                    const FloorMatchOptions& options) {
+Se2Fit FitSe2Ransac(const std::vector<Eigen::Vector2d>& source,
+                    const std::vector<Eigen::Vector2d>& target, const FloorMatchOptions& options) {
   Se2Fit fit;
   const int n = static_cast<int>(std::min(source.size(), target.size()));
   if (n < 2) return fit;
@@ -116,7 +125,8 @@ Se2Fit FitSe2Ransac(const std::vector<Eigen::Vector2d>& source, const std::vecto
     if (std::abs(ds.norm() - dt.norm()) > 2 * threshold || ds.norm() < 4 * threshold) continue;
     Pose2 h;
     h.yaw = WrapAngle(std::atan2(dt.y(), dt.x()) - std::atan2(ds.y(), ds.x()));
-    const Eigen::Vector2d t = 0.5 * (target[a] + target[b]) - h.Rotation() * (0.5 * (source[a] + source[b]));
+    const Eigen::Vector2d t =
+        0.5 * (target[a] + target[b]) - h.Rotation() * (0.5 * (source[a] + source[b]));
     h.x = t.x();
     h.y = t.y();
     hypotheses.push_back(h);
@@ -149,9 +159,10 @@ Se2Fit FitSe2Ransac(const std::vector<Eigen::Vector2d>& source, const std::vecto
   for (int i : inliers) taken[i] = 1;
   for (const Pose2& h : hypotheses) {
     const Pose2 d = best.Inverse() * h;
-    if (d.TranslationNorm() <= options.separation_m && std::abs(d.yaw) <= options.separation_rad) continue;
-    fit.second_inliers =
-        std::max(fit.second_inliers, static_cast<int>(Inliers(source, target, h, threshold, &taken).size()));
+    if (d.TranslationNorm() <= options.separation_m && std::abs(d.yaw) <= options.separation_rad)
+      continue;
+    fit.second_inliers = std::max(
+        fit.second_inliers, static_cast<int>(Inliers(source, target, h, threshold, &taken).size()));
   }
   fit.inliers = std::move(inliers);
   return fit;

@@ -20,7 +20,8 @@ std::vector<Eigen::Vector2d> FloorPoints(int n, std::mt19937* rng) {
 
 TEST(FloorMatcherTest, RansacRecoversMotionAmongOutliers) {
   std::mt19937 rng(7);
-  const Pose2 truth{0.83, -0.41, 1.2};  // target_from_source: 69 deg, as when a loop meets at a corner
+  const Pose2 truth{0.83, -0.41,
+                    1.2};  // target_from_source: 69 deg, as when a loop meets at a corner
   const std::vector<Eigen::Vector2d> source = FloorPoints(250, &rng);
   std::vector<Eigen::Vector2d> target;
   std::normal_distribution<double> noise(0.0, 0.002);
@@ -80,7 +81,8 @@ Pair MakePair(const Pose2& target_from_source, int shared, int own, std::mt19937
   p.source.descriptors.create(shared + own, 32, CV_8U);
   p.target.descriptors.create(shared + own, 32, CV_8U);
   for (int i = 0; i < shared + own; ++i) {
-    for (int j = 0; j < 32; ++j) p.source.descriptors.at<std::uint8_t>(i, j) = static_cast<std::uint8_t>(byte(*rng));
+    for (int j = 0; j < 32; ++j)
+      p.source.descriptors.at<std::uint8_t>(i, j) = static_cast<std::uint8_t>(byte(*rng));
     p.source.points_in_base.push_back(points[i].cast<float>());
     if (i < shared) {
       p.source.descriptors.row(i).copyTo(p.target.descriptors.row(i));
@@ -90,7 +92,8 @@ Pair MakePair(const Pose2& target_from_source, int shared, int own, std::mt19937
       }
       p.target.points_in_base.push_back((target_from_source * points[i]).cast<float>());
     } else {
-      for (int j = 0; j < 32; ++j) p.target.descriptors.at<std::uint8_t>(i, j) = static_cast<std::uint8_t>(byte(*rng));
+      for (int j = 0; j < 32; ++j)
+        p.target.descriptors.at<std::uint8_t>(i, j) = static_cast<std::uint8_t>(byte(*rng));
       p.target.points_in_base.push_back(FloorPoints(1, rng)[0].cast<float>());
     }
   }
@@ -132,17 +135,20 @@ TEST(FloorMatcherTest, PriorDisambiguatesARepeatingFloor) {
   }
   const FloorMatchOptions options;
   EXPECT_FALSE(MatchFloorFeatures(p.source, p.target, options).accepted);
-  const FloorMatchResult r = MatchFloorFeatures(p.source, p.target, options, truth * Pose2{0.15, -0.1, 0.05});
+  const FloorMatchResult r =
+      MatchFloorFeatures(p.source, p.target, options, truth * Pose2{0.15, -0.1, 0.05});
   ASSERT_TRUE(r.accepted) << r.reason;
   EXPECT_NEAR(r.target_from_source.x, truth.x, 0.001);
   EXPECT_NEAR(r.target_from_source.y, truth.y, 0.001);
   EXPECT_NEAR(r.target_from_source.yaw, truth.yaw, 0.05 * kDegToRad);
   // A prior off by a whole period finds the twin instead: the mapper bounds the correction.
-  const FloorMatchResult twin = MatchFloorFeatures(p.source, p.target, options, Pose2{1.024, 0, 0} * truth);
+  const FloorMatchResult twin =
+      MatchFloorFeatures(p.source, p.target, options, Pose2{1.024, 0, 0} * truth);
   EXPECT_TRUE(twin.accepted);
   EXPECT_NEAR(twin.target_from_source.x, truth.x + 1.024, 0.001);
   // No overlap under the prior: rejected before matching.
-  const FloorMatchResult far = MatchFloorFeatures(p.source, p.target, options, Pose2{10.0, 0, 0} * truth);
+  const FloorMatchResult far =
+      MatchFloorFeatures(p.source, p.target, options, Pose2{10.0, 0, 0} * truth);
   EXPECT_FALSE(far.accepted);
   EXPECT_EQ(far.reason, "no floor overlap");
 }

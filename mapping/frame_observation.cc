@@ -2,7 +2,8 @@
 
 namespace monoplane {
 
-FrameObservation MakeFrameObservation(const SequenceDetector::Output& output, TimestampNs stamp_ns) {
+FrameObservation MakeFrameObservation(const SequenceDetector::Output& output,
+                                      TimestampNs stamp_ns) {
   FrameObservation frame;
   frame.stamp_ns = stamp_ns;
   frame.odom_from_base = output.odom_from_base;

@@ -18,7 +18,8 @@ bool LogOddsOptions::IsValid(std::string* error) const {
   return true;
 }
 
-void FuseLocalMap(const OccupancyGrid& local_map, const std::vector<Eigen::Vector3f>& obstacle_points_in_base,
+void FuseLocalMap(const OccupancyGrid& local_map,
+                  const std::vector<Eigen::Vector3f>& obstacle_points_in_base,
                   const Pose2& map_from_base, TimestampNs stamp_ns, const LogOddsOptions& options,
                   TiledGrid* grid, std::set<TiledGrid::TileKey>* changed_tiles) {
   const GridGeometry& g = local_map.geometry;

@@ -1,10 +1,9 @@
 #pragma once
 
+#include <Eigen/Core>
 #include <set>
 #include <string>
 #include <vector>
-
-#include <Eigen/Core>
 
 #include "perception/geometry/occupancy_grid.h"
 #include "perception/geometry/pose2.h"
@@ -19,10 +18,10 @@ namespace monoplane {
 // through misses: from the max 3.5 it takes ceil((3.5 - logit(0.25)) / 0.4) = 12 misses to read
 // free (p <= 0.25) with the defaults.
 struct LogOddsOptions {
-  float hit = 0.85f;    // added when a local map says occupied, > 0 (p = 0.70)
-  float miss = -0.4f;   // added when a local map says free, < 0 (p = 0.40)
-  float min = -2.0f;    // clamp, < 0 (p = 0.12): a free cell can become occupied within 3 hits
-  float max = 3.5f;     // clamp, > 0 (p = 0.97)
+  float hit = 0.85f;   // added when a local map says occupied, > 0 (p = 0.70)
+  float miss = -0.4f;  // added when a local map says free, < 0 (p = 0.40)
+  float min = -2.0f;   // clamp, < 0 (p = 0.12): a free cell can become occupied within 3 hits
+  float max = 3.5f;    // clamp, > 0 (p = 0.97)
 
   bool IsValid(std::string* error) const;
 };
@@ -39,7 +38,8 @@ inline float UpdateLogOdds(float log_odds, bool occupied, const LogOddsOptions& 
 // points (base frame, z = height) raise the cell's height_m to their maximum; a cell whose
 // log-odds drops to <= 0 forgets its height (NaN). Keys of every touched tile go into
 // changed_tiles when given. The grids must share the resolution.
-void FuseLocalMap(const OccupancyGrid& local_map, const std::vector<Eigen::Vector3f>& obstacle_points_in_base,
+void FuseLocalMap(const OccupancyGrid& local_map,
+                  const std::vector<Eigen::Vector3f>& obstacle_points_in_base,
                   const Pose2& map_from_base, TimestampNs stamp_ns, const LogOddsOptions& options,
                   TiledGrid* grid, std::set<TiledGrid::TileKey>* changed_tiles = nullptr);
 

@@ -1,8 +1,8 @@
 #include "mapping/grid_fusion.h"
 
-#include <cmath>
-
 #include <gtest/gtest.h>
+
+#include <cmath>
 
 namespace monoplane {
 namespace {
@@ -12,7 +12,7 @@ TEST(LogOdds, HitMissClampArithmetic) {
   EXPECT_FLOAT_EQ(UpdateLogOdds(0.0f, true, o), 0.85f);
   EXPECT_FLOAT_EQ(UpdateLogOdds(0.85f, true, o), 1.70f);
   EXPECT_FLOAT_EQ(UpdateLogOdds(0.0f, false, o), -0.4f);
-  EXPECT_FLOAT_EQ(UpdateLogOdds(3.2f, true, o), 3.5f);   // clamped at max
+  EXPECT_FLOAT_EQ(UpdateLogOdds(3.2f, true, o), 3.5f);     // clamped at max
   EXPECT_FLOAT_EQ(UpdateLogOdds(-1.8f, false, o), -2.0f);  // clamped at min
   // 5 hits: 4.25 -> 3.5; then misses decay it: free (p <= 0.25, log-odds <= -1.0986) after 12.
   float l = 0.0f;
@@ -86,7 +86,8 @@ TEST(GridFusion, FusesHitsMissesHeightsAndStamps) {
   FuseLocalMap(all_free, {}, pose, 8000, LogOddsOptions(), &grid, nullptr);
   EXPECT_NEAR(grid.LogOdds({21, 40}), -0.35f, 1e-6);
   EXPECT_TRUE(std::isnan(tile->height_m[TiledGrid::IndexInTile({21, 40})]));
-  for (int k = 0; k < 2; ++k) FuseLocalMap(all_free, {}, pose, 9000, LogOddsOptions(), &grid, nullptr);
+  for (int k = 0; k < 2; ++k)
+    FuseLocalMap(all_free, {}, pose, 9000, LogOddsOptions(), &grid, nullptr);
   EXPECT_NEAR(grid.LogOdds({21, 40}), -1.15f, 1e-6);
   const OccupancyGrid later = ToOccupancyGrid(grid);
   const auto d21 = later.geometry.CellOf(grid.CellCenter({21, 40}));

@@ -21,15 +21,15 @@ void CheckOrDie(bool ok, const std::string& what) {
 Pose2 Between(const Pose2& a, const Pose2& b) { return a.Inverse() * b; }
 
 // The map-frame bounding box of a local map seen at a pose, grown by margin_m.
-std::pair<Eigen::Vector2d, Eigen::Vector2d> LocalMapBounds(const OccupancyGrid& local_map, const Pose2& pose,
-                                                           double margin_m) {
+std::pair<Eigen::Vector2d, Eigen::Vector2d> LocalMapBounds(const OccupancyGrid& local_map,
+                                                           const Pose2& pose, double margin_m) {
   const GridGeometry& g = local_map.geometry;
   const double x0 = g.origin_x_m, y0 = g.origin_y_m;
   const double x1 = x0 + g.width * g.resolution_m, y1 = y0 + g.height * g.resolution_m;
   Eigen::Vector2d lo(std::numeric_limits<double>::max(), std::numeric_limits<double>::max());
   Eigen::Vector2d hi = -lo;
-  for (const Eigen::Vector2d& c : {Eigen::Vector2d(x0, y0), Eigen::Vector2d(x1, y0), Eigen::Vector2d(x0, y1),
-                                   Eigen::Vector2d(x1, y1)}) {
+  for (const Eigen::Vector2d& c : {Eigen::Vector2d(x0, y0), Eigen::Vector2d(x1, y0),
+                                   Eigen::Vector2d(x0, y1), Eigen::Vector2d(x1, y1)}) {
     const Eigen::Vector2d m = pose * c;
     lo = lo.cwiseMin(m);
     hi = hi.cwiseMax(m);
@@ -41,29 +41,40 @@ std::pair<Eigen::Vector2d, Eigen::Vector2d> LocalMapBounds(const OccupancyGrid& 
 
 bool Mapper::Options::IsValid(std::string* error) const {
   auto fail = [&](const std::string& key, double value, const std::string& constraint) {
-    if (error) *error = "Mapper::Options::" + key + " = " + std::to_string(value) + ": must be " + constraint;
+    if (error)
+      *error =
+          "Mapper::Options::" + key + " = " + std::to_string(value) + ": must be " + constraint;
     return false;
   };
   if (!(keyframe_distance_m > 0)) return fail("keyframe_distance_m", keyframe_distance_m, "> 0");
-  if (!(keyframe_rotation_rad > 0)) return fail("keyframe_rotation_rad", keyframe_rotation_rad, "> 0");
+  if (!(keyframe_rotation_rad > 0))
+    return fail("keyframe_rotation_rad", keyframe_rotation_rad, "> 0");
   if (!(keyframe_min_shared_tracks >= 0 && keyframe_min_shared_tracks <= 1)) {
     return fail("keyframe_min_shared_tracks", keyframe_min_shared_tracks, "in [0, 1]");
   }
-  if (!(keyframe_min_distance_m >= 0)) return fail("keyframe_min_distance_m", keyframe_min_distance_m, ">= 0");
+  if (!(keyframe_min_distance_m >= 0))
+    return fail("keyframe_min_distance_m", keyframe_min_distance_m, ">= 0");
   if (!(odom_sigma_per_m > 0)) return fail("odom_sigma_per_m", odom_sigma_per_m, "> 0");
   if (!(odom_sigma_min_m > 0)) return fail("odom_sigma_min_m", odom_sigma_min_m, "> 0");
-  if (!(odom_yaw_sigma_per_rad > 0)) return fail("odom_yaw_sigma_per_rad", odom_yaw_sigma_per_rad, "> 0");
-  if (!(odom_yaw_sigma_per_m >= 0)) return fail("odom_yaw_sigma_per_m", odom_yaw_sigma_per_m, ">= 0");
-  if (!(odom_yaw_sigma_min_rad > 0)) return fail("odom_yaw_sigma_min_rad", odom_yaw_sigma_min_rad, "> 0");
-  if (good_motion_min_inliers < 0) return fail("good_motion_min_inliers", good_motion_min_inliers, ">= 0");
-  if (!(good_motion_max_rms_px > 0)) return fail("good_motion_max_rms_px", good_motion_max_rms_px, "> 0");
-  if (!(poor_motion_sigma_factor >= 1)) return fail("poor_motion_sigma_factor", poor_motion_sigma_factor, ">= 1");
+  if (!(odom_yaw_sigma_per_rad > 0))
+    return fail("odom_yaw_sigma_per_rad", odom_yaw_sigma_per_rad, "> 0");
+  if (!(odom_yaw_sigma_per_m >= 0))
+    return fail("odom_yaw_sigma_per_m", odom_yaw_sigma_per_m, ">= 0");
+  if (!(odom_yaw_sigma_min_rad > 0))
+    return fail("odom_yaw_sigma_min_rad", odom_yaw_sigma_min_rad, "> 0");
+  if (good_motion_min_inliers < 0)
+    return fail("good_motion_min_inliers", good_motion_min_inliers, ">= 0");
+  if (!(good_motion_max_rms_px > 0))
+    return fail("good_motion_max_rms_px", good_motion_max_rms_px, "> 0");
+  if (!(poor_motion_sigma_factor >= 1))
+    return fail("poor_motion_sigma_factor", poor_motion_sigma_factor, ">= 1");
   if (!(fallback_motion_sigma_factor >= 1)) {
     return fail("fallback_motion_sigma_factor", fallback_motion_sigma_factor, ">= 1");
   }
   if (window_size < 2) return fail("window_size", window_size, ">= 2");
   if (!(loop_min_travel_m >= 0)) return fail("loop_min_travel_m", loop_min_travel_m, ">= 0");
-  if (!(loop_candidate_radius_m > 0)) return fail("loop_candidate_radius_m", loop_candidate_radius_m, "> 0");
+  if (!(loop_candidate_radius_m > 0))
+    return fail("loop_candidate_radius_m", loop_candidate_radius_m, "> 0");
   if (loop_max_candidates < 1) return fail("loop_max_candidates", loop_max_candidates, ">= 1");
   if (loop_min_interval_keyframes < 0) {
     return fail("loop_min_interval_keyframes", loop_min_interval_keyframes, ">= 0");
@@ -76,10 +87,14 @@ bool Mapper::Options::IsValid(std::string* error) const {
   if (!(floor_loop_max_correction_rad > 0)) {
     return fail("floor_loop_max_correction_rad", floor_loop_max_correction_rad, "> 0");
   }
-  if (!(floor_loop_sigma_xy_m > 0)) return fail("floor_loop_sigma_xy_m", floor_loop_sigma_xy_m, "> 0");
-  if (!(floor_loop_sigma_yaw_rad > 0)) return fail("floor_loop_sigma_yaw_rad", floor_loop_sigma_yaw_rad, "> 0");
-  if (!(rebuild_min_change_m >= 0)) return fail("rebuild_min_change_m", rebuild_min_change_m, ">= 0");
-  if (!(rebuild_min_change_rad >= 0)) return fail("rebuild_min_change_rad", rebuild_min_change_rad, ">= 0");
+  if (!(floor_loop_sigma_xy_m > 0))
+    return fail("floor_loop_sigma_xy_m", floor_loop_sigma_xy_m, "> 0");
+  if (!(floor_loop_sigma_yaw_rad > 0))
+    return fail("floor_loop_sigma_yaw_rad", floor_loop_sigma_yaw_rad, "> 0");
+  if (!(rebuild_min_change_m >= 0))
+    return fail("rebuild_min_change_m", rebuild_min_change_m, ">= 0");
+  if (!(rebuild_min_change_rad >= 0))
+    return fail("rebuild_min_change_rad", rebuild_min_change_rad, ">= 0");
   if (!(grid_resolution_m > 0)) return fail("grid_resolution_m", grid_resolution_m, "> 0");
   std::string sub;
   auto nested = [&](bool ok, const std::string& key) {
@@ -121,7 +136,8 @@ Mapper::Mapper(const Options& options, const CameraCalibration& calibration, Til
   for (Keyframe& k : keyframes_) {
     k.from_saved_map = true;
     next_id_ = std::max(next_id_, k.id + 1);
-    if (options_.build_octree) octree_.Insert(k.ObstaclePoints(), k.map_from_base, camera_.CameraCentreInBase());
+    if (options_.build_octree)
+      octree_.Insert(k.ObstaclePoints(), k.map_from_base, camera_.CameraCentreInBase());
     Pack(&k);
   }
   initial_map_from_base_ = initial_map_from_base;
@@ -131,7 +147,8 @@ Mapper::Mapper(const Options& options, const CameraCalibration& calibration, Til
 
 double Mapper::StepSigmaFactor(const GroundMotion& step) const {
   if (step.status != GroundMotion::Status::kOk) return options_.fallback_motion_sigma_factor;
-  if (step.num_inliers < options_.good_motion_min_inliers || step.rms_residual_px > options_.good_motion_max_rms_px) {
+  if (step.num_inliers < options_.good_motion_min_inliers ||
+      step.rms_residual_px > options_.good_motion_max_rms_px) {
     return options_.poor_motion_sigma_factor;
   }
   return 1.0;
@@ -150,7 +167,8 @@ bool Mapper::WantsKeyframe(const FrameObservation& frame) const {
     for (const FeatureObservation& f : last.features) ids.insert(f.track_id);
     int shared = 0;
     for (const FeatureObservation& f : frame.features) shared += ids.count(f.track_id) ? 1 : 0;
-    if (shared < options_.keyframe_min_shared_tracks * static_cast<double>(last.features.size())) return true;
+    if (shared < options_.keyframe_min_shared_tracks * static_cast<double>(last.features.size()))
+      return true;
   }
   return false;
 }
@@ -162,18 +180,21 @@ Mapper::FrameUpdate Mapper::AddFrame(const FrameObservation& frame) {
     const Pose2 step = Between(frames_.back().odom_from_base, frame.odom_from_base);
     path_length_m_ += step.TranslationNorm();
     const double factor = StepSigmaFactor(frame.step);
-    const double s_xy =
-        factor * std::max(options_.odom_sigma_min_m, options_.odom_sigma_per_m * step.TranslationNorm());
-    const double s_yaw = factor * std::max(options_.odom_yaw_sigma_min_rad,
-                                           options_.odom_yaw_sigma_per_rad * std::abs(step.yaw) +
-                                               options_.odom_yaw_sigma_per_m * step.TranslationNorm());
+    const double s_xy = factor * std::max(options_.odom_sigma_min_m,
+                                          options_.odom_sigma_per_m * step.TranslationNorm());
+    const double s_yaw =
+        factor * std::max(options_.odom_yaw_sigma_min_rad,
+                          options_.odom_yaw_sigma_per_rad * std::abs(step.yaw) +
+                              options_.odom_yaw_sigma_per_m * step.TranslationNorm());
     pending_var_xy_ += s_xy * s_xy;
     pending_var_yaw_ += s_yaw * s_yaw;
   } else if (!map_from_odom_) {
     // The map is the base frame of the first frame (or the given pose in a saved map).
     map_from_odom_ = initial_map_from_base_ * frame.odom_from_base.Inverse();
   }
-  const int keyframe_index = static_cast<int>(keyframes_.size()) > num_saved_ ? static_cast<int>(keyframes_.size()) - 1 : -1;
+  const int keyframe_index = static_cast<int>(keyframes_.size()) > num_saved_
+                                 ? static_cast<int>(keyframes_.size()) - 1
+                                 : -1;
   frames_.push_back({frame.stamp_ns, frame.odom_from_base, keyframe_index});
   if (WantsKeyframe(frame)) {
     AddKeyframe(frame, &update);
@@ -201,7 +222,8 @@ void Mapper::AddKeyframe(const FrameObservation& frame, FrameUpdate* update) {
       const ScanMatchOptions& m = options_.localization_match;
       const auto [lo, hi] = LocalMapBounds(kf.local_map, kf.map_from_base, m.linear_window_m + 0.5);
       const MatchTarget target = MakeMatchTarget(saved_grid_, lo, hi, m.smoothing_sigma_m);
-      const ScanMatchResult r = MatchScan(OccupiedPoints(kf.local_map, m.max_points), target, kf.map_from_base, m);
+      const ScanMatchResult r =
+          MatchScan(OccupiedPoints(kf.local_map, m.max_points), target, kf.map_from_base, m);
       LocalizationResult& loc = *localization_;
       loc.success = r.accepted;
       loc.score = r.score;
@@ -253,7 +275,8 @@ void Mapper::Pack(Keyframe* keyframe) const {
     std::vector<std::int8_t>().swap(keyframe->local_map.cells);
   }
   if (!keyframe->obstacle_points_in_base.empty()) {
-    keyframe->packed_obstacle_points = PackedPoints(keyframe->obstacle_points_in_base, options_.octree.resolution_m);
+    keyframe->packed_obstacle_points =
+        PackedPoints(keyframe->obstacle_points_in_base, options_.octree.resolution_m);
     std::vector<Eigen::Vector3f>().swap(keyframe->obstacle_points_in_base);
   }
   std::vector<FeatureObservation>().swap(keyframe->features);
@@ -284,24 +307,29 @@ void Mapper::OptimizeWindow() {
   for (int i = begin; i < n; ++i) keyframes_[i].map_from_base = r.poses[i - begin];
   mount_ = r.mount;
   for (PoseGraphEdge& e : refined_edges_) {
-    if (e.from >= begin) e.from_T_to = Between(keyframes_[e.from].map_from_base, keyframes_[e.to].map_from_base);
+    if (e.from >= begin)
+      e.from_T_to = Between(keyframes_[e.from].map_from_base, keyframes_[e.to].map_from_base);
   }
 }
 
 bool Mapper::TryLoopClosure(int index) {
   if (!options_.loop_closure) return false;
-  if (last_closure_index_ >= 0 && index - last_closure_index_ <= options_.loop_min_interval_keyframes) return false;
+  if (last_closure_index_ >= 0 &&
+      index - last_closure_index_ <= options_.loop_min_interval_keyframes)
+    return false;
   const Keyframe& current = keyframes_[index];
   std::vector<std::pair<double, int>> candidates;
   for (int j = 0; j < index; ++j) {
     const Keyframe& k = keyframes_[j];
-    if (!k.from_saved_map && current.path_length_m - k.path_length_m < options_.loop_min_travel_m) continue;
+    if (!k.from_saved_map && current.path_length_m - k.path_length_m < options_.loop_min_travel_m)
+      continue;
     const double d = (k.map_from_base.Translation() - current.map_from_base.Translation()).norm();
     if (d <= options_.loop_candidate_radius_m) candidates.push_back({d, j});
   }
   if (candidates.empty()) return false;
   std::sort(candidates.begin(), candidates.end());
-  if (static_cast<int>(candidates.size()) > options_.loop_max_candidates) candidates.resize(options_.loop_max_candidates);
+  if (static_cast<int>(candidates.size()) > options_.loop_max_candidates)
+    candidates.resize(options_.loop_max_candidates);
   ++counters_.loop_closure_attempts;
 
   // Floor features first: the candidate with the most inliers among the confident matches.
@@ -313,13 +341,14 @@ bool Mapper::TryLoopClosure(int index) {
       const Keyframe& k = keyframes_[j];
       if (k.floor_features.empty()) continue;
       const Pose2 estimate = Between(k.map_from_base, current.map_from_base);
-      const FloorMatchResult f =
-          MatchFloorFeatures(current.floor_features, k.floor_features, options_.floor_match, estimate);
+      const FloorMatchResult f = MatchFloorFeatures(current.floor_features, k.floor_features,
+                                                    options_.floor_match, estimate);
       if (!f.accepted) {
         if (!floor_event && std::make_pair(f.num_inliers, f.num_matches) > best_rejected) {
           best_rejected = {f.num_inliers, f.num_matches};
           floor_reason = f.reason + " (" + std::to_string(f.num_inliers) + " inliers of " +
-                         std::to_string(f.num_matches) + " matches, keyframe " + std::to_string(k.id) + ")";
+                         std::to_string(f.num_matches) + " matches, keyframe " +
+                         std::to_string(k.id) + ")";
         }
         continue;
       }
@@ -335,7 +364,8 @@ bool Mapper::TryLoopClosure(int index) {
       e.anchor_id = j;  // an index until accepted below
       e.anchor_from_current = f.target_from_source;
       e.score = f.inlier_ratio;
-      e.second_score = f.num_inliers > 0 ? static_cast<double>(f.second_inliers) / f.num_inliers : 0;
+      e.second_score =
+          f.num_inliers > 0 ? static_cast<double>(f.second_inliers) / f.num_inliers : 0;
       e.accepted = true;
       e.source = "floor";
       e.num_inliers = f.num_inliers;
@@ -362,11 +392,14 @@ bool Mapper::TryLoopClosure(int index) {
   const ScanMatchOptions& m = options_.loop_match;
   TiledGrid older(options_.grid_resolution_m);
   for (const auto& [d, j] : candidates) {
-    FuseLocalMap(keyframes_[j].LocalMap(), {}, keyframes_[j].map_from_base, 1, options_.log_odds, &older);
+    FuseLocalMap(keyframes_[j].LocalMap(), {}, keyframes_[j].map_from_base, 1, options_.log_odds,
+                 &older);
   }
-  const auto [lo, hi] = LocalMapBounds(current.local_map, current.map_from_base, m.linear_window_m + 0.5);
+  const auto [lo, hi] =
+      LocalMapBounds(current.local_map, current.map_from_base, m.linear_window_m + 0.5);
   const MatchTarget target = MakeMatchTarget(older, lo, hi, m.smoothing_sigma_m);
-  const ScanMatchResult r = MatchScan(OccupiedPoints(current.local_map, m.max_points), target, current.map_from_base, m);
+  const ScanMatchResult r =
+      MatchScan(OccupiedPoints(current.local_map, m.max_points), target, current.map_from_base, m);
 
   const int anchor = candidates.front().second;
   LoopClosureEvent event;
@@ -409,7 +442,8 @@ bool Mapper::OptimizeAllAndMaybeRebuild() {
   bool tied_to_saved = false;
   for (const PoseGraphEdge& e : loop_edges_) tied_to_saved |= keyframes_[e.from].from_saved_map;
   const bool localized = localization_ && localization_->success;
-  if (FirstRunIndex() < n && (num_saved_ == 0 || localized || !tied_to_saved)) fixed[FirstRunIndex()] = true;
+  if (FirstRunIndex() < n && (num_saved_ == 0 || localized || !tied_to_saved))
+    fixed[FirstRunIndex()] = true;
 
   std::vector<PoseGraphEdge> edges = refined_edges_;
   edges.insert(edges.end(), loop_edges_.begin(), loop_edges_.end());
@@ -417,11 +451,14 @@ bool Mapper::OptimizeAllAndMaybeRebuild() {
   if (!s.ok) return false;
   double max_move = 0, max_turn = 0;
   for (int i = 0; i < n; ++i) {
-    max_move = std::max(max_move, (poses[i].Translation() - keyframes_[i].map_from_base.Translation()).norm());
-    max_turn = std::max(max_turn, std::abs(WrapAngle(poses[i].yaw - keyframes_[i].map_from_base.yaw)));
+    max_move = std::max(
+        max_move, (poses[i].Translation() - keyframes_[i].map_from_base.Translation()).norm());
+    max_turn =
+        std::max(max_turn, std::abs(WrapAngle(poses[i].yaw - keyframes_[i].map_from_base.yaw)));
     keyframes_[i].map_from_base = poses[i];
   }
-  if (max_move <= options_.rebuild_min_change_m && max_turn <= options_.rebuild_min_change_rad) return false;
+  if (max_move <= options_.rebuild_min_change_m && max_turn <= options_.rebuild_min_change_rad)
+    return false;
   Rebuild();
   if (on_correction_) on_correction_();
   return true;
@@ -429,8 +466,8 @@ bool Mapper::OptimizeAllAndMaybeRebuild() {
 
 void Mapper::FuseKeyframe(const Keyframe& keyframe) {
   const std::vector<Eigen::Vector3f> obstacle_points_in_base = keyframe.ObstaclePoints();
-  FuseLocalMap(keyframe.LocalMap(), obstacle_points_in_base, keyframe.map_from_base, keyframe.stamp_ns,
-               options_.log_odds, &grid_, &changed_tiles_);
+  FuseLocalMap(keyframe.LocalMap(), obstacle_points_in_base, keyframe.map_from_base,
+               keyframe.stamp_ns, options_.log_odds, &grid_, &changed_tiles_);
   if (options_.build_octree) {
     octree_.Insert(obstacle_points_in_base, keyframe.map_from_base, camera_.CameraCentreInBase());
   }
@@ -447,7 +484,8 @@ void Mapper::Rebuild() {
   for (int i = 0; i < static_cast<int>(keyframes_.size()); ++i) {
     const Keyframe& k = keyframes_[i];
     if (k.from_saved_map) {
-      if (options_.build_octree) octree_.Insert(k.ObstaclePoints(), k.map_from_base, camera_.CameraCentreInBase());
+      if (options_.build_octree)
+        octree_.Insert(k.ObstaclePoints(), k.map_from_base, camera_.CameraCentreInBase());
     } else {
       FuseKeyframe(k);
     }

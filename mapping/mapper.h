@@ -27,8 +27,8 @@ class Mapper {
  public:
   struct Options {
     // Keyframe selection (odometry since the last keyframe).
-    double keyframe_distance_m = 0.30;      // travelled distance that makes a keyframe, > 0
-    double keyframe_rotation_rad = 0.17;    // rotation that makes a keyframe, > 0
+    double keyframe_distance_m = 0.30;    // travelled distance that makes a keyframe, > 0
+    double keyframe_rotation_rad = 0.17;  // rotation that makes a keyframe, > 0
     // Tracking quality: when fewer than this fraction of the last keyframe's tracks are still seen
     // (and the robot moved keyframe_min_distance_m), a keyframe is made early. In [0, 1].
     double keyframe_min_shared_tracks = 0.5;
@@ -41,10 +41,10 @@ class Mapper {
     double odom_yaw_sigma_per_m = 0.02;     // yaw sigma per metre travelled, >= 0
     double odom_yaw_sigma_min_rad = 0.002;  // per step, > 0
     // Ground-motion quality: a kOk step with fewer inliers or a larger residual is "poor".
-    int good_motion_min_inliers = 20;       // >= 0
-    double good_motion_max_rms_px = 2.0;    // > 0
-    double poor_motion_sigma_factor = 3.0;      // sigma multiplier for poor steps, >= 1
-    double fallback_motion_sigma_factor = 10.0; // for kFallback / kFailed steps, >= 1
+    int good_motion_min_inliers = 20;            // >= 0
+    double good_motion_max_rms_px = 2.0;         // > 0
+    double poor_motion_sigma_factor = 3.0;       // sigma multiplier for poor steps, >= 1
+    double fallback_motion_sigma_factor = 10.0;  // for kFallback / kFailed steps, >= 1
 
     // Sliding window.
     int window_size = 10;  // keyframes per adjustment (the oldest is fixed), >= 2
@@ -98,11 +98,11 @@ class Mapper {
 
   // What AddFrame did.
   struct FrameUpdate {
-    bool keyframe = false;      // the frame became a keyframe
+    bool keyframe = false;  // the frame became a keyframe
     int keyframe_id = -1;
-    bool loop_closed = false;   // an accepted loop closure corrected the poses
-    bool map_rebuilt = false;   // the grid and the OctoMap were rebuilt from the keyframes
-    Pose2 map_from_base;        // this frame's pose
+    bool loop_closed = false;  // an accepted loop closure corrected the poses
+    bool map_rebuilt = false;  // the grid and the OctoMap were rebuilt from the keyframes
+    Pose2 map_from_base;       // this frame's pose
   };
 
   // A fresh map. Aborts on invalid options or calibration (check IsValid first).
@@ -111,7 +111,8 @@ class Mapper {
   // localised against the saved grid around initial_map_from_base (the map pose of this run's first
   // frame); see localization().
   Mapper(const Options& options, const CameraCalibration& calibration, TiledGrid saved_grid,
-         std::vector<Keyframe> saved_keyframes, const Pose2& initial_map_from_base = Pose2::Identity());
+         std::vector<Keyframe> saved_keyframes,
+         const Pose2& initial_map_from_base = Pose2::Identity());
 
   FrameUpdate AddFrame(const FrameObservation& frame);
 
@@ -132,8 +133,12 @@ class Mapper {
   const CameraMount& refined_mount() const { return mount_; }
 
   // Callbacks (run inside AddFrame, on its thread).
-  void SetKeyframeCallback(std::function<void(const Keyframe&)> callback) { on_keyframe_ = std::move(callback); }
-  void SetCorrectionCallback(std::function<void()> callback) { on_correction_ = std::move(callback); }
+  void SetKeyframeCallback(std::function<void(const Keyframe&)> callback) {
+    on_keyframe_ = std::move(callback);
+  }
+  void SetCorrectionCallback(std::function<void()> callback) {
+    on_correction_ = std::move(callback);
+  }
 
  private:
   struct FrameRecord {

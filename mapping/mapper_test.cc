@@ -1,10 +1,10 @@
 #include "mapping/mapper.h"
 
+#include <gtest/gtest.h>
+
 #include <algorithm>
 #include <cmath>
 #include <map>
-
-#include <gtest/gtest.h>
 
 #include "mapping/testing/synthetic_world.h"
 
@@ -15,11 +15,14 @@ using testing::Ate;
 using testing::PathLength;
 
 std::vector<Pose2> SquareLoop() {
-  return testing::PathThrough({{0, 0, 0}, {4, 0, M_PI / 2}, {4, 4, M_PI}, {0, 4, -M_PI / 2}, {0, 0, 0}, {2.5, 0, 0}},
-                              0.05, 0.1);
+  return testing::PathThrough(
+      {{0, 0, 0}, {4, 0, M_PI / 2}, {4, 4, M_PI}, {0, 4, -M_PI / 2}, {0, 0, 0}, {2.5, 0, 0}}, 0.05,
+      0.1);
 }
 
-int FrameOfStamp(TimestampNs stamp_ns) { return static_cast<int>((stamp_ns - 1'000'000'000) / 100'000'000); }
+int FrameOfStamp(TimestampNs stamp_ns) {
+  return static_cast<int>((stamp_ns - 1'000'000'000) / 100'000'000);
+}
 
 std::vector<Pose2> Estimates(const Mapper& mapper) {
   std::vector<Pose2> out;
@@ -36,7 +39,8 @@ std::vector<Pose2> Odometry(const testing::SyntheticRun& run) {
 // Accepted closures whose relative pose is more than 0.2 m off the truth.
 int FalseClosures(const Mapper& mapper, const testing::SyntheticRun& run) {
   std::map<int, Pose2> truth_of_id;
-  for (const Keyframe& k : mapper.keyframes()) truth_of_id[k.id] = run.truth[FrameOfStamp(k.stamp_ns)];
+  for (const Keyframe& k : mapper.keyframes())
+    truth_of_id[k.id] = run.truth[FrameOfStamp(k.stamp_ns)];
   int wrong = 0;
   for (const LoopClosureEvent& e : mapper.loop_closures()) {
     if (!e.accepted) continue;
@@ -48,11 +52,13 @@ int FalseClosures(const Mapper& mapper, const testing::SyntheticRun& run) {
 
 void PrintClosures(const Mapper& mapper, const testing::SyntheticRun& run) {
   std::map<int, Pose2> truth_of_id;
-  for (const Keyframe& k : mapper.keyframes()) truth_of_id[k.id] = run.truth[FrameOfStamp(k.stamp_ns)];
+  for (const Keyframe& k : mapper.keyframes())
+    truth_of_id[k.id] = run.truth[FrameOfStamp(k.stamp_ns)];
   for (const LoopClosureEvent& e : mapper.loop_closures()) {
     const Pose2 truth = truth_of_id[e.anchor_id].Inverse() * truth_of_id[e.keyframe_id];
-    std::printf("  keyframe %d anchor %d score %.3f second %.3f error %.3f m %s\n", e.keyframe_id, e.anchor_id,
-                e.score, e.second_score, (truth.Translation() - e.anchor_from_current.Translation()).norm(),
+    std::printf("  keyframe %d anchor %d score %.3f second %.3f error %.3f m %s\n", e.keyframe_id,
+                e.anchor_id, e.score, e.second_score,
+                (truth.Translation() - e.anchor_from_current.Translation()).norm(),
                 e.accepted ? "accepted" : e.reason.c_str());
   }
 }
@@ -85,11 +91,12 @@ struct LoopFixture {
   int rebuild_differences = 0;
 
   LoopFixture(bool features, const Mapper::Options& options)
-      : run(testing::MakeRun(testing::SquareLoopWorld(), SquareLoop(), testing::TestCamera(), [&] {
-          testing::RunOptions o;
-          o.features = features;
-          return o;
-        }())),
+      : run(testing::MakeRun(testing::SquareLoopWorld(), SquareLoop(), testing::TestCamera(),
+                             [&] {
+                               testing::RunOptions o;
+                               o.features = features;
+                               return o;
+                             }())),
         mapper(options, testing::TestCamera()) {
     mapper.SetKeyframeCallback([this](const Keyframe& k) { full_keyframes[k.id] = k; });
     mapper.SetCorrectionCallback([this, options] {
@@ -100,7 +107,8 @@ struct LoopFixture {
         // The keyframe whose closure this is reaches the keyframe callback only after it.
         const auto it = full_keyframes.find(k.id);
         const Keyframe& f = it != full_keyframes.end() ? it->second : k;
-        FuseLocalMap(f.local_map, f.obstacle_points_in_base, k.map_from_base, k.stamp_ns, options.log_odds, &full);
+        FuseLocalMap(f.local_map, f.obstacle_points_in_base, k.map_from_base, k.stamp_ns,
+                     options.log_odds, &full);
       }
       if (!any_packed) return;
       ++rebuilds_with_packed;
@@ -132,10 +140,11 @@ void ExpectLoopClosed(const LoopFixture& fx) {
   const double path = PathLength(fx.run.truth);
   const double dead_reckoning = Ate(Odometry(fx.run), fx.run.truth);
   const double optimised = Ate(Estimates(mapper), fx.run.truth);
-  std::printf("path %.2f m, keyframes %d, closures accepted %d rejected %d, ATE dead reckoning %.3f m, "
-              "optimised %.3f m\n",
-              path, mapper.counters().keyframes, mapper.counters().loop_closures_accepted,
-              mapper.counters().loop_closures_rejected, dead_reckoning, optimised);
+  std::printf(
+      "path %.2f m, keyframes %d, closures accepted %d rejected %d, ATE dead reckoning %.3f m, "
+      "optimised %.3f m\n",
+      path, mapper.counters().keyframes, mapper.counters().loop_closures_accepted,
+      mapper.counters().loop_closures_rejected, dead_reckoning, optimised);
   PrintClosures(mapper, fx.run);
   EXPECT_GE(mapper.counters().loop_closures_accepted, 1);
   EXPECT_EQ(FalseClosures(mapper, fx.run), 0);
@@ -186,8 +195,10 @@ TEST(Mapper, PacksKeyframesThatLeftTheWindowLosslesslyForTheGrid) {
       EXPECT_EQ(k.local_map.cells.capacity(), 0u);
       EXPECT_TRUE(k.features.empty());
       EXPECT_EQ(k.obstacle_points_in_base.capacity(), 0u);
-      EXPECT_EQ(k.ObstaclePoints(), PackedPoints(full.obstacle_points_in_base, options.octree.resolution_m).Unpack());
-      full_bytes += full.local_map.cells.size() + full.obstacle_points_in_base.size() * sizeof(Eigen::Vector3f) +
+      EXPECT_EQ(k.ObstaclePoints(),
+                PackedPoints(full.obstacle_points_in_base, options.octree.resolution_m).Unpack());
+      full_bytes += full.local_map.cells.size() +
+                    full.obstacle_points_in_base.size() * sizeof(Eigen::Vector3f) +
                     full.features.size() * sizeof(FeatureObservation);
       packed_map_bytes += k.packed_local_map.ByteSize();
       packed_bytes += k.packed_local_map.ByteSize() + k.packed_obstacle_points.ByteSize();
@@ -198,8 +209,9 @@ TEST(Mapper, PacksKeyframesThatLeftTheWindowLosslesslyForTheGrid) {
     }
   }
   const std::size_t num_packed = first_full;
-  std::printf("packed keyframes %zu: %zu bytes each on average (local map %zu), %zu when full\n", num_packed,
-              packed_bytes / num_packed, packed_map_bytes / num_packed, full_bytes / num_packed);
+  std::printf("packed keyframes %zu: %zu bytes each on average (local map %zu), %zu when full\n",
+              num_packed, packed_bytes / num_packed, packed_map_bytes / num_packed,
+              full_bytes / num_packed);
   EXPECT_LT(packed_map_bytes / num_packed, 4000u);  // from 25.6 KB
   EXPECT_LT(packed_bytes / num_packed, 8000u);
 
@@ -213,8 +225,8 @@ TEST(Mapper, RebuiltGridMatchesTheGridAtTruePoses) {
   ASSERT_GE(fx.mapper.counters().map_rebuilds, 1);
   TiledGrid truth_grid(0.05);
   for (const Keyframe& k : fx.mapper.keyframes()) {
-    FuseLocalMap(k.LocalMap(), k.ObstaclePoints(), fx.run.truth[FrameOfStamp(k.stamp_ns)], k.stamp_ns,
-                 LogOddsOptions(), &truth_grid);
+    FuseLocalMap(k.LocalMap(), k.ObstaclePoints(), fx.run.truth[FrameOfStamp(k.stamp_ns)],
+                 k.stamp_ns, LogOddsOptions(), &truth_grid);
   }
   const OccupancyGrid expected = ToOccupancyGrid(truth_grid);
   const TiledGrid& grid = fx.mapper.grid();
@@ -234,14 +246,17 @@ TEST(Mapper, RebuiltGridMatchesTheGridAtTruePoses) {
         ++occupied;
         bool near = false;
         for (int dy = -1; dy <= 1 && !near; ++dy) {
-          for (int dx = -1; dx <= 1 && !near; ++dx) near = trinary(truth_grid.LogOdds(cell + Eigen::Vector2i(dx, dy))) == 1;
+          for (int dx = -1; dx <= 1 && !near; ++dx)
+            near = trinary(truth_grid.LogOdds(cell + Eigen::Vector2i(dx, dy))) == 1;
         }
         occupied_near_truth += near ? 1 : 0;
       }
     }
   }
-  std::printf("cells known in both %d, agreement %.4f, occupied %d, within one cell of truth %.4f\n", both_known,
-              static_cast<double>(agree) / both_known, occupied, static_cast<double>(occupied_near_truth) / occupied);
+  std::printf(
+      "cells known in both %d, agreement %.4f, occupied %d, within one cell of truth %.4f\n",
+      both_known, static_cast<double>(agree) / both_known, occupied,
+      static_cast<double>(occupied_near_truth) / occupied);
   ASSERT_GT(both_known, 10000);
   EXPECT_GT(static_cast<double>(agree) / both_known, 0.97);
   ASSERT_GT(occupied, 500);
@@ -258,7 +273,8 @@ TEST(Mapper, RebuiltGridMatchesTheGridAtTruePoses) {
 TEST(Mapper, CorridorOfRepeatingDoorsDoesNotCloseFalsely) {
   const double kPeriod = 1.2;
   const testing::SyntheticWorld world = testing::CorridorWorld(16.0, kPeriod);
-  const std::vector<Pose2> path = testing::PathThrough({{0, 0, 0}, {13, 0, M_PI}, {1, 0, M_PI}}, 0.05, 0.1);
+  const std::vector<Pose2> path =
+      testing::PathThrough({{0, 0, 0}, {13, 0, M_PI}, {1, 0, M_PI}}, 0.05, 0.1);
   testing::RunOptions options;
   options.features = false;
   testing::SyntheticRun run = testing::MakeRun(world, path, testing::TestCamera(), options);
@@ -267,19 +283,21 @@ TEST(Mapper, CorridorOfRepeatingDoorsDoesNotCloseFalsely) {
   bool turned = false;
   for (std::size_t i = 0; i < run.frames.size(); ++i) {
     if (!turned && std::abs(run.truth[i].yaw) > 3.0) turned = true;
-    if (turned) run.frames[i].odom_from_base = Pose2{0.5 * kPeriod, 0.0, 0.0} * run.frames[i].odom_from_base;
+    if (turned)
+      run.frames[i].odom_from_base = Pose2{0.5 * kPeriod, 0.0, 0.0} * run.frames[i].odom_from_base;
   }
   Mapper mapper(Mapper::Options(), testing::TestCamera());
   for (const FrameObservation& f : run.frames) mapper.AddFrame(f);
   const MapperCounters& c = mapper.counters();
-  std::printf("attempts %d accepted %d rejected %d\n", c.loop_closure_attempts, c.loop_closures_accepted,
-              c.loop_closures_rejected);
+  std::printf("attempts %d accepted %d rejected %d\n", c.loop_closure_attempts,
+              c.loop_closures_accepted, c.loop_closures_rejected);
   EXPECT_GT(c.loop_closure_attempts, 5);
   EXPECT_GT(c.loop_closures_rejected, 0);
   EXPECT_EQ(FalseClosures(mapper, run), 0);
   int ambiguous = 0;
   PrintClosures(mapper, run);
-  for (const LoopClosureEvent& e : mapper.loop_closures()) ambiguous += e.reason.find("ambiguous") != std::string::npos;
+  for (const LoopClosureEvent& e : mapper.loop_closures())
+    ambiguous += e.reason.find("ambiguous") != std::string::npos;
   EXPECT_GT(ambiguous, 0);
 }
 
@@ -289,16 +307,19 @@ TEST(Mapper, ExtendsASavedMapAfterLocalising) {
   testing::RunOptions options;
   options.features = false;
   options.seed = 11;
-  const testing::SyntheticRun second = testing::MakeRun(testing::SquareLoopWorld(), path, testing::TestCamera(), options);
+  const testing::SyntheticRun second =
+      testing::MakeRun(testing::SquareLoopWorld(), path, testing::TestCamera(), options);
 
   // The second run starts at the map origin; the guess is off by (0.4, -0.3) m and 0.1 rad.
   const Pose2 guess{0.4, -0.3, 0.1};
-  Mapper mapper(Mapper::Options(), testing::TestCamera(), first.mapper.grid(), first.mapper.keyframes(), guess);
+  Mapper mapper(Mapper::Options(), testing::TestCamera(), first.mapper.grid(),
+                first.mapper.keyframes(), guess);
   for (const FrameObservation& f : second.frames) mapper.AddFrame(f);
   ASSERT_TRUE(mapper.localization().has_value());
   const LocalizationResult& loc = *mapper.localization();
   EXPECT_TRUE(loc.success) << loc.message;
-  const Pose2 truth_first_keyframe = second.truth[FrameOfStamp(mapper.keyframes()[first.mapper.keyframes().size()].stamp_ns)];
+  const Pose2 truth_first_keyframe =
+      second.truth[FrameOfStamp(mapper.keyframes()[first.mapper.keyframes().size()].stamp_ns)];
   EXPECT_NEAR(loc.map_from_base.x, truth_first_keyframe.x, 0.1);
   EXPECT_NEAR(loc.map_from_base.y, truth_first_keyframe.y, 0.1);
   EXPECT_NEAR(loc.map_from_base.yaw, truth_first_keyframe.yaw, 0.03);
@@ -307,8 +328,8 @@ TEST(Mapper, ExtendsASavedMapAfterLocalising) {
   EXPECT_GT(mapper.keyframes().back().id, first.mapper.keyframes().back().id);
 
   // Far outside the saved map: no localisation.
-  Mapper lost(Mapper::Options(), testing::TestCamera(), first.mapper.grid(), first.mapper.keyframes(),
-              Pose2{30.0, 30.0, 0.0});
+  Mapper lost(Mapper::Options(), testing::TestCamera(), first.mapper.grid(),
+              first.mapper.keyframes(), Pose2{30.0, 30.0, 0.0});
   for (const FrameObservation& f : second.frames) lost.AddFrame(f);
   EXPECT_FALSE(lost.localization()->success);
 }

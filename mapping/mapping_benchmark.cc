@@ -5,11 +5,11 @@
 // <= 200 ms. The Args show how each grows (window size; keyframes already in the map; keyframes
 // in the pose graph).
 
+#include <benchmark/benchmark.h>
+
 #include <cmath>
 #include <random>
 #include <vector>
-
-#include <benchmark/benchmark.h>
 
 #include "mapping/grid_fusion.h"
 #include "mapping/obstacle_octree.h"
@@ -24,15 +24,16 @@ namespace {
 std::vector<Pose2> SquareLoop(int laps) {
   std::vector<Pose2> waypoints = {{0, 0, 0}};
   for (int k = 0; k < laps; ++k) {
-    waypoints.insert(waypoints.end(), {{4, 0, M_PI / 2}, {4, 4, M_PI}, {0, 4, -M_PI / 2}, {0, 0, 0}});
+    waypoints.insert(waypoints.end(),
+                     {{4, 0, M_PI / 2}, {4, 4, M_PI}, {0, 4, -M_PI / 2}, {0, 0, 0}});
   }
   return testing::PathThrough(waypoints, 0.05, 0.1);
 }
 
 // Frames of one lap with features, computed once.
 const testing::SyntheticRun& FeatureRun() {
-  static const testing::SyntheticRun run =
-      testing::MakeRun(testing::SquareLoopWorld(), SquareLoop(1), testing::TestCamera(), testing::RunOptions());
+  static const testing::SyntheticRun run = testing::MakeRun(
+      testing::SquareLoopWorld(), SquareLoop(1), testing::TestCamera(), testing::RunOptions());
   return run;
 }
 
@@ -131,7 +132,8 @@ Graph MakeGraph(int n) {
     g.initial.push_back(odom);
     g.edges.push_back({k - 1, k, noisy, 0.02, 0.01, false});
     if (k >= per_lap && k % 5 == 0) {
-      g.edges.push_back({k - per_lap, k, truth[k - per_lap].Inverse() * truth[k], 0.05, 0.02, true});
+      g.edges.push_back(
+          {k - per_lap, k, truth[k - per_lap].Inverse() * truth[k], 0.05, 0.02, true});
     }
   }
   return g;
@@ -173,11 +175,13 @@ void BM_LoopClosureAndPoseGraph(benchmark::State& state) {
   bool accepted = false;
   for (auto _ : state) {
     TiledGrid older(0.05);
-    for (int k = 0; k < 40; ++k) FuseLocalMap(candidates[k], {}, candidate_poses[k], 1, LogOddsOptions(), &older);
+    for (int k = 0; k < 40; ++k)
+      FuseLocalMap(candidates[k], {}, candidate_poses[k], 1, LogOddsOptions(), &older);
     const MatchTarget target =
         MakeMatchTarget(older, guess.Translation().array() - 7.0, guess.Translation().array() + 7.0,
                         options.smoothing_sigma_m);
-    const ScanMatchResult r = MatchScan(OccupiedPoints(current, options.max_points), target, guess, options);
+    const ScanMatchResult r =
+        MatchScan(OccupiedPoints(current, options.max_points), target, guess, options);
     accepted = r.accepted;
     std::vector<Pose2> poses = g.initial;
     const OptimizationSummary s = OptimizePoseGraph(g.edges, fixed, PoseGraphOptions(), &poses);
@@ -185,7 +189,11 @@ void BM_LoopClosureAndPoseGraph(benchmark::State& state) {
   }
   state.counters["accepted"] = accepted ? 1 : 0;
 }
-BENCHMARK(BM_LoopClosureAndPoseGraph)->Arg(100)->Arg(1000)->Arg(3000)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_LoopClosureAndPoseGraph)
+    ->Arg(100)
+    ->Arg(1000)
+    ->Arg(3000)
+    ->Unit(benchmark::kMillisecond);
 
 // The scan match alone, by search window.
 void BM_ScanMatch(benchmark::State& state) {
@@ -197,7 +205,8 @@ void BM_ScanMatch(benchmark::State& state) {
   ScanMatchOptions options;
   options.linear_window_m = state.range(0) / 10.0;
   const MatchTarget target = MakeMatchTarget(grid, {-4, -4}, {9, 9}, options.smoothing_sigma_m);
-  const auto points = OccupiedPoints(testing::RenderLocalMap(world, {0.5, 0.1, 0.05}), options.max_points);
+  const auto points =
+      OccupiedPoints(testing::RenderLocalMap(world, {0.5, 0.1, 0.05}), options.max_points);
   for (auto _ : state) {
     const ScanMatchResult r = MatchScan(points, target, Pose2{0.7, 0.0, 0.1}, options);
     benchmark::DoNotOptimize(r.score);

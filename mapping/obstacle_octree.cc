@@ -1,10 +1,10 @@
 #include "mapping/obstacle_octree.h"
 
+#include <octomap/OcTree.h>
+
 #include <map>
 #include <sstream>
 #include <utility>
-
-#include <octomap/OcTree.h>
 
 namespace monoplane {
 
@@ -13,15 +13,18 @@ bool ObstacleOctree::Options::IsValid(std::string* error) const {
     if (error) *error = "ObstacleOctree::Options::" + m;
     return false;
   };
-  if (!(resolution_m > 0)) return fail("resolution_m = " + std::to_string(resolution_m) + ": must be > 0");
-  if (!(max_range_m > 0)) return fail("max_range_m = " + std::to_string(max_range_m) + ": must be > 0");
+  if (!(resolution_m > 0))
+    return fail("resolution_m = " + std::to_string(resolution_m) + ": must be > 0");
+  if (!(max_range_m > 0))
+    return fail("max_range_m = " + std::to_string(max_range_m) + ": must be > 0");
   if (!(prob_hit > 0.5 && prob_hit < 1)) {
     return fail("prob_hit = " + std::to_string(prob_hit) + ": must be in (0.5, 1)");
   }
   if (!(prob_miss > 0 && prob_miss < 0.5)) {
     return fail("prob_miss = " + std::to_string(prob_miss) + ": must be in (0, 0.5)");
   }
-  if (free_ray_stride < 1) return fail("free_ray_stride = " + std::to_string(free_ray_stride) + ": must be >= 1");
+  if (free_ray_stride < 1)
+    return fail("free_ray_stride = " + std::to_string(free_ray_stride) + ": must be >= 1");
   return true;
 }
 
@@ -39,13 +42,15 @@ ObstacleOctree::~ObstacleOctree() = default;
 ObstacleOctree::ObstacleOctree(ObstacleOctree&&) noexcept = default;
 ObstacleOctree& ObstacleOctree::operator=(ObstacleOctree&&) noexcept = default;
 
-void ObstacleOctree::Insert(const std::vector<Eigen::Vector3f>& points_in_base, const Pose2& map_from_base,
+void ObstacleOctree::Insert(const std::vector<Eigen::Vector3f>& points_in_base,
+                            const Pose2& map_from_base,
                             const Eigen::Vector3d& camera_centre_in_base) {
   if (points_in_base.empty()) return;
   const double c = std::cos(map_from_base.yaw), s = std::sin(map_from_base.yaw);
   auto to_map = [&](double x, double y, double z) {
     return octomap::point3d(static_cast<float>(c * x - s * y + map_from_base.x),
-                            static_cast<float>(s * x + c * y + map_from_base.y), static_cast<float>(z));
+                            static_cast<float>(s * x + c * y + map_from_base.y),
+                            static_cast<float>(z));
   };
   const octomap::point3d origin =
       to_map(camera_centre_in_base.x(), camera_centre_in_base.y(), camera_centre_in_base.z());

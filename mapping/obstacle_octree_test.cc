@@ -1,12 +1,12 @@
 #include "mapping/obstacle_octree.h"
 
+#include <gtest/gtest.h>
+#include <octomap/OcTree.h>
+
 #include <algorithm>
 #include <cmath>
 #include <map>
 #include <sstream>
-
-#include <gtest/gtest.h>
-#include <octomap/OcTree.h>
 
 #include "mapping/testing/synthetic_world.h"
 #include "perception/geometry/camera_model.h"
@@ -20,7 +20,8 @@ TEST(ObstacleOctree, BoxHeightsSurviveTheBtRoundTrip) {
   const testing::SyntheticWorld world({box});
   const CameraModel camera(testing::TestCamera());
   ObstacleOctree octree{ObstacleOctree::Options()};
-  const std::vector<Pose2> views = {{-1.0, 1.2, 0.0}, {1.25, -1.2, M_PI / 2}, {3.5, 1.2, M_PI}, {1.25, 3.5, -M_PI / 2}};
+  const std::vector<Pose2> views = {
+      {-1.0, 1.2, 0.0}, {1.25, -1.2, M_PI / 2}, {3.5, 1.2, M_PI}, {1.25, 3.5, -M_PI / 2}};
   for (const Pose2& view : views) {
     const OccupancyGrid local = testing::RenderLocalMap(world, view);
     const auto points = testing::RenderObstaclePoints(world, view, local);
@@ -44,12 +45,13 @@ TEST(ObstacleOctree, BoxHeightsSurviveTheBtRoundTrip) {
     if (!tree.isNodeOccupied(*it)) continue;
     ++total;
     const double x = it.getX(), y = it.getY(), z = it.getZ();
-    if (x < box.min_x_m - 0.06 || x > box.max_x_m + 0.06 || y < box.min_y_m - 0.06 || y > box.max_y_m + 0.06 ||
-        z < -0.01 || z > kBoxHeight + 0.06) {
+    if (x < box.min_x_m - 0.06 || x > box.max_x_m + 0.06 || y < box.min_y_m - 0.06 ||
+        y > box.max_y_m + 0.06 || z < -0.01 || z > kBoxHeight + 0.06) {
       ++outside;
       continue;
     }
-    const std::pair<int, int> column(static_cast<int>(std::floor(x / 0.05)), static_cast<int>(std::floor(y / 0.05)));
+    const std::pair<int, int> column(static_cast<int>(std::floor(x / 0.05)),
+                                     static_cast<int>(std::floor(y / 0.05)));
     auto [entry, inserted] = top.emplace(column, z);
     if (!inserted) entry->second = std::max(entry->second, z);
   }

@@ -1,11 +1,11 @@
 #include "mapping/optimization.h"
 
+#include <ceres/ceres.h>
+
 #include <array>
 #include <cmath>
 #include <map>
 #include <memory>
-
-#include <ceres/ceres.h>
 
 #include "mapping/cost_functors.h"
 #include "perception/geometry/camera_model.h"
@@ -23,9 +23,11 @@ ceres::LinearSolverType SparseSolver() {
              : ceres::DENSE_QR;
 }
 
-void AddEdge(const PoseGraphEdge& e, double* a, double* b, ceres::LossFunction* loss, ceres::Problem* problem) {
-  auto* cost = new ceres::AutoDiffCostFunction<cost::RelativePoseFunctor, 3, 3, 3>(new cost::RelativePoseFunctor(
-      e.from_T_to.x, e.from_T_to.y, e.from_T_to.yaw, e.sigma_xy_m, e.sigma_yaw_rad));
+void AddEdge(const PoseGraphEdge& e, double* a, double* b, ceres::LossFunction* loss,
+             ceres::Problem* problem) {
+  auto* cost = new ceres::AutoDiffCostFunction<cost::RelativePoseFunctor, 3, 3, 3>(
+      new cost::RelativePoseFunctor(e.from_T_to.x, e.from_T_to.y, e.from_T_to.yaw, e.sigma_xy_m,
+                                    e.sigma_yaw_rad));
   problem->AddResidualBlock(cost, loss, a, b);
 }
 
@@ -43,11 +45,14 @@ OptimizationSummary ToSummary(const ceres::Solver::Summary& s) {
 
 bool PoseGraphOptions::IsValid(std::string* error) const {
   if (max_iterations < 1) {
-    if (error) *error = "PoseGraphOptions::max_iterations = " + std::to_string(max_iterations) + ": must be >= 1";
+    if (error)
+      *error =
+          "PoseGraphOptions::max_iterations = " + std::to_string(max_iterations) + ": must be >= 1";
     return false;
   }
   if (!(huber_scale > 0)) {
-    if (error) *error = "PoseGraphOptions::huber_scale = " + std::to_string(huber_scale) + ": must be > 0";
+    if (error)
+      *error = "PoseGraphOptions::huber_scale = " + std::to_string(huber_scale) + ": must be > 0";
     return false;
   }
   return true;
@@ -55,7 +60,8 @@ bool PoseGraphOptions::IsValid(std::string* error) const {
 
 bool WindowOptions::IsValid(std::string* error) const {
   auto fail = [&](const std::string& key, double value, const std::string& constraint) {
-    if (error) *error = "WindowOptions::" + key + " = " + std::to_string(value) + ": must be " + constraint;
+    if (error)
+      *error = "WindowOptions::" + key + " = " + std::to_string(value) + ": must be " + constraint;
     return false;
   };
   if (!(pixel_sigma_px > 0)) return fail("pixel_sigma_px", pixel_sigma_px, "> 0");
@@ -64,12 +70,14 @@ bool WindowOptions::IsValid(std::string* error) const {
   if (max_iterations < 1) return fail("max_iterations", max_iterations, ">= 1");
   if (!(max_point_height_m > 0)) return fail("max_point_height_m", max_point_height_m, "> 0");
   if (!(max_landmark_range_m > 0)) return fail("max_landmark_range_m", max_landmark_range_m, "> 0");
-  if (!(camera_prior_sigma_rad > 0)) return fail("camera_prior_sigma_rad", camera_prior_sigma_rad, "> 0");
+  if (!(camera_prior_sigma_rad > 0))
+    return fail("camera_prior_sigma_rad", camera_prior_sigma_rad, "> 0");
   if (!(camera_prior_sigma_m > 0)) return fail("camera_prior_sigma_m", camera_prior_sigma_m, "> 0");
   return true;
 }
 
-OptimizationSummary OptimizePoseGraph(const std::vector<PoseGraphEdge>& edges, const std::vector<bool>& fixed,
+OptimizationSummary OptimizePoseGraph(const std::vector<PoseGraphEdge>& edges,
+                                      const std::vector<bool>& fixed,
                                       const PoseGraphOptions& options, std::vector<Pose2>* poses) {
   const int n = static_cast<int>(poses->size());
   std::vector<std::array<double, 3>> params(n);
@@ -81,7 +89,8 @@ OptimizationSummary OptimizePoseGraph(const std::vector<PoseGraphEdge>& edges, c
             e.robust ? new ceres::HuberLoss(options.huber_scale) : nullptr, &problem);
   }
   for (int i = 0; i < n; ++i) {
-    if (i < static_cast<int>(fixed.size()) && fixed[i] && problem.HasParameterBlock(params[i].data())) {
+    if (i < static_cast<int>(fixed.size()) && fixed[i] &&
+        problem.HasParameterBlock(params[i].data())) {
       problem.SetParameterBlockConstant(params[i].data());
     }
   }
@@ -96,8 +105,8 @@ OptimizationSummary OptimizePoseGraph(const std::vector<PoseGraphEdge>& edges, c
 }
 
 WindowResult AdjustWindow(const std::vector<WindowKeyframe>& keyframes,
-                          const std::vector<PoseGraphEdge>& odometry, const CameraCalibration& calibration,
-                          const WindowOptions& options) {
+                          const std::vector<PoseGraphEdge>& odometry,
+                          const CameraCalibration& calibration, const WindowOptions& options) {
   WindowResult result;
   result.mount = calibration.mount;
   const int n = static_cast<int>(keyframes.size());
@@ -107,7 +116,8 @@ WindowResult AdjustWindow(const std::vector<WindowKeyframe>& keyframes,
     poses[i] = {p.x, p.y, p.yaw};
   }
   std::array<double, 3> camera = {calibration.mount.pitch_deg * kDegToRad,
-                                  calibration.mount.roll_deg * kDegToRad, calibration.mount.height_m};
+                                  calibration.mount.roll_deg * kDegToRad,
+                                  calibration.mount.height_m};
   const cost::CameraFixed fixed_camera = cost::CameraFixed::From(calibration);
   const CameraModel model(calibration);
 
@@ -125,7 +135,8 @@ WindowResult AdjustWindow(const std::vector<WindowKeyframe>& keyframes,
   };
   std::map<std::int64_t, std::vector<Obs>> tracks;
   for (int i = 0; i < n; ++i) {
-    for (const FeatureObservation& f : keyframes[i].features) tracks[f.track_id].push_back({i, f.pixel, f.floor_inlier});
+    for (const FeatureObservation& f : keyframes[i].features)
+      tracks[f.track_id].push_back({i, f.pixel, f.floor_inlier});
   }
   std::vector<std::unique_ptr<std::array<double, 3>>> landmarks;
   for (const auto& [id, obs] : tracks) {
@@ -145,8 +156,10 @@ WindowResult AdjustWindow(const std::vector<WindowKeyframe>& keyframes,
       const Obs& last = obs.back();
       const Pose2 base2_from_base1 = keyframes[last.keyframe].map_from_base.Inverse() * first_pose;
       const auto point = TriangulateWithMotion(model, base2_from_base1, first.pixel, last.pixel);
-      if (!point || point->depth_m <= 0 || point->point_in_base1.head<2>().norm() > options.max_landmark_range_m ||
-          point->point_in_base1.z() > options.max_point_height_m || point->point_in_base1.z() < -options.max_point_height_m) {
+      if (!point || point->depth_m <= 0 ||
+          point->point_in_base1.head<2>().norm() > options.max_landmark_range_m ||
+          point->point_in_base1.z() > options.max_point_height_m ||
+          point->point_in_base1.z() < -options.max_point_height_m) {
         continue;
       }
       const Eigen::Vector2d m = first_pose * Eigen::Vector2d(point->point_in_base1.head<2>());
@@ -157,7 +170,8 @@ WindowResult AdjustWindow(const std::vector<WindowKeyframe>& keyframes,
       // Skip observations that do not project from the initial estimate (behind the camera).
       double pixel[2];
       const double* pose = poses[o.keyframe].data();
-      if (!cost::ProjectMapPoint(fixed_camera, pose, camera.data(), landmark->data(), pixel)) continue;
+      if (!cost::ProjectMapPoint(fixed_camera, pose, camera.data(), landmark->data(), pixel))
+        continue;
       ceres::LossFunction* loss = new ceres::HuberLoss(options.huber_sigmas);
       ceres::CostFunction* cost_function = nullptr;
       std::vector<double*> blocks = {poses[o.keyframe].data(), landmark->data()};
@@ -165,22 +179,28 @@ WindowResult AdjustWindow(const std::vector<WindowKeyframe>& keyframes,
         const Eigen::Matrix3d r = model.camera_from_base().linear();
         const Eigen::Vector3d t = model.camera_from_base().translation();
         if (is_floor) {
-          cost_function = new ceres::AutoDiffCostFunction<cost::FixedCameraReprojectionFunctor<2>, 2, 3, 2>(
-              new cost::FixedCameraReprojectionFunctor<2>(model.K(), r, t, o.pixel.x(), o.pixel.y(),
-                                                          options.pixel_sigma_px));
+          cost_function =
+              new ceres::AutoDiffCostFunction<cost::FixedCameraReprojectionFunctor<2>, 2, 3, 2>(
+                  new cost::FixedCameraReprojectionFunctor<2>(model.K(), r, t, o.pixel.x(),
+                                                              o.pixel.y(), options.pixel_sigma_px));
         } else {
-          cost_function = new ceres::AutoDiffCostFunction<cost::FixedCameraReprojectionFunctor<3>, 2, 3, 3>(
-              new cost::FixedCameraReprojectionFunctor<3>(model.K(), r, t, o.pixel.x(), o.pixel.y(),
-                                                          options.pixel_sigma_px));
+          cost_function =
+              new ceres::AutoDiffCostFunction<cost::FixedCameraReprojectionFunctor<3>, 2, 3, 3>(
+                  new cost::FixedCameraReprojectionFunctor<3>(model.K(), r, t, o.pixel.x(),
+                                                              o.pixel.y(), options.pixel_sigma_px));
         }
       } else {
         blocks.push_back(camera.data());
         if (is_floor) {
-          cost_function = new ceres::AutoDiffCostFunction<cost::FloorReprojectionFunctor, 2, 3, 2, 3>(
-              new cost::FloorReprojectionFunctor(fixed_camera, o.pixel.x(), o.pixel.y(), options.pixel_sigma_px));
+          cost_function =
+              new ceres::AutoDiffCostFunction<cost::FloorReprojectionFunctor, 2, 3, 2, 3>(
+                  new cost::FloorReprojectionFunctor(fixed_camera, o.pixel.x(), o.pixel.y(),
+                                                     options.pixel_sigma_px));
         } else {
-          cost_function = new ceres::AutoDiffCostFunction<cost::PointReprojectionFunctor, 2, 3, 3, 3>(
-              new cost::PointReprojectionFunctor(fixed_camera, o.pixel.x(), o.pixel.y(), options.pixel_sigma_px));
+          cost_function =
+              new ceres::AutoDiffCostFunction<cost::PointReprojectionFunctor, 2, 3, 3, 3>(
+                  new cost::PointReprojectionFunctor(fixed_camera, o.pixel.x(), o.pixel.y(),
+                                                     options.pixel_sigma_px));
         }
       }
       problem.AddResidualBlock(cost_function, loss, blocks);
@@ -219,10 +239,11 @@ WindowResult AdjustWindow(const std::vector<WindowKeyframe>& keyframes,
   ceres::Solver::Options solver;
   // Few poses, many landmarks: eliminate the landmarks (Schur complement); the reduced system is
   // at most 3 * window + 3 wide.
-  solver.linear_solver_type = ceres::IsSparseLinearAlgebraLibraryTypeAvailable(ceres::SUITE_SPARSE) ||
-                                      ceres::IsSparseLinearAlgebraLibraryTypeAvailable(ceres::EIGEN_SPARSE)
-                                  ? ceres::SPARSE_SCHUR
-                                  : ceres::DENSE_SCHUR;
+  solver.linear_solver_type =
+      ceres::IsSparseLinearAlgebraLibraryTypeAvailable(ceres::SUITE_SPARSE) ||
+              ceres::IsSparseLinearAlgebraLibraryTypeAvailable(ceres::EIGEN_SPARSE)
+          ? ceres::SPARSE_SCHUR
+          : ceres::DENSE_SCHUR;
   solver.max_num_iterations = options.max_iterations;
   solver.function_tolerance = options.function_tolerance;
   solver.num_threads = 1;

@@ -20,7 +20,7 @@ struct PoseGraphEdge {
 };
 
 struct PoseGraphOptions {
-  int max_iterations = 50;      // Ceres iterations, >= 1
+  int max_iterations = 50;  // Ceres iterations, >= 1
   // Huber scale in sigmas for robust edges, > 0. Huber (convex) rather than Cauchy: a correct loop
   // closure after long drift starts many sigmas off, and a redescending loss would let the
   // odometry win and leave the loop open.
@@ -39,7 +39,8 @@ struct OptimizationSummary {
 
 // Optimises planar poses (map_from_base) under relative-pose edges with Ceres (sparse normal
 // Cholesky); poses with fixed[i] stay put. Poses are updated in place.
-OptimizationSummary OptimizePoseGraph(const std::vector<PoseGraphEdge>& edges, const std::vector<bool>& fixed,
+OptimizationSummary OptimizePoseGraph(const std::vector<PoseGraphEdge>& edges,
+                                      const std::vector<bool>& fixed,
                                       const PoseGraphOptions& options, std::vector<Pose2>* poses);
 
 // The sliding-window adjustment: planar keyframe poses, odometry edges between them, and the
@@ -48,17 +49,17 @@ OptimizationSummary OptimizePoseGraph(const std::vector<PoseGraphEdge>& edges, c
 // poses (floor: back-projection onto the floor; others: triangulation between the first and the
 // last observation) and are not kept between calls.
 struct WindowOptions {
-  double pixel_sigma_px = 1.0;          // feature noise, > 0
-  double huber_sigmas = 2.0;            // Huber loss on reprojection, in sigmas, > 0
-  int min_observations = 2;             // keyframes that must see a track, >= 2
-  int max_iterations = 10;              // >= 1
-  double function_tolerance = 1e-4;     // relative cost change that stops Ceres, > 0
-  double max_point_height_m = 3.0;      // off-floor landmarks above this are dropped, > 0
-  double max_landmark_range_m = 10.0;   // landmarks farther from the first view are dropped, > 0
+  double pixel_sigma_px = 1.0;         // feature noise, > 0
+  double huber_sigmas = 2.0;           // Huber loss on reprojection, in sigmas, > 0
+  int min_observations = 2;            // keyframes that must see a track, >= 2
+  int max_iterations = 10;             // >= 1
+  double function_tolerance = 1e-4;    // relative cost change that stops Ceres, > 0
+  double max_point_height_m = 3.0;     // off-floor landmarks above this are dropped, > 0
+  double max_landmark_range_m = 10.0;  // landmarks farther from the first view are dropped, > 0
   // Online refinement of the camera's pitch, roll and height, with a prior from the calibration.
   bool refine_camera = false;
-  double camera_prior_sigma_rad = 0.0175;   // pitch and roll prior, > 0
-  double camera_prior_sigma_m = 0.02;       // height prior, > 0
+  double camera_prior_sigma_rad = 0.0175;  // pitch and roll prior, > 0
+  double camera_prior_sigma_m = 0.02;      // height prior, > 0
 
   bool IsValid(std::string* error) const;
 };
@@ -71,8 +72,8 @@ struct WindowKeyframe {
 
 struct WindowResult {
   OptimizationSummary summary;
-  std::vector<Pose2> poses;       // one per input keyframe
-  CameraMount mount;              // refined (the input mount when refine_camera is off)
+  std::vector<Pose2> poses;  // one per input keyframe
+  CameraMount mount;         // refined (the input mount when refine_camera is off)
   int num_floor_landmarks = 0;
   int num_point_landmarks = 0;
   int num_reprojections = 0;
@@ -80,7 +81,7 @@ struct WindowResult {
 
 // odometry edges index into keyframes.
 WindowResult AdjustWindow(const std::vector<WindowKeyframe>& keyframes,
-                          const std::vector<PoseGraphEdge>& odometry, const CameraCalibration& calibration,
-                          const WindowOptions& options);
+                          const std::vector<PoseGraphEdge>& odometry,
+                          const CameraCalibration& calibration, const WindowOptions& options);
 
 }  // namespace monoplane

@@ -1,8 +1,8 @@
 #include "mapping/optimization.h"
 
-#include <cmath>
-
 #include <gtest/gtest.h>
+
+#include <cmath>
 
 #include "mapping/testing/synthetic_world.h"
 
@@ -33,12 +33,14 @@ Window MakeWindow(const testing::SyntheticRun& run, int count) {
 
 double MaxError(const std::vector<Pose2>& poses, const std::vector<Pose2>& truth) {
   double e = 0;
-  for (std::size_t i = 0; i < poses.size(); ++i) e = std::max(e, (poses[i].Translation() - truth[i].Translation()).norm());
+  for (std::size_t i = 0; i < poses.size(); ++i)
+    e = std::max(e, (poses[i].Translation() - truth[i].Translation()).norm());
   return e;
 }
 
 TEST(AdjustWindow, FeaturesCorrectDriftingOdometry) {
-  const std::vector<Pose2> path = testing::PathThrough({{0, 0, 0}, {3, 0, 0}, {3, 1.5, M_PI / 2}}, 0.05, 0.1);
+  const std::vector<Pose2> path =
+      testing::PathThrough({{0, 0, 0}, {3, 0, 0}, {3, 1.5, M_PI / 2}}, 0.05, 0.1);
   testing::RunOptions options;
   options.drift.scale_error = 0.05;
   options.drift.yaw_drift_per_m = 0.02;
@@ -59,7 +61,8 @@ TEST(AdjustWindow, FeaturesCorrectDriftingOdometry) {
 }
 
 TEST(AdjustWindow, RefinesABumpedCamera) {
-  const std::vector<Pose2> path = testing::PathThrough({{0, 0, 0}, {2, 0, 0}, {2, 2, M_PI / 2}}, 0.05, 0.1);
+  const std::vector<Pose2> path =
+      testing::PathThrough({{0, 0, 0}, {2, 0, 0}, {2, 2, M_PI / 2}}, 0.05, 0.1);
   testing::RunOptions options;
   options.drift.scale_error = 0.0;
   options.drift.yaw_drift_per_m = 0.0;
@@ -76,8 +79,8 @@ TEST(AdjustWindow, RefinesABumpedCamera) {
   o.max_iterations = 30;
   const WindowResult r = AdjustWindow(w.keyframes, w.edges, bumped, o);
   ASSERT_TRUE(r.summary.ok) << r.summary.message;
-  std::printf("pitch %.3f deg (truth 20, given 21), height %.4f m (truth 0.5, given 0.52)\n", r.mount.pitch_deg,
-              r.mount.height_m);
+  std::printf("pitch %.3f deg (truth 20, given 21), height %.4f m (truth 0.5, given 0.52)\n",
+              r.mount.pitch_deg, r.mount.height_m);
   EXPECT_LT(std::abs(r.mount.pitch_deg - 20.0), 0.3);
   EXPECT_LT(std::abs(r.mount.height_m - 0.5), 0.01);
   // Without refinement the mount stays as given.
@@ -98,7 +101,8 @@ TEST(PoseGraph, LoopEdgeClosesTheLoop) {
   }
   edges.push_back({3, 0, truth[3].Inverse() * truth[0], 0.01, 0.005, true});
   const Pose2 gap_before = poses[3].Inverse() * poses[0];
-  const OptimizationSummary s = OptimizePoseGraph(edges, {true, false, false, false}, PoseGraphOptions(), &poses);
+  const OptimizationSummary s =
+      OptimizePoseGraph(edges, {true, false, false, false}, PoseGraphOptions(), &poses);
   ASSERT_TRUE(s.ok);
   EXPECT_LT(s.final_cost, s.initial_cost);
   // The loop edge (tighter than the odometry) now holds, and the odometry error is spread around.

@@ -7,8 +7,8 @@ namespace monoplane {
 
 PackedGrid::PackedGrid(const OccupancyGrid& grid) : geometry_(grid.geometry) {
   if (grid.cells.size() != grid.geometry.NumCells()) {
-    std::fprintf(stderr, "PackedGrid: %zu cells for a %d x %d grid\n", grid.cells.size(), grid.geometry.width,
-                 grid.geometry.height);
+    std::fprintf(stderr, "PackedGrid: %zu cells for a %d x %d grid\n", grid.cells.size(),
+                 grid.geometry.width, grid.geometry.height);
     std::abort();
   }
   const std::vector<std::int8_t>& cells = grid.cells;

@@ -1,9 +1,9 @@
 #include "mapping/packed_grid.h"
 
+#include <gtest/gtest.h>
+
 #include <cstdlib>
 #include <random>
-
-#include <gtest/gtest.h>
 
 namespace monoplane {
 namespace {
@@ -43,7 +43,8 @@ TEST(PackedGrid, RoundTripsAFanOfFreeAndOccupiedCells) {
 }
 
 TEST(PackedGrid, RoundTripsLongRunsAndArbitraryValues) {
-  OccupancyGrid uniform(Geometry(400, 300), kCellUnknown);  // one run of 120,000 cells: 3-byte length
+  OccupancyGrid uniform(Geometry(400, 300),
+                        kCellUnknown);  // one run of 120,000 cells: 3-byte length
   ExpectSame(PackedGrid(uniform).Unpack(), uniform);
   EXPECT_LE(PackedGrid(uniform).ByteSize(), 4u);
 

@@ -17,7 +17,8 @@ int VoxelOf(float coordinate_m, double voxel_m) {
 
 }  // namespace
 
-PackedPoints::PackedPoints(const std::vector<Eigen::Vector3f>& points, double voxel_m) : voxel_m_(voxel_m) {
+PackedPoints::PackedPoints(const std::vector<Eigen::Vector3f>& points, double voxel_m)
+    : voxel_m_(voxel_m) {
   if (!(voxel_m > 0)) {
     std::fprintf(stderr, "PackedPoints: voxel_m = %g must be > 0\n", voxel_m);
     std::abort();
@@ -25,8 +26,8 @@ PackedPoints::PackedPoints(const std::vector<Eigen::Vector3f>& points, double vo
   // Highest point per voxel, voxels by column and from the top down.
   std::map<std::pair<int, int>, std::map<int, Eigen::Vector3f, std::greater<int>>> columns;
   for (const Eigen::Vector3f& p : points) {
-    auto [it, inserted] =
-        columns[{VoxelOf(p.x(), voxel_m), VoxelOf(p.y(), voxel_m)}].emplace(VoxelOf(p.z(), voxel_m), p);
+    auto [it, inserted] = columns[{VoxelOf(p.x(), voxel_m), VoxelOf(p.y(), voxel_m)}].emplace(
+        VoxelOf(p.z(), voxel_m), p);
     if (!inserted && p.z() > it->second.z()) it->second = p;
   }
   for (const auto& [xy, voxels] : columns) {
@@ -52,7 +53,8 @@ std::vector<Eigen::Vector3f> PackedPoints::Unpack() const {
     const int top_z = VoxelOf(c.top.z(), voxel_m_);
     for (int k = 0; k < 64; ++k) {
       if (!(c.below >> k & 1)) continue;
-      points.emplace_back(c.top.x(), c.top.y(), static_cast<float>((top_z - k - 1 + 0.5) * voxel_m_));
+      points.emplace_back(c.top.x(), c.top.y(),
+                          static_cast<float>((top_z - k - 1 + 0.5) * voxel_m_));
     }
   }
   return points;

@@ -1,8 +1,8 @@
 #include "mapping/packed_points.h"
 
-#include <cstdio>
-
 #include <gtest/gtest.h>
+
+#include <cstdio>
 
 #include "mapping/obstacle_octree.h"
 #include "mapping/testing/synthetic_world.h"
@@ -26,7 +26,8 @@ TEST(PackedPoints, KeepTheOctreeOfTheirOwnFrame) {
   }
   const PackedPoints packed(points, 0.05);
   const std::vector<Eigen::Vector3f> thinned = packed.Unpack();
-  std::printf("points %zu, one per voxel %zu, %zu bytes packed\n", points.size(), thinned.size(), packed.ByteSize());
+  std::printf("points %zu, one per voxel %zu, %zu bytes packed\n", points.size(), thinned.size(),
+              packed.ByteSize());
   ASSERT_GT(thinned.size(), 20u);
   EXPECT_EQ(thinned.size(), rendered);
   EXPECT_LT(packed.ByteSize(), rendered * sizeof(Eigen::Vector3f) / 2);
@@ -40,11 +41,14 @@ TEST(PackedPoints, KeepTheOctreeOfTheirOwnFrame) {
 
   // The highest point of each column exactly, the voxels below it at their centre heights, a gap
   // of more than 64 voxels starts another column.
-  const std::vector<Eigen::Vector3f> column =
-      PackedPoints({{0.01f, 0.01f, 0.01f}, {0.02f, 0.02f, 0.04f}, {0.03f, 0.04f, 0.17f}, {0.01f, 0.02f, 0.06f}, {0.0f, 0.0f, -4.0f},
-                    {-0.01f, 0.0f, 0.0f}},
-                   0.05)
-          .Unpack();
+  const std::vector<Eigen::Vector3f> column = PackedPoints({{0.01f, 0.01f, 0.01f},
+                                                            {0.02f, 0.02f, 0.04f},
+                                                            {0.03f, 0.04f, 0.17f},
+                                                            {0.01f, 0.02f, 0.06f},
+                                                            {0.0f, 0.0f, -4.0f},
+                                                            {-0.01f, 0.0f, 0.0f}},
+                                                           0.05)
+                                                  .Unpack();
   ASSERT_EQ(column.size(), 5u);
   EXPECT_EQ(column[0], Eigen::Vector3f(-0.01f, 0.0f, 0.0f));
   EXPECT_EQ(column[1], Eigen::Vector3f(0.03f, 0.04f, 0.17f));

@@ -8,7 +8,9 @@ namespace monoplane {
 
 bool ScanMatchOptions::IsValid(std::string* error) const {
   auto fail = [&](const std::string& key, double value, const std::string& constraint) {
-    if (error) *error = "ScanMatchOptions::" + key + " = " + std::to_string(value) + ": must be " + constraint;
+    if (error)
+      *error =
+          "ScanMatchOptions::" + key + " = " + std::to_string(value) + ": must be " + constraint;
     return false;
   };
   if (!(linear_window_m >= 0)) return fail("linear_window_m", linear_window_m, ">= 0");
@@ -70,7 +72,8 @@ MatchTarget MakeMatchTarget(const TiledGrid& grid, const Eigen::Vector2d& region
           for (int dy = -1; dy <= 1; ++dy) {
             for (int dx = -1; dx <= 1; ++dx) {
               const int r = row + dy, c = col + dx;
-              if (r >= 0 && r < g.height && c >= 0 && c < g.width) target.known[static_cast<std::size_t>(r) * g.width + c] = 1.0f;
+              if (r >= 0 && r < g.height && c >= 0 && c < g.width)
+                target.known[static_cast<std::size_t>(r) * g.width + c] = 1.0f;
             }
           }
         }
@@ -109,8 +112,9 @@ std::vector<Eigen::Vector2d> OccupiedPoints(const OccupancyGrid& local_map, int 
   return out;
 }
 
-ScanMatchResult MatchScan(const std::vector<Eigen::Vector2d>& points_in_base, const MatchTarget& target,
-                          const Pose2& initial_map_from_base, const ScanMatchOptions& options) {
+ScanMatchResult MatchScan(const std::vector<Eigen::Vector2d>& points_in_base,
+                          const MatchTarget& target, const Pose2& initial_map_from_base,
+                          const ScanMatchOptions& options) {
   ScanMatchResult result;
   result.map_from_base = initial_map_from_base;
   result.num_points = static_cast<int>(points_in_base.size());
@@ -125,7 +129,8 @@ ScanMatchResult MatchScan(const std::vector<Eigen::Vector2d>& points_in_base, co
   }
   const double res = g.resolution_m;
   const int nl = static_cast<int>(std::round(options.linear_window_m / res));
-  const int na = static_cast<int>(std::floor(options.angular_window_rad / options.angular_step_rad + 1e-9));
+  const int na =
+      static_cast<int>(std::floor(options.angular_window_rad / options.angular_step_rad + 1e-9));
   const int side = 2 * nl + 1;
   const int num_angles = 2 * na + 1;
   std::vector<float> scores(static_cast<std::size_t>(num_angles) * side * side, 0.0f);
@@ -201,8 +206,9 @@ ScanMatchResult MatchScan(const std::vector<Eigen::Vector2d>& points_in_base, co
         const float v = at(a, dy, dx);
         if (v > second && is_peak(a, dy, dx)) {
           second = v;
-          result.second_map_from_base = {initial_map_from_base.x + dx * res, initial_map_from_base.y + dy * res,
-                                         WrapAngle(initial_map_from_base.yaw + (a - na) * options.angular_step_rad)};
+          result.second_map_from_base = {
+              initial_map_from_base.x + dx * res, initial_map_from_base.y + dy * res,
+              WrapAngle(initial_map_from_base.yaw + (a - na) * options.angular_step_rad)};
         }
       }
     }
@@ -211,14 +217,16 @@ ScanMatchResult MatchScan(const std::vector<Eigen::Vector2d>& points_in_base, co
   result.second_score = second;
   result.map_from_base.x = initial_map_from_base.x + best_dx * res;
   result.map_from_base.y = initial_map_from_base.y + best_dy * res;
-  result.map_from_base.yaw = WrapAngle(initial_map_from_base.yaw + (best_a - na) * options.angular_step_rad);
+  result.map_from_base.yaw =
+      WrapAngle(initial_map_from_base.yaw + (best_a - na) * options.angular_step_rad);
   const bool on_border = std::abs(best_dx) == nl || std::abs(best_dy) == nl ||
                          (na > 0 && (best_a == 0 || best_a == num_angles - 1));
   if (on_border) {
     // The optimum may lie outside the window: a periodic structure could alias into it.
     result.reason = "best pose on the border of the search window";
   } else if (result.score < options.min_score) {
-    result.reason = "score " + std::to_string(result.score) + " < " + std::to_string(options.min_score);
+    result.reason =
+        "score " + std::to_string(result.score) + " < " + std::to_string(options.min_score);
   } else if (result.second_score > options.max_second_ratio * result.score) {
     result.reason = "ambiguous: second-best " + std::to_string(result.second_score) + " vs best " +
                     std::to_string(result.score);

@@ -1,10 +1,9 @@
 #pragma once
 
+#include <Eigen/Core>
 #include <cstdint>
 #include <string>
 #include <vector>
-
-#include <Eigen/Core>
 
 #include "mapping/packed_grid.h"
 #include "mapping/packed_points.h"
@@ -26,9 +25,10 @@ struct FrameObservation {
   // The detector's result for this frame; false for the first frame or an unusable image, in which
   // case local_map and obstacle_points_in_base are empty and the frame cannot be a keyframe.
   bool has_result = false;
-  OccupancyGrid local_map;  // current base frame, cells -1 / 0 / 100
+  OccupancyGrid local_map;                               // current base frame, cells -1 / 0 / 100
   std::vector<Eigen::Vector3f> obstacle_points_in_base;  // z = height above the floor, metres
-  FloorFeatures floor_features;  // floor descriptors and points (base frame); empty without a result
+  FloorFeatures
+      floor_features;  // floor descriptors and points (base frame); empty without a result
 };
 
 // A keyframe as the mapper keeps it; everything needed to rebuild the maps after a correction and
@@ -40,25 +40,29 @@ struct FrameObservation {
 // emptied), obstacle points packed per OctoMap voxel column into packed_obstacle_points. Floor
 // features are kept. Read the local map with LocalMap(), the points with ObstaclePoints().
 struct Keyframe {
-  int id = 0;                 // 0, 1, 2, ... in insertion order (saved keyframes keep their ids)
+  int id = 0;  // 0, 1, 2, ... in insertion order (saved keyframes keep their ids)
   TimestampNs stamp_ns = 0;
-  Pose2 odom_from_base;       // raw dead-reckoned pose
-  Pose2 map_from_base;        // optimised pose; map = base frame of the first frame of the first run
-  double path_length_m = 0;   // travelled distance (odometry) from the start of its run
-  OccupancyGrid local_map;    // as observed, in this keyframe's base frame; no cells once packed
+  Pose2 odom_from_base;      // raw dead-reckoned pose
+  Pose2 map_from_base;       // optimised pose; map = base frame of the first frame of the first run
+  double path_length_m = 0;  // travelled distance (odometry) from the start of its run
+  OccupancyGrid local_map;   // as observed, in this keyframe's base frame; no cells once packed
   PackedGrid packed_local_map;  // the local map's cells once packed, else empty
-  std::vector<Eigen::Vector3f> obstacle_points_in_base;  // z = height above the floor, metres; empty once packed
+  std::vector<Eigen::Vector3f>
+      obstacle_points_in_base;          // z = height above the floor, metres; empty once packed
   PackedPoints packed_obstacle_points;  // the obstacle points once packed, else empty
   std::vector<FeatureObservation> features;  // empty once packed
   FloorFeatures floor_features;  // for appearance-based loop closure; kept when packed (small)
-  bool from_saved_map = false;  // loaded at construction: fixed, never optimised
+  bool from_saved_map = false;   // loaded at construction: fixed, never optimised
 
   bool packed() const { return !packed_local_map.empty() || !packed_obstacle_points.empty(); }
   // The local map with its cells, packed or not (a copy).
-  OccupancyGrid LocalMap() const { return packed_local_map.empty() ? local_map : packed_local_map.Unpack(); }
+  OccupancyGrid LocalMap() const {
+    return packed_local_map.empty() ? local_map : packed_local_map.Unpack();
+  }
   // The obstacle points, packed or not (a copy; see PackedPoints for what packing keeps).
   std::vector<Eigen::Vector3f> ObstaclePoints() const {
-    return packed_obstacle_points.empty() ? obstacle_points_in_base : packed_obstacle_points.Unpack();
+    return packed_obstacle_points.empty() ? obstacle_points_in_base
+                                          : packed_obstacle_points.Unpack();
   }
 };
 
@@ -78,11 +82,11 @@ struct LoopClosureEvent {
   double score = 0;           // best match score in [0, 1]
   double second_score = 0;    // best score well separated from the best one
   bool accepted = false;
-  std::string reason;         // why it was rejected (empty when accepted)
+  std::string reason;  // why it was rejected (empty when accepted)
   // Which matcher gave the result: "floor" (floor features; score = inlier ratio, second_score =
   // second-best / best inliers) or "scan" (local maps; scores as above).
   std::string source = "scan";
-  int num_inliers = 0;        // floor feature inliers ("floor" only)
+  int num_inliers = 0;  // floor feature inliers ("floor" only)
 };
 
 // The result of localising a new run in a saved map.
@@ -96,9 +100,9 @@ struct LocalizationResult {
 
 struct MapperCounters {
   int frames = 0;
-  int keyframes = 0;                 // created in this run
+  int keyframes = 0;  // created in this run
   int window_optimizations = 0;
-  int loop_closure_attempts = 0;     // keyframes that had candidates and were matched
+  int loop_closure_attempts = 0;  // keyframes that had candidates and were matched
   int loop_closures_accepted = 0;
   int loop_closures_rejected = 0;
   int map_rebuilds = 0;

@@ -7,9 +7,8 @@
 #include <gtest/gtest.h>
 
 #include <cstdio>
-#include <string>
-
 #include <opencv2/core.hpp>
+#include <string>
 
 #include "mapping/frame_observation.h"
 #include "mapping/mapper.h"
@@ -35,7 +34,8 @@ PerceivedScene PerceiveScene(const std::string& name) {
   cv::setNumThreads(1);
   sim::Scene scene;
   std::string error;
-  const std::string path = std::string(MONOPLANE_SOURCE_DIR) + "/tests/data/scenes/" + name + ".yaml";
+  const std::string path =
+      std::string(MONOPLANE_SOURCE_DIR) + "/tests/data/scenes/" + name + ".yaml";
   EXPECT_TRUE(sim::LoadSceneFile(path, &scene, &error)) << error;
   out.calibration = scene.calibration;
   const sim::SceneRenderer renderer(scene, scene.calibration);
@@ -58,7 +58,7 @@ struct RunResult {
   std::vector<LoopClosureEvent> events;
   MapperCounters counters;
   double path_length_m = 0;
-  double ate_optimised_m = 0;      // RMS, no alignment (both start in the base frame at frame 0)
+  double ate_optimised_m = 0;  // RMS, no alignment (both start in the base frame at frame 0)
   double ate_dead_reckoning_m = 0;
   std::vector<eval::StampedPose2> truth;
   std::vector<Keyframe> keyframes;
@@ -86,13 +86,15 @@ RunResult MapScene(const PerceivedScene& scene, const Mapper::Options& mapper_op
   out.keyframes = mapper.keyframes();
   const std::string& name = scene.name;
   for (const LoopClosureEvent& e : out.events) {
-    std::printf("  %s keyframe %d -> %d: %s score %.2f second %.2f inliers %d %s\n", name.c_str(), e.keyframe_id,
-                e.anchor_id, e.source.c_str(), e.score, e.second_score, e.num_inliers,
-                e.accepted ? "accepted" : e.reason.c_str());
+    std::printf("  %s keyframe %d -> %d: %s score %.2f second %.2f inliers %d %s\n", name.c_str(),
+                e.keyframe_id, e.anchor_id, e.source.c_str(), e.score, e.second_score,
+                e.num_inliers, e.accepted ? "accepted" : e.reason.c_str());
   }
-  std::printf("%s: path %.2f m, keyframes %d, closures %d of %d attempts, ATE %.3f m (dead reckoning %.3f m)\n",
-              name.c_str(), out.path_length_m, out.counters.keyframes, out.counters.loop_closures_accepted,
-              out.counters.loop_closure_attempts, out.ate_optimised_m, out.ate_dead_reckoning_m);
+  std::printf(
+      "%s: path %.2f m, keyframes %d, closures %d of %d attempts, ATE %.3f m (dead reckoning %.3f "
+      "m)\n",
+      name.c_str(), out.path_length_m, out.counters.keyframes, out.counters.loop_closures_accepted,
+      out.counters.loop_closure_attempts, out.ate_optimised_m, out.ate_dead_reckoning_m);
   return out;
 }
 
@@ -117,7 +119,8 @@ void ExpectClosuresTrue(const RunResult& r) {
     };
     const Pose2 truth = truth_at(a->stamp_ns).Inverse() * truth_at(c->stamp_ns);
     const Pose2 error = truth.Inverse() * e.anchor_from_current;
-    EXPECT_LT(error.TranslationNorm(), 0.05) << "closure " << e.keyframe_id << " -> " << e.anchor_id;
+    EXPECT_LT(error.TranslationNorm(), 0.05)
+        << "closure " << e.keyframe_id << " -> " << e.anchor_id;
     EXPECT_LT(std::abs(error.yaw), 0.03) << "closure " << e.keyframe_id << " -> " << e.anchor_id;
   }
 }

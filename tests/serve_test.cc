@@ -119,7 +119,7 @@ TEST(ServeTest, PublishesAnswersReloadsAndStops) {
   ASSERT_TRUE(client->WaitForServer(10.0));
   interfaces::MapQueryRequest point;
   point.kind = interfaces::MapQueryRequest::Kind::kPoint;
-  for (const Eigen::Vector2d p :
+  for (const Eigen::Vector2d& p :
        {Eigen::Vector2d(3.05, 0.55), Eigen::Vector2d(1.0, 0.5), Eigen::Vector2d(-0.5, 0.5)}) {
     point.point_m = p;
     const auto reply = client->Query(point, 5.0, &error);

@@ -23,7 +23,8 @@ SyntheticWorld::SyntheticWorld(std::vector<Box> boxes, double resolution_m)
   raster_.assign(static_cast<std::size_t>(width_) * height_, 0.0f);
   for (int r = 0; r < height_; ++r) {
     for (int c = 0; c < width_; ++c) {
-      const double x = origin_.x() + (c + 0.5) * resolution_m_, y = origin_.y() + (r + 0.5) * resolution_m_;
+      const double x = origin_.x() + (c + 0.5) * resolution_m_,
+                   y = origin_.y() + (r + 0.5) * resolution_m_;
       for (const Box& b : boxes_) {
         if (x >= b.min_x_m && x < b.max_x_m && y >= b.min_y_m && y < b.max_y_m) {
           float& h = raster_[static_cast<std::size_t>(r) * width_ + c];
@@ -46,15 +47,24 @@ bool SyntheticWorld::Occupied(const Eigen::Vector2d& p) const { return HeightAt(
 SyntheticWorld SquareLoopWorld() {
   std::vector<Box> boxes = {
       // Room walls: x, y in [-2, 6].
-      {-2.1, -2.1, 6.1, -2.0, 1.0}, {-2.1, 6.0, 6.1, 6.1, 1.0},
-      {-2.1, -2.0, -2.0, 6.0, 1.0}, {6.0, -2.0, 6.1, 6.0, 1.0},
+      {-2.1, -2.1, 6.1, -2.0, 1.0},
+      {-2.1, 6.0, 6.1, 6.1, 1.0},
+      {-2.1, -2.0, -2.0, 6.0, 1.0},
+      {6.0, -2.0, 6.1, 6.0, 1.0},
       // The block inside the loop.
       {1.0, 1.0, 3.0, 3.0, 0.8},
       // Distinct boxes along the walls.
-      {1.5, -1.9, 2.0, -1.5, 0.5}, {4.5, -1.9, 5.3, -1.7, 0.4}, {5.5, 0.5, 5.9, 1.4, 0.6},
-      {5.6, 3.8, 5.9, 4.1, 0.3}, {3.3, 5.4, 4.4, 5.9, 0.5}, {0.2, 5.7, 0.5, 5.9, 0.7},
-      {-1.9, 3.0, -1.4, 3.3, 0.5}, {-1.9, 0.2, -1.6, 1.2, 0.4}, {-1.0, -1.9, -0.7, -1.6, 0.6},
-      {0.0, 1.6, 0.3, 1.9, 0.3}, {4.0, 2.2, 4.2, 2.5, 0.4},
+      {1.5, -1.9, 2.0, -1.5, 0.5},
+      {4.5, -1.9, 5.3, -1.7, 0.4},
+      {5.5, 0.5, 5.9, 1.4, 0.6},
+      {5.6, 3.8, 5.9, 4.1, 0.3},
+      {3.3, 5.4, 4.4, 5.9, 0.5},
+      {0.2, 5.7, 0.5, 5.9, 0.7},
+      {-1.9, 3.0, -1.4, 3.3, 0.5},
+      {-1.9, 0.2, -1.6, 1.2, 0.4},
+      {-1.0, -1.9, -0.7, -1.6, 0.6},
+      {0.0, 1.6, 0.3, 1.9, 0.3},
+      {4.0, 2.2, 4.2, 2.5, 0.4},
   };
   return SyntheticWorld(boxes);
 }
@@ -96,7 +106,8 @@ GridGeometry LocalMapGeometry() {
   return g;
 }
 
-OccupancyGrid RenderLocalMap(const SyntheticWorld& world, const Pose2& world_from_base, const RenderOptions& options) {
+OccupancyGrid RenderLocalMap(const SyntheticWorld& world, const Pose2& world_from_base,
+                             const RenderOptions& options) {
   OccupancyGrid map(LocalMapGeometry(), kCellUnknown);
   const GridGeometry& g = map.geometry;
   // Polar ray casting: the distance of the first obstacle along each ray of the field of view.
@@ -130,7 +141,8 @@ OccupancyGrid RenderLocalMap(const SyntheticWorld& world, const Pose2& world_fro
   return map;
 }
 
-std::vector<Eigen::Vector3f> RenderObstaclePoints(const SyntheticWorld& world, const Pose2& world_from_base,
+std::vector<Eigen::Vector3f> RenderObstaclePoints(const SyntheticWorld& world,
+                                                  const Pose2& world_from_base,
                                                   const OccupancyGrid& local_map) {
   std::vector<Eigen::Vector3f> points;
   const GridGeometry& g = local_map.geometry;
@@ -140,14 +152,16 @@ std::vector<Eigen::Vector3f> RenderObstaclePoints(const SyntheticWorld& world, c
       const Eigen::Vector2d b = g.CellCenter(col, row);
       const double h = world.HeightAt(world_from_base * b);
       for (double z = 0.025; z < h; z += 0.05) {
-        points.emplace_back(static_cast<float>(b.x()), static_cast<float>(b.y()), static_cast<float>(z));
+        points.emplace_back(static_cast<float>(b.x()), static_cast<float>(b.y()),
+                            static_cast<float>(z));
       }
     }
   }
   return points;
 }
 
-std::vector<Pose2> PathThrough(const std::vector<Pose2>& waypoints, double step_m, double turn_step_rad) {
+std::vector<Pose2> PathThrough(const std::vector<Pose2>& waypoints, double step_m,
+                               double turn_step_rad) {
   std::vector<Pose2> out;
   if (waypoints.empty()) return out;
   Pose2 p = waypoints.front();
@@ -181,8 +195,8 @@ std::vector<Pose2> PathThrough(const std::vector<Pose2>& waypoints, double step_
   return out;
 }
 
-SyntheticRun MakeRun(const SyntheticWorld& world, const std::vector<Pose2>& truth, const CameraCalibration& camera,
-                     const RunOptions& options) {
+SyntheticRun MakeRun(const SyntheticWorld& world, const std::vector<Pose2>& truth,
+                     const CameraCalibration& camera, const RunOptions& options) {
   SyntheticRun run;
   run.truth = truth;
   std::mt19937 rng(options.seed);
@@ -209,10 +223,14 @@ SyntheticRun MakeRun(const SyntheticWorld& world, const std::vector<Pose2>& trut
         const double t = u01(rng) * perimeter, z = u01(rng) * b.height_m;
         const double wx = b.max_x_m - b.min_x_m, wy = b.max_y_m - b.min_y_m;
         Eigen::Vector2d p;
-        if (t < wx) p = {b.min_x_m + t, b.min_y_m - 0.001};
-        else if (t < wx + wy) p = {b.max_x_m + 0.001, b.min_y_m + (t - wx)};
-        else if (t < 2 * wx + wy) p = {b.max_x_m - (t - wx - wy), b.max_y_m + 0.001};
-        else p = {b.min_x_m - 0.001, b.max_y_m - (t - 2 * wx - wy)};
+        if (t < wx)
+          p = {b.min_x_m + t, b.min_y_m - 0.001};
+        else if (t < wx + wy)
+          p = {b.max_x_m + 0.001, b.min_y_m + (t - wx)};
+        else if (t < 2 * wx + wy)
+          p = {b.max_x_m - (t - wx - wy), b.max_y_m + 0.001};
+        else
+          p = {b.min_x_m - 0.001, b.max_y_m - (t - 2 * wx - wy)};
         landmarks.emplace_back(p.x(), p.y(), z);
       }
     }
@@ -228,7 +246,8 @@ SyntheticRun MakeRun(const SyntheticWorld& world, const std::vector<Pose2>& trut
       Pose2 noisy = step;
       noisy.x = step.x * (1.0 + options.drift.scale_error) + options.drift.xy_noise_m * gauss(rng);
       noisy.y = step.y * (1.0 + options.drift.scale_error) + options.drift.xy_noise_m * gauss(rng);
-      noisy.yaw = step.yaw + options.drift.yaw_drift_per_m * d + options.drift.yaw_noise_rad * gauss(rng);
+      noisy.yaw =
+          step.yaw + options.drift.yaw_drift_per_m * d + options.drift.yaw_noise_rad * gauss(rng);
       odom = odom * noisy;
       f.step.status = GroundMotion::Status::kOk;
       f.step.base2_from_base1 = noisy.Inverse();
@@ -263,13 +282,15 @@ SyntheticRun MakeRun(const SyntheticWorld& world, const std::vector<Pose2>& trut
 double Ate(const std::vector<Pose2>& estimate, const std::vector<Pose2>& truth) {
   double sum = 0;
   const std::size_t n = std::min(estimate.size(), truth.size());
-  for (std::size_t i = 0; i < n; ++i) sum += (estimate[i].Translation() - truth[i].Translation()).squaredNorm();
+  for (std::size_t i = 0; i < n; ++i)
+    sum += (estimate[i].Translation() - truth[i].Translation()).squaredNorm();
   return n ? std::sqrt(sum / n) : 0.0;
 }
 
 double PathLength(const std::vector<Pose2>& poses) {
   double s = 0;
-  for (std::size_t i = 1; i < poses.size(); ++i) s += (poses[i].Translation() - poses[i - 1].Translation()).norm();
+  for (std::size_t i = 1; i < poses.size(); ++i)
+    s += (poses[i].Translation() - poses[i - 1].Translation()).norm();
   return s;
 }
 

@@ -4,10 +4,9 @@
 // local maps and obstacle points seen from known poses, and drifting odometry. Not part of the
 // library; deterministic (seeded).
 
+#include <Eigen/Core>
 #include <cstdint>
 #include <vector>
-
-#include <Eigen/Core>
 
 #include "mapping/types.h"
 #include "perception/geometry/camera_calibration.h"
@@ -62,7 +61,8 @@ OccupancyGrid RenderLocalMap(const SyntheticWorld& world, const Pose2& world_fro
                              const RenderOptions& options = {});
 // Obstacle points (base frame, z = height) on the occupied cells of a local map: one per 5 cm of
 // height up to the box top.
-std::vector<Eigen::Vector3f> RenderObstaclePoints(const SyntheticWorld& world, const Pose2& world_from_base,
+std::vector<Eigen::Vector3f> RenderObstaclePoints(const SyntheticWorld& world,
+                                                  const Pose2& world_from_base,
                                                   const OccupancyGrid& local_map);
 
 // Odometry errors per step: translation scaled by (1 + scale_error), yaw drifts by
@@ -75,16 +75,17 @@ struct DriftModel {
 };
 
 struct SyntheticRun {
-  std::vector<Pose2> truth;               // world_from_base per frame (world = first frame)
+  std::vector<Pose2> truth;  // world_from_base per frame (world = first frame)
   std::vector<FrameObservation> frames;
 };
 
 // A path through poses: straight segments at step_m, turns on the spot at turn_step_rad.
-std::vector<Pose2> PathThrough(const std::vector<Pose2>& waypoints, double step_m, double turn_step_rad);
+std::vector<Pose2> PathThrough(const std::vector<Pose2>& waypoints, double step_m,
+                               double turn_step_rad);
 
 struct RunOptions {
   DriftModel drift;
-  bool features = true;          // simulate tracked features on the floor and on boxes
+  bool features = true;  // simulate tracked features on the floor and on boxes
   int num_floor_landmarks = 800;
   double pixel_noise_px = 0.5;
   std::uint32_t seed = 7;
@@ -93,8 +94,8 @@ struct RunOptions {
 
 // Frames along true poses: odometry with drift, local maps and obstacle points from the true
 // poses, features (floor landmarks scattered over the world's bounding area, box-face points).
-SyntheticRun MakeRun(const SyntheticWorld& world, const std::vector<Pose2>& truth, const CameraCalibration& camera,
-                     const RunOptions& options);
+SyntheticRun MakeRun(const SyntheticWorld& world, const std::vector<Pose2>& truth,
+                     const CameraCalibration& camera, const RunOptions& options);
 
 // RMS of the position error between estimates and truth (same frame, no alignment).
 double Ate(const std::vector<Pose2>& estimate, const std::vector<Pose2>& truth);

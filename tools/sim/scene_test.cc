@@ -70,10 +70,10 @@ TEST(SceneTest, ErrorsNameTheKey) {
 TEST(SceneTest, TableExpandsIntoTopAndFourLegs) {
   Scene scene;
   std::string error;
-  ASSERT_TRUE(
-      ParseSceneYaml(std::string(kMinimal) + "obstacles: [{type: table, center: [2, 0], size: "
-                                             "[1.2, 0.8], height: 0.75, top: 0.03, leg: 0.05}]\n",
-                     &scene, &error))
+  ASSERT_TRUE(ParseSceneYaml(std::string(kMinimal) +
+                                 "obstacles: [{type: table, center: [2, 0], size: "
+                                 "[1.2, 0.8], height: 0.75, top: 0.03, leg: 0.05}]\n",
+                             &scene, &error))
       << error;
   ASSERT_EQ(scene.obstacles.size(), 5u);
   EXPECT_NEAR(scene.obstacles[0].z_m, 0.72, 1e-12);
