@@ -141,6 +141,10 @@ OptionTable::OptionTable(AppConfig* config) : config_(config) {
             "feature noise in the window, px (> 0)");
   AddBool("mapping", "loop_closure", &m.loop_closure,
           "match keyframes against older ones near them");
+  AddInt("mapping", "loop_min_interval_keyframes", &m.loop_min_interval_keyframes,
+         "keyframes between accepted loop closures (>= 0)");
+  AddDouble("mapping", "rebuild_min_change_m", &m.rebuild_min_change_m,
+            "rebuild the maps when a correction moves a keyframe more than this, m (>= 0)");
   AddDouble("mapping", "loop_min_travel_m", &m.loop_min_travel_m,
             "path length before a place may close a loop, m (>= 0)");
   AddDouble("mapping", "loop_candidate_radius_m", &m.loop_candidate_radius_m,
