@@ -102,7 +102,7 @@ struct MapSink::Impl {
 
   // Mapping-thread state.
   std::vector<FrameRecord> pending_frames;  // not yet handed to the writer
-  std::vector<std::int64_t> frame_indices;  // input index of every frame given to the mapper
+  std::vector<FrameRecord> records;         // every frame given to the mapper, as first written
   std::optional<Pose2> last_odom;
   TimestampNs last_map_stamp = 0;
   bool map_published = false;
@@ -158,32 +158,12 @@ struct MapSink::Impl {
     if (!db) return;
     FlushFrames();
     const std::vector<FramePose> poses = mapper->Trajectory();
-    std::vector<FrameRecord> frames;
-    frames.reserve(poses.size());
-    for (std::size_t i = 0; i < poses.size() && i < frame_indices.size(); ++i) {
-      FrameRecord f;
-      f.index = frame_indices[i];
-      f.stamp_ns = poses[i].stamp_ns;
-      frames.push_back(f);
+    std::vector<FrameRecord> frames = records;  // raw poses as first written, one per frame
+    for (std::size_t i = 0; i < frames.size() && i < poses.size(); ++i) {
+      frames[i].map_from_base_optimised = poses[i].map_from_base;
     }
-    Enqueue([this, frames = std::move(frames), poses](std::string* error) mutable {
-      // The raw poses stay as first written: read them back and only set the optimised ones.
-      std::vector<monoplane::TrajectoryPoint> stored;
-      StorageStatus s = db->ReadTrajectory(run_id, PoseSource::kRaw, &stored);
-      if (!s.ok()) {
-        *error = s.message();
-        return false;
-      }
-      std::map<std::int64_t, const monoplane::TrajectoryPoint*> by_index;
-      for (const auto& p : stored) by_index[p.index] = &p;
-      for (std::size_t i = 0; i < frames.size(); ++i) {
-        const auto it = by_index.find(frames[i].index);
-        frames[i].map_from_base_raw =
-            it != by_index.end() ? it->second->map_from_base : poses[i].map_from_base;
-        frames[i].is_keyframe = it != by_index.end() && it->second->is_keyframe;
-        frames[i].map_from_base_optimised = poses[i].map_from_base;
-      }
-      s = db->WriteFrames(run_id, frames);
+    Enqueue([this, frames = std::move(frames)](std::string* error) {
+      const StorageStatus s = db->WriteFrames(run_id, frames);
       if (!s.ok()) *error = s.message();
       return s.ok();
     });
@@ -285,7 +265,6 @@ bool MapSink::Add(const InputFrame& frame, const SequenceDetector::Output& outpu
   const auto t0 = Clock::now();
   const FrameObservation observation = MakeFrameObservation(output, frame.stamp_ns);
   const Mapper::FrameUpdate update = m.mapper->AddFrame(observation);
-  m.frame_indices.push_back(frame.index);
   m.summary->mapping_ms += MsSince(t0);
   const auto& events = m.mapper->loop_closures();
   for (; m.loop_events_logged < events.size(); ++m.loop_events_logged) {
@@ -308,6 +287,7 @@ bool MapSink::Add(const InputFrame& frame, const SequenceDetector::Output& outpu
   record.stamp_ns = frame.stamp_ns;
   record.is_keyframe = update.keyframe;
   record.map_from_base_raw = update.map_from_base;
+  m.records.push_back(record);
   if (m.db) {
     if (update.keyframe) {
       m.FlushFrames();

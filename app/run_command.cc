@@ -5,12 +5,10 @@
 
 #include <atomic>
 #include <chrono>
-#include <condition_variable>
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
-#include <mutex>
 #include <thread>
 
 #include "app/bounded_queue.h"
@@ -40,7 +38,6 @@ struct DecodedFrame {
 struct PerceivedFrame {
   InputFrame frame;
   SequenceDetector::Output output;
-  const SequenceDetector* detector = nullptr;  // runs output's deferred detection
   double perception_ms = 0.0;
 };
 
@@ -135,9 +132,6 @@ int Run(const RunRequest& request, RunSummary* summary) {
                                            : BoundedQueue<DecodedFrame>::WhenFull::kBlock;
   BoundedQueue<DecodedFrame> decoded(8, when_full);
   BoundedQueue<PerceivedFrame> perceived(8);
-  std::mutex detector_mutex;
-  std::condition_variable detector_done;
-  bool detection_finished = false;
   std::atomic<double> read_ms{0.0};
 
   std::vector<std::string> reader_skipped;  // owned by the reader until it is joined
@@ -161,36 +155,29 @@ int Run(const RunRequest& request, RunSummary* summary) {
 
   // Perception in two threads: tracking (sequential) and the dense detection of the pairs it
   // chose (pure, one frame behind), so both cores work on it.
+  // The detector lives here, so it outlives both threads; Finish only reads its (unchanging)
+  // ObstacleDetector.
+  SequenceDetector detector(calibration, request.config.detector);
   BoundedQueue<PerceivedFrame> tracked(4);
   std::thread tracking([&] {
-    SequenceDetector detector(calibration, request.config.detector);
     while (auto d = decoded.Pop()) {
       const auto t0 = Clock::now();
       PerceivedFrame p;
       p.output = detector.Process(d->frame.image, d->frame.stamp_ns, /*defer_detection=*/true);
       p.perception_ms = MsSince(t0);
       p.frame = std::move(d->frame);
-      p.detector = &detector;
       if (!tracked.Push(std::move(p))) break;
     }
     tracked.Close();
-    // The detector must outlive the detection thread's use of it.
-    std::unique_lock<std::mutex> lock(detector_mutex);
-    detector_done.wait(lock, [&] { return detection_finished; });
   });
   std::thread detection([&] {
     while (auto p = tracked.Pop()) {
       const auto t0 = Clock::now();
-      p->detector->Finish(&p->output);
+      detector.Finish(&p->output);
       p->perception_ms += MsSince(t0);
       if (!perceived.Push(std::move(*p))) break;
     }
     perceived.Close();
-    {
-      std::lock_guard<std::mutex> lock(detector_mutex);
-      detection_finished = true;
-    }
-    detector_done.notify_all();
   });
 
   Progress progress(source->size(), request.quiet);

@@ -8,20 +8,18 @@
 #include <random>
 
 #include "perception/frame_types.h"
+#include "perception/geometry/camera_calibration.h"
 
 namespace monoplane {
 namespace {
 
+// The project's example calibration (640x480, camera 0.40 m high, pitched 22 deg down).
 CameraCalibration TestCalibration() {
   CameraCalibration c;
-  c.intrinsics.width = 640;
-  c.intrinsics.height = 480;
-  c.intrinsics.fx = c.intrinsics.fy = 457.0;
-  c.intrinsics.cx = 319.5;
-  c.intrinsics.cy = 239.5;
-  c.mount.x_m = 0.10;
-  c.mount.height_m = 0.40;
-  c.mount.pitch_deg = 22.0;
+  std::string error;
+  EXPECT_TRUE(LoadCalibrationFile(
+      std::string(MONOPLANE_SOURCE_DIR) + "/tests/data/calib/default.yaml", &c, &error))
+      << error;
   return c;
 }
 
