@@ -89,8 +89,15 @@ OptionTable::OptionTable(AppConfig* config) : config_(config) {
             "texture along the epipolar line, grey^2/px^2 (> 0)");
   AddDouble("classification", "max_residual", &c.max_residual,
             "largest alignment residual, grey levels (> 0)");
+  AddDouble(
+      "classification", "min_floor_misfit", &c.min_floor_misfit,
+      "an obstacle needs the floor to misfit its 3x3 neighbourhood by this, grey levels (>= 0)");
   AddDouble("classification", "moving_min_perpendicular_px", &c.moving_min_perpendicular_px,
             "off-epipolar motion that means moving, px (> 0)");
+  AddDouble("classification", "moving_track_min_px", &c.moving_track_min_px,
+            "a tracked corner this far off its epipolar line moves, px (> 0)");
+  AddDouble("classification", "moving_track_radius_px", &c.moving_track_radius_px,
+            "around two such corners, what is not floor is moving, px (>= 0; 0 = off)");
   AddDouble("classification", "max_range_m", &c.max_range_m, "farther points are unknown, m (> 0)");
   AddDouble("classification", "max_footprint_sigma_ratio", &c.max_footprint_sigma_ratio,
             "obstacle points enter the top view when placed within 0.05 m + this x range (>= 0)");
@@ -103,6 +110,8 @@ OptionTable::OptionTable(AppConfig* config) : config_(config) {
   AddInt("classification", "segment_iterations", &c.segment_iterations, "SLIC iterations (>= 1)");
   AddInt("classification", "segment_min_samples", &c.segment_min_samples,
          "measured samples a segment needs (>= 1)");
+  AddDouble("classification", "segment_fill_fraction", &c.segment_fill_fraction,
+            "an obstacle segment measured on this fraction labels its textureless rest, [0, 1]");
   LocalMapOptions& lm = d.local_map;
   AddDouble("local_map", "resolution_m", &lm.resolution_m, "cell side, m (> 0)");
   AddDouble("local_map", "min_x_m", &lm.min_x_m, "extent behind the base origin, m");

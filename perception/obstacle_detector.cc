@@ -122,14 +122,31 @@ void AggregateBySegment(const cv::Mat& segments, const std::vector<Sample>& samp
       continue;
     }
     if (measured < co.segment_min_samples) continue;
+    const float median_height = Median(&heights);
+    const float median_sigma = Median(&sigmas);
+    bool obstacle_segment = false;
     for (int k : m) {
       const Sample& s = samples[k];
       if (!s.measured) continue;
       Sample median = s;
-      median.height_m = Median(&heights);
-      median.height_sigma_m = Median(&sigmas);
+      median.height_m = median_height;
+      median.height_sigma_m = median_sigma;
       median.significant = significant * 2 >= measured;
-      (*labels)[k] = Classify(median, co, camera_height_m);
+      const PixelLabel label = Classify(median, co, camera_height_m);
+      // A sample that clearly stands out of the floor on its own is not overruled into floor by
+      // its segment (a segment may straddle a low obstacle's edge): that is the dangerous error.
+      const bool own_evidence = s.raw == PixelLabel::kObstacle || s.raw == PixelLabel::kDropOff;
+      (*labels)[k] = label == PixelLabel::kFloor && own_evidence ? s.raw : label;
+      obstacle_segment = obstacle_segment || label == PixelLabel::kObstacle;
+    }
+    // The unmeasured (textureless) rest of a segment that stands clearly above the floor is part
+    // of that obstacle. Never the other way: no texture is never floor.
+    if (obstacle_segment && measured >= co.segment_fill_fraction * static_cast<double>(m.size())) {
+      for (int k : m) {
+        if (!samples[k].measured && (*labels)[k] == PixelLabel::kUnknown) {
+          (*labels)[k] = PixelLabel::kObstacle;
+        }
+      }
     }
   }
 }
@@ -167,12 +184,18 @@ bool ClassificationOptions::IsValid(std::string* error) const {
   if (!(min_disparity_sigmas >= 0)) return fail("min_disparity_sigmas: must be >= 0");
   if (!(min_texture > 0)) return fail("min_texture: must be > 0");
   if (!(max_residual > 0)) return fail("max_residual: must be > 0");
+  if (!(min_floor_misfit >= 0)) return fail("min_floor_misfit: must be >= 0");
   if (!(moving_min_perpendicular_px > 0)) return fail("moving_min_perpendicular_px: must be > 0");
+  if (!(moving_track_min_px > 0)) return fail("moving_track_min_px: must be > 0");
+  if (!(moving_track_radius_px >= 0)) return fail("moving_track_radius_px: must be >= 0");
   if (!(max_range_m > 0)) return fail("max_range_m: must be > 0");
   if (median_radius < 1) return fail("median_radius: must be >= 1");
   if (!(segment_size_px >= 4)) return fail("segment_size_px: must be >= 4");
   if (segment_iterations < 1) return fail("segment_iterations: must be >= 1");
   if (segment_min_samples < 1) return fail("segment_min_samples: must be >= 1");
+  if (!(segment_fill_fraction >= 0 && segment_fill_fraction <= 1)) {
+    return fail("segment_fill_fraction: must be in [0, 1]");
+  }
   return true;
 }
 
@@ -270,8 +293,39 @@ cv::Mat ObstacleDetector::Prepare(const cv::Mat& image, std::string* error) cons
   return grey.isContinuous() ? grey : grey.clone();
 }
 
+std::vector<Eigen::Vector2d> OffEpipolarCorners(const CameraModel& camera,
+                                                const Pose2& base2_from_base1,
+                                                const std::vector<Eigen::Vector2d>& pixels1,
+                                                const std::vector<Eigen::Vector2d>& pixels2,
+                                                double min_px) {
+  std::vector<Eigen::Vector2d> moving;
+  Eigen::Isometry3d base2_from_base1_3d = Eigen::Isometry3d::Identity();
+  base2_from_base1_3d.linear() =
+      Eigen::AngleAxisd(base2_from_base1.yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  base2_from_base1_3d.translation() << base2_from_base1.x, base2_from_base1.y, 0.0;
+  const Eigen::Isometry3d camera2_from_camera1 =
+      camera.camera_from_base() * base2_from_base1_3d * camera.base_from_camera();
+  // A static point seen at p1 appears in image 2 on the line through the epipole and the image of
+  // its direction (the infinite homography).
+  const Eigen::Matrix3d h_infinity =
+      camera.K() * camera2_from_camera1.linear() * camera.K().inverse();
+  const Eigen::Vector3d epipole = EpipoleInImage2(camera, base2_from_base1);
+  for (std::size_t i = 0; i < pixels1.size() && i < pixels2.size(); ++i) {
+    const Eigen::Vector3d line = epipole.cross(h_infinity * pixels1[i].homogeneous());
+    const double norm = line.head<2>().norm();
+    if (!(norm > 1e-9)) continue;
+    const double distance = std::abs(line.dot(pixels2[i].homogeneous())) / norm;
+    // Near the epipole the line is ill-defined: the point must also be away from it.
+    const Eigen::Vector2d e = epipole.head<2>() / epipole.z();
+    if (std::abs(epipole.z()) > 1e-12 && (pixels2[i] - e).norm() < 4.0 * min_px) continue;
+    if (distance > min_px) moving.push_back(pixels2[i]);
+  }
+  return moving;
+}
+
 FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& current,
-                                     const GroundMotion& motion) const {
+                                     const GroundMotion& motion,
+                                     const std::vector<Eigen::Vector2d>& moving_pixels) const {
   const CameraIntrinsics& in = camera_.calibration().intrinsics;
   const cv::Size size(in.width, in.height);
   const ClassificationOptions& co = options_.classification;
@@ -340,6 +394,11 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
       sample.measured = true;
       sample.s_px = s;
       sample.significant = std::abs(s) >= co.min_disparity_sigmas * sigma_px;
+      if (co.check_floor_hypothesis && sample.significant && !field.floor_residual_fine.empty() &&
+          field.floor_residual_fine.at<float>(y, x) <
+              field.residual_fine.at<float>(y, x) + co.min_floor_misfit) {
+        sample.significant = false;
+      }
       sample.height_m = tri->point_in_base1.z();
       sample.height_sigma_m = std::abs(tri_sigma->point_in_base1.z() - sample.height_m);
       sample.footprint_sigma_m =
@@ -384,6 +443,31 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
                        camera_height, &labels);
   }
 
+  // Corners that move on their own, confirmed by a second one nearby: what is not floor around
+  // them moves.
+  const double radius_px = co.moving_track_radius_px;
+  if (radius_px > 0) {
+    const double sample_px = stride * field.scale;
+    const int reach = static_cast<int>(std::ceil(radius_px / sample_px));
+    for (std::size_t a = 0; a < moving_pixels.size(); ++a) {
+      bool confirmed = false;
+      for (std::size_t b = 0; b < moving_pixels.size() && !confirmed; ++b) {
+        confirmed = b != a && (moving_pixels[a] - moving_pixels[b]).norm() <= radius_px;
+      }
+      if (!confirmed) continue;
+      const int ci = static_cast<int>(moving_pixels[a].y() / sample_px);
+      const int cj = static_cast<int>(moving_pixels[a].x() / sample_px);
+      for (int i = std::max(0, ci - reach); i <= std::min(sample_rows - 1, ci + reach); ++i) {
+        for (int j = std::max(0, cj - reach); j <= std::min(sample_cols - 1, cj + reach); ++j) {
+          const Eigen::Vector2d centre((j + 0.5) * sample_px, (i + 0.5) * sample_px);
+          if ((centre - moving_pixels[a]).norm() > radius_px) continue;
+          PixelLabel& label = labels[i * sample_cols + j];
+          if (label != PixelLabel::kFloor) label = PixelLabel::kMoving;
+        }
+      }
+    }
+  }
+
   cv::Mat sample_labels(sample_rows, sample_cols, CV_8U, cv::Scalar(0));
   cv::Mat sample_height(sample_rows, sample_cols, CV_16U, cv::Scalar(0));
   r.zero_disparity_px = cv::Mat(sample_rows, sample_cols, CV_32F, cv::Scalar(NAN));
@@ -417,7 +501,8 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
   }
   for (std::size_t k = 0; k < g.NumCells(); ++k) {
     const int occ = occupied_votes[k], fr = free_votes[k];
-    if (occ >= 2 || (occ >= 1 && fr == 0)) {
+    // A cell with any obstacle point is occupied: calling it free would be the dangerous error.
+    if (occ >= 1) {
       r.local_map.cells[k] = kCellOccupied;
     } else if (fr >= 1) {
       r.local_map.cells[k] = kCellFree;
@@ -470,7 +555,7 @@ SequenceDetector::SequenceDetector(const CameraCalibration& calibration,
 void SequenceDetector::Finish(Output* output) const {
   if (!output->pending) return;
   const Output::PendingDetection& p = *output->pending;
-  output->result = detector_.Detect(p.reference, p.current, p.motion);
+  output->result = detector_.Detect(p.reference, p.current, p.motion, p.moving_pixels);
   output->pending.reset();
 }
 
@@ -567,7 +652,13 @@ SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, Timesta
           motion.status = GroundMotion::Status::kFallback;
           motion.base2_from_base1 = prior;
         }
-        out.pending = Output::PendingDetection{reference->image, prepared, motion};
+        std::vector<Eigen::Vector2d> moving;
+        if (options.classification.moving_track_radius_px > 0) {
+          moving = OffEpipolarCorners(camera, motion.base2_from_base1, p_ref, p_cur,
+                                      options.classification.moving_track_min_px);
+        }
+        out.pending =
+            Output::PendingDetection{reference->image, prepared, motion, std::move(moving)};
         if (!defer_detection) Finish(&out);
         frames_since_detection_ = 0;
       }

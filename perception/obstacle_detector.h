@@ -28,6 +28,12 @@ struct ClassificationOptions {
   double disparity_sigma_px = 0.05;
   // An obstacle or drop-off needs a zero disparity of at least this many sigmas (>= 0).
   double min_disparity_sigmas = 3.0;
+  // An obstacle or drop-off needs the floor hypothesis (zero disparity) to misfit the sample's own
+  // 3x3 neighbourhood by at least this many grey levels (mean |difference|) more than its zero
+  // disparity does (>= 0). Otherwise the neighbourhood cannot tell them apart (the matching window
+  // carried an obstacle's parallax onto the floor next to it, or there is no texture): unknown.
+  bool check_floor_hypothesis = true;
+  double min_floor_misfit = 0.0;
   // Minimum texture along the epipolar line (mean squared gradient, grey levels^2 per pixel^2, >
   // 0); below it a pixel is unknown, never floor.
   double min_texture = 1.0;
@@ -35,6 +41,13 @@ struct ClassificationOptions {
   double max_residual = 12.0;
   // Offset perpendicular to the epipolar line that marks motion of its own, input pixels (> 0).
   double moving_min_perpendicular_px = 1.5;
+  // Tracked corners: a corner shared by the pair that lies farther than this from its epipolar
+  // line under the fitted motion cannot be a static point (input pixels, > 0). Where two such
+  // corners lie within moving_track_radius_px of each other, the samples within that radius that
+  // are not floor are labelled moving (>= 0; 0 turns the track test off). Moving things move far
+  // between the frames of a pair, beyond what the dense search follows; their tracks do not.
+  double moving_track_min_px = 4.0;
+  double moving_track_radius_px = 32.0;
   // Points farther than this from the robot (metres, > 0) are unknown: not reliable.
   double max_range_m = 6.0;
   // An obstacle or drop-off point goes into the top view (local map, obstacle points) only when
@@ -45,11 +58,14 @@ struct ClassificationOptions {
   // How samples are combined before labelling: each on its own, with the median height of their
   // neighbours, or with the median height of their superpixel (SLICO; the paper's segments).
   enum class Aggregation { kNone, kMedian, kSegments };
-  Aggregation aggregation = Aggregation::kMedian;
+  Aggregation aggregation = Aggregation::kSegments;
   int median_radius = 1;          // samples, for kMedian (>= 1)
   double segment_size_px = 16.0;  // superpixel side, input pixels, for kSegments (>= 4)
   int segment_iterations = 4;     // SLIC iterations (>= 1)
   int segment_min_samples = 3;    // measured samples a segment needs to be labelled (>= 1)
+  // A segment labelled obstacle whose measured samples are at least this fraction of its samples
+  // labels its unmeasured (textureless) samples obstacle too, for kSegments; in [0, 1], 1 = never.
+  double segment_fill_fraction = 0.25;
 
   bool IsValid(std::string* error) const;
 };
@@ -108,8 +124,9 @@ class ObstacleDetector {
 
   // The whole chain on a prepared pair (reference, current) with a known or estimated motion.
   // `motion` may come from EstimateGroundMotion or from odometry.
-  FrameResult Detect(const cv::Mat& reference, const cv::Mat& current,
-                     const GroundMotion& motion) const;
+  // moving_pixels: corners of `current` known to move on their own (OffEpipolarCorners).
+  FrameResult Detect(const cv::Mat& reference, const cv::Mat& current, const GroundMotion& motion,
+                     const std::vector<Eigen::Vector2d>& moving_pixels = {}) const;
 
  private:
   CameraModel camera_;
@@ -117,6 +134,14 @@ class ObstacleDetector {
   cv::Mat undistort_map_x_, undistort_map_y_;
   FloorFeatureExtractor floor_features_;
 };
+
+// The image-2 positions of the corners (tracked from image 1) that lie farther than min_px from
+// their epipolar lines under the floor motion base2_from_base1: no static point moves so.
+std::vector<Eigen::Vector2d> OffEpipolarCorners(const CameraModel& camera,
+                                                const Pose2& base2_from_base1,
+                                                const std::vector<Eigen::Vector2d>& pixels1,
+                                                const std::vector<Eigen::Vector2d>& pixels2,
+                                                double min_px);
 
 // Feeds a sequence frame by frame: tracks consecutive frames for odometry, picks a reference with
 // enough parallax, and runs the detector. State is only the recent frames and poses; no I/O.
@@ -136,6 +161,7 @@ class SequenceDetector {
     struct PendingDetection {
       cv::Mat reference, current;
       GroundMotion motion;
+      std::vector<Eigen::Vector2d> moving_pixels;
     };
     std::optional<PendingDetection> pending;
   };

@@ -285,6 +285,129 @@ TEST_F(DetectorOnSyntheticScene, BoxIsObstacleWithItsHeight) {
   EXPECT_GT(free_cells, 10 * occupied_cells);
 }
 
+// Counts, over floor pixels within `band_px` of a pixel at least 5 cm high, those labelled
+// obstacle; and over the box pixels, those labelled obstacle.
+struct BoundaryCounts {
+  int floor_near = 0, floor_near_obstacle = 0, box = 0, box_obstacle = 0;
+};
+BoundaryCounts CountAtBoundary(const Rendered& rendered, const FrameResult& r, int band_px) {
+  cv::Mat box = rendered.height_m >= 0.05f, near;
+  cv::dilate(box, near, cv::Mat::ones(2 * band_px + 1, 2 * band_px + 1, CV_8U));
+  BoundaryCounts c;
+  for (int y = 0; y < box.rows; ++y) {
+    for (int x = 0; x < box.cols; ++x) {
+      const bool obstacle =
+          static_cast<PixelLabel>(r.labels.at<std::uint8_t>(y, x)) == PixelLabel::kObstacle;
+      if (box.at<std::uint8_t>(y, x)) {
+        ++c.box;
+        c.box_obstacle += obstacle;
+      } else if (near.at<std::uint8_t>(y, x) && rendered.height_m.at<float>(y, x) == 0.0f) {
+        ++c.floor_near;
+        c.floor_near_obstacle += obstacle;
+      }
+    }
+  }
+  return c;
+}
+
+// The matching window carries a tall box's parallax onto the floor beside and behind it; the
+// floor hypothesis tested on each sample's own neighbourhood takes most of that back.
+TEST_F(DetectorOnSyntheticScene, FloorBesideATallBoxIsNotObstacle) {
+  Scene scene;
+  scene.boxes.push_back({{1.5, -0.2, 0.0}, {1.7, 0.2, 0.6}});
+  const Pose2 p1{0, 0, 0}, p2{0.15, 0.0, 0.0};
+  DetectorOptions without = options_;
+  without.classification.check_floor_hypothesis = false;
+  const ObstacleDetector with_check(calib_, options_), without_check(calib_, without);
+  const Rendered a = Render(scene, with_check.camera(), p1);
+  const Rendered b = Render(scene, with_check.camera(), p2);
+  const FrameResult r = with_check.Detect(a.image, b.image, KnownMotion(p1, p2));
+  const FrameResult r0 = without_check.Detect(a.image, b.image, KnownMotion(p1, p2));
+  ASSERT_EQ(r.status, PairStatus::kOk) << r.message;
+  MaybeDump("tall_box", b.image, r);
+  const BoundaryCounts c = CountAtBoundary(b, r, 16), c0 = CountAtBoundary(b, r0, 16);
+  ASSERT_GT(c.floor_near, 3000);
+  ASSERT_GT(c.box, 5000);
+  std::printf(
+      "floor within 16 px of the box labelled obstacle: %d of %d with the check, %d "
+      "without; box labelled obstacle %d / %d of %d\n",
+      c.floor_near_obstacle, c.floor_near, c0.floor_near_obstacle, c.box_obstacle, c0.box_obstacle,
+      c.box);
+  EXPECT_LT(c.floor_near_obstacle, c0.floor_near_obstacle / 2);
+  EXPECT_LT(c.floor_near_obstacle, c.floor_near / 5);
+  EXPECT_GT(c.box_obstacle, 0.7 * c.box);
+}
+
+// Superpixels: the textureless face of a box takes its segment's obstacle label (the paper's
+// aggregation); a textureless patch of floor does not become floor.
+TEST_F(DetectorOnSyntheticScene, TexturelessObstacleFaceFilledBySegments) {
+  Scene scene;
+  scene.box_texture = Texture(2, 0.0);
+  scene.boxes.push_back({{1.5, -0.3, 0.0}, {1.8, 0.3, 0.3}});
+  const Pose2 p1{0, 0, 0}, p2{0.15, 0.0, 0.0};
+  DetectorOptions no_fill = options_;
+  no_fill.classification.segment_fill_fraction = 1.0;
+  const ObstacleDetector fill(calib_, options_), without_fill(calib_, no_fill);
+  const Rendered a = Render(scene, fill.camera(), p1), b = Render(scene, fill.camera(), p2);
+  const FrameResult r = fill.Detect(a.image, b.image, KnownMotion(p1, p2));
+  const FrameResult r0 = without_fill.Detect(a.image, b.image, KnownMotion(p1, p2));
+  ASSERT_EQ(r.status, PairStatus::kOk) << r.message;
+  MaybeDump("textureless_box", b.image, r);
+  const BoundaryCounts c = CountAtBoundary(b, r, 8), c0 = CountAtBoundary(b, r0, 8);
+  std::printf("box labelled obstacle: %d with the fill, %d without, of %d\n", c.box_obstacle,
+              c0.box_obstacle, c.box);
+  ASSERT_GT(c.box, 5000);
+  // Only segments with some texture (the face's edges) are filled: about a tenth of the face.
+  EXPECT_GT(c.box_obstacle, c0.box_obstacle + c.box / 20);
+  int box_floor = 0;
+  for (int y = 0; y < 480; ++y) {
+    for (int x = 0; x < 640; ++x) {
+      box_floor += b.height_m.at<float>(y, x) >= 0.05f &&
+                   static_cast<PixelLabel>(r.labels.at<std::uint8_t>(y, x)) == PixelLabel::kFloor;
+    }
+  }
+  EXPECT_LT(box_floor, c.box / 100);
+}
+
+// Static points at any height satisfy the epipolar constraint of the floor motion; a point that
+// moved 10 cm sideways between the frames does not.
+TEST_F(DetectorOnSyntheticScene, OffEpipolarCornersAreTheMovingOnes) {
+  const CameraModel camera(calib_);
+  const Pose2 world_from_base1{0, 0, 0}, world_from_base2{0.12, 0.01, 0.03};
+  const Pose2 base2_from_base1 = world_from_base2.Inverse() * world_from_base1;
+  std::vector<Eigen::Vector2d> p1, p2;
+  std::vector<bool> moved;
+  for (double x = 1.5; x <= 4.0; x += 0.5) {
+    for (double y = -1.0; y <= 1.0; y += 0.5) {
+      for (double z : {0.0, 0.3, 0.8}) {
+        for (bool move : {false, true}) {
+          const Eigen::Vector3d w(x, y, z);
+          const Eigen::Vector3d w2 = move ? Eigen::Vector3d(x, y + 0.10, z) : w;
+          const Eigen::Vector2d b2 = world_from_base2.Inverse() * w2.head<2>();
+          const auto a = camera.ProjectToPixel(w);
+          const auto b = camera.ProjectToPixel(Eigen::Vector3d(b2.x(), b2.y(), z));
+          if (!a || !b) continue;
+          p1.push_back(*a);
+          p2.push_back(*b);
+          moved.push_back(move);
+        }
+      }
+    }
+  }
+  ASSERT_GT(p1.size(), 60u);
+  const auto moving = OffEpipolarCorners(camera, base2_from_base1, p1, p2, 2.5);
+  int moving_found = 0, static_found = 0, moving_total = 0;
+  for (std::size_t i = 0; i < p2.size(); ++i) {
+    moving_total += moved[i];
+    const bool flagged = std::any_of(moving.begin(), moving.end(),
+                                     [&](const auto& m) { return (m - p2[i]).norm() < 1e-9; });
+    moving_found += flagged && moved[i];
+    static_found += flagged && !moved[i];
+  }
+  EXPECT_EQ(static_found, 0);
+  EXPECT_GT(moving_found, 0.8 * moving_total);
+}
+
 TEST_F(DetectorOnSyntheticScene, TexturelessFloorIsUnknownNeverFloor) {
   const ObstacleDetector detector(calib_, options_);
   Scene scene;

@@ -218,10 +218,19 @@ ZeroDisparityField ComputeZeroDisparity(const cv::Mat& image1, const cv::Mat& im
       }
     }
     if (level == finest) {
+      // The floor hypothesis (zero disparity everywhere) first, then the found one.
+      cv::Mat found;
+      cv::swap(found, s);
+      s = cv::Mat::zeros(rows, cols, CV_32F);
+      warp();
+      const cv::Size fine(3, 3);
+      cv::boxFilter(cv::abs(d), field.floor_residual_fine, CV_32F, fine);
+      s = found;
       warp();
       cv::boxFilter(gu.mul(gu), field.texture, CV_32F, box);
       cv::Mat abs_d = cv::abs(d);
       cv::boxFilter(abs_d, field.residual, CV_32F, box);
+      cv::boxFilter(abs_d, field.residual_fine, CV_32F, fine);
       // Best offset perpendicular to the epipolar line: a static point has none.
       cv::Mat gp = gy.mul(ux) - gx.mul(uy);
       cv::Mat sp, spp;

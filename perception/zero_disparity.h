@@ -41,6 +41,12 @@ struct ZeroDisparityField {
   cv::Mat s_px;        // CV_32F, signed, input pixels
   cv::Mat texture;     // CV_32F, sum over the window of (image gradient along u)^2 / window area
   cv::Mat residual;  // CV_32F, mean |I2 - I1 warped| over the window after alignment (grey levels)
+  // CV_32F, mean |I2 - I1 warped| over a 3x3 neighbourhood: at the found zero disparity
+  // (residual_fine) and at zero, i.e. for the floor hypothesis (floor_residual_fine). Where the
+  // floor explains a pixel's own neighbourhood as well as its zero disparity does, the window
+  // has carried a neighbour's parallax onto it (obstacle boundaries) or the texture cannot tell.
+  cv::Mat residual_fine;
+  cv::Mat floor_residual_fine;
   cv::Mat perpendicular_px;  // CV_32F, best offset perpendicular to the epipolar line (input px)
   // CV_32F, standard deviation of s_px (input px) from the alignment residual and the texture:
   // sigma_noise / sqrt(window area * texture), as for a Lucas-Kanade estimate.
