@@ -64,6 +64,20 @@ OptionTable::OptionTable(AppConfig* config) : config_(config) {
   AddDouble("ground_motion", "min_inlier_ratio", &gm.min_inlier_ratio,
             "inlier share needed (0, 1]");
   AddUnsigned("ground_motion", "seed", &gm.seed, "RANSAC random seed");
+  DirectAlignmentOptions& da = d.direct_alignment;
+  AddBool("direct_alignment", "enabled", &da.enabled,
+          "refine each pair's floor motion on the floor strip's texture");
+  AddInt("direct_alignment", "sample_stride_px", &da.sample_stride_px, "sample spacing, px (>= 1)");
+  AddDouble("direct_alignment", "min_gradient", &da.min_gradient,
+            "samples need this gradient, grey levels/px (> 0)");
+  AddInt("direct_alignment", "max_iterations", &da.max_iterations,
+         "Gauss-Newton iterations (>= 1)");
+  AddInt("direct_alignment", "min_samples", &da.min_samples,
+         "fewer textured samples: no refinement (>= 10)");
+  AddDouble("direct_alignment", "max_correction_m", &da.max_correction_m,
+            "larger corrections are not trusted, m (> 0)");
+  AddDouble("direct_alignment", "max_correction_rad", &da.max_correction_rad,
+            "larger corrections are not trusted, rad (> 0)");
   ZeroDisparityOptions& zd = d.zero_disparity;
   AddInt("zero_disparity", "finest_level", &zd.finest_level,
          "finest pyramid level searched [0, 3]");
@@ -93,7 +107,7 @@ OptionTable::OptionTable(AppConfig* config) : config_(config) {
       "classification", "min_floor_misfit", &c.min_floor_misfit,
       "an obstacle needs the floor to misfit its 3x3 neighbourhood by this, grey levels (>= 0)");
   AddDouble("classification", "moving_min_perpendicular_px", &c.moving_min_perpendicular_px,
-            "off-epipolar motion that means moving, px (> 0)");
+            "off-epipolar motion that means moving, px (>= 0; 0 = off)");
   AddDouble("classification", "moving_track_min_px", &c.moving_track_min_px,
             "a tracked corner this far off its epipolar line moves, px (> 0)");
   AddDouble("classification", "moving_track_radius_px", &c.moving_track_radius_px,

@@ -185,7 +185,7 @@ bool ClassificationOptions::IsValid(std::string* error) const {
   if (!(min_texture > 0)) return fail("min_texture: must be > 0");
   if (!(max_residual > 0)) return fail("max_residual: must be > 0");
   if (!(min_floor_misfit >= 0)) return fail("min_floor_misfit: must be >= 0");
-  if (!(moving_min_perpendicular_px > 0)) return fail("moving_min_perpendicular_px: must be > 0");
+  if (!(moving_min_perpendicular_px >= 0)) return fail("moving_min_perpendicular_px: must be >= 0");
   if (!(moving_track_min_px > 0)) return fail("moving_track_min_px: must be > 0");
   if (!(moving_track_radius_px >= 0)) return fail("moving_track_radius_px: must be >= 0");
   if (!(max_range_m > 0)) return fail("max_range_m: must be > 0");
@@ -232,14 +232,17 @@ bool PairSelectionOptions::IsValid(std::string* error) const {
 }
 
 bool DetectorOptions::IsValid(std::string* error) const {
-  return ground_motion.IsValid(error) && zero_disparity.IsValid(error) &&
-         classification.IsValid(error) && local_map.IsValid(error) &&
-         pair_selection.IsValid(error) && floor_features.IsValid(error);
+  return ground_motion.IsValid(error) && direct_alignment.IsValid(error) &&
+         zero_disparity.IsValid(error) && classification.IsValid(error) &&
+         local_map.IsValid(error) && pair_selection.IsValid(error) && floor_features.IsValid(error);
 }
 
 ObstacleDetector::ObstacleDetector(const CameraCalibration& calibration,
                                    const DetectorOptions& options)
-    : camera_(calibration), options_(options), floor_features_(camera_, options.floor_features) {
+    : camera_(calibration),
+      options_(options),
+      strip_mask_(FloorStripMask(camera_, options.ground_motion)),
+      floor_features_(camera_, options.floor_features) {
   const CameraIntrinsics& in = calibration.intrinsics;
   if (in.HasDistortion()) {
     const cv::Matx33d k(in.fx, 0, in.cx, 0, in.fy, in.cy, 0, 0, 1);
@@ -340,7 +343,12 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
     r.motion = motion;
     return r;
   }
-  const Pose2& t = motion.base2_from_base1;
+  // The tracked corners give the motion to about a pixel; the floor's texture to a fraction.
+  GroundMotion refined = motion;
+  refined.base2_from_base1 = AlignFloorDirect(reference, current, camera_, strip_mask_,
+                                              motion.base2_from_base1, options_.direct_alignment)
+                                 .base2_from_base1;
+  const Pose2& t = refined.base2_from_base1;
   // Camera baseline: without it there is no parallax and nothing is known.
   const Eigen::Vector2d c1 = camera_.CameraCentreInBase().head<2>();
   const double baseline_m = (t * c1 - c1).norm();
@@ -352,7 +360,7 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
   }
 
   FrameResult r = UnknownResult(size, options_.local_map, PairStatus::kOk, "");
-  r.motion = motion;
+  r.motion = refined;
   const ZeroDisparityField field =
       ComputeZeroDisparity(reference, current, camera_, t, options_.zero_disparity);
   const Eigen::Matrix3d h_inv = FloorHomography(camera_, t).inverse();
@@ -377,7 +385,7 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
       if (auto f = camera_.PixelToFloor(q)) sample.floor_in_base2 = *f;
       if (field.texture.at<float>(y, x) < co.min_texture) continue;  // unknown, never floor
       const float perpendicular = std::abs(field.perpendicular_px.at<float>(y, x));
-      if (perpendicular >= co.moving_min_perpendicular_px &&
+      if (co.moving_min_perpendicular_px > 0 && perpendicular >= co.moving_min_perpendicular_px &&
           perpendicular >= co.min_disparity_sigmas * field.perpendicular_sigma_px.at<float>(y, x)) {
         sample.raw = PixelLabel::kMoving;
         continue;

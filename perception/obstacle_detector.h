@@ -5,6 +5,7 @@
 #include <optional>
 #include <string>
 
+#include "perception/direct_alignment.h"
 #include "perception/floor_features.h"
 #include "perception/frame_types.h"
 #include "perception/geometry/camera_model.h"
@@ -39,8 +40,11 @@ struct ClassificationOptions {
   double min_texture = 1.0;
   // Maximum mean |difference| after alignment, grey levels (> 0); above it unknown (or moving).
   double max_residual = 12.0;
-  // Offset perpendicular to the epipolar line that marks motion of its own, input pixels (> 0).
-  double moving_min_perpendicular_px = 1.5;
+  // Dense test: an offset perpendicular to the epipolar line of at least this many input pixels
+  // (and min_disparity_sigmas) marks motion of its own (>= 0; 0 = off). Off by default: on tiled
+  // and grained floors the aperture problem makes it call 4 % of the floor moving, and things that
+  // move move farther than the dense search follows; the tracked-corner test below finds them.
+  double moving_min_perpendicular_px = 0.0;
   // Tracked corners: a corner shared by the pair that lies farther than this from its epipolar
   // line under the fitted motion cannot be a static point (input pixels, > 0). Where two such
   // corners lie within moving_track_radius_px of each other, the samples within that radius that
@@ -99,6 +103,7 @@ struct PairSelectionOptions {
 
 struct DetectorOptions {
   GroundMotionOptions ground_motion;
+  DirectAlignmentOptions direct_alignment;  // the pair's motion refined on the floor's texture
   ZeroDisparityOptions zero_disparity;
   ClassificationOptions classification;
   LocalMapOptions local_map;
@@ -132,6 +137,7 @@ class ObstacleDetector {
   CameraModel camera_;
   DetectorOptions options_;
   cv::Mat undistort_map_x_, undistort_map_y_;
+  cv::Mat strip_mask_;  // FloorStripMask, for the direct alignment
   FloorFeatureExtractor floor_features_;
 };
 

@@ -1,0 +1,173 @@
+#include "perception/direct_alignment.h"
+
+#include <Eigen/Cholesky>
+#include <algorithm>
+#include <cmath>
+#include <opencv2/imgproc.hpp>
+#include <vector>
+
+namespace monoplane {
+namespace {
+
+struct Sample {
+  Eigen::Vector2d q;  // image-2 pixel
+  double i2 = 0.0;
+};
+
+// Bilinear sample of a CV_32F image; false outside.
+bool Bilinear(const cv::Mat& image, const Eigen::Vector2d& p, double* value) {
+  const double x = p.x(), y = p.y();
+  if (!(x >= 0 && y >= 0 && x < image.cols - 1 && y < image.rows - 1)) return false;
+  const int x0 = static_cast<int>(x), y0 = static_cast<int>(y);
+  const double fx = x - x0, fy = y - y0;
+  const float* r0 = image.ptr<float>(y0);
+  const float* r1 = image.ptr<float>(y0 + 1);
+  *value =
+      (1 - fy) * ((1 - fx) * r0[x0] + fx * r0[x0 + 1]) + fy * ((1 - fx) * r1[x0] + fx * r1[x0 + 1]);
+  return true;
+}
+
+double Huber(double r, double k) {
+  const double a = std::abs(r);
+  return a <= k ? 0.5 * r * r : k * (a - 0.5 * k);
+}
+
+}  // namespace
+
+bool DirectAlignmentOptions::IsValid(std::string* error) const {
+  auto fail = [&](const std::string& what) {
+    *error = "direct_alignment." + what;
+    return false;
+  };
+  if (sample_stride_px < 1) return fail("sample_stride_px: must be >= 1");
+  if (!(min_gradient > 0)) return fail("min_gradient: must be > 0");
+  if (max_iterations < 1) return fail("max_iterations: must be >= 1");
+  if (min_samples < 10) return fail("min_samples: must be >= 10");
+  if (!(max_correction_m > 0)) return fail("max_correction_m: must be > 0");
+  if (!(max_correction_rad > 0)) return fail("max_correction_rad: must be > 0");
+  return true;
+}
+
+DirectAlignment AlignFloorDirect(const cv::Mat& image1, const cv::Mat& image2,
+                                 const CameraModel& camera, const cv::Mat& strip_mask,
+                                 const Pose2& initial, const DirectAlignmentOptions& options) {
+  DirectAlignment out;
+  out.base2_from_base1 = initial;
+  if (!options.enabled || image1.empty() || image1.size() != image2.size() ||
+      strip_mask.size() != image2.size()) {
+    return out;
+  }
+  // A little smoothing widens the basin of convergence and tames aliasing.
+  cv::Mat i1, i2, gx, gy;
+  image1.convertTo(i1, CV_32F);
+  image2.convertTo(i2, CV_32F);
+  cv::GaussianBlur(i1, i1, cv::Size(5, 5), 1.0);
+  cv::GaussianBlur(i2, i2, cv::Size(5, 5), 1.0);
+  cv::Sobel(i2, gx, CV_32F, 1, 0, 3, 1.0 / 8.0);
+  cv::Sobel(i2, gy, CV_32F, 0, 1, 3, 1.0 / 8.0);
+  std::vector<Sample> samples;
+  const int stride = options.sample_stride_px;
+  const float min_g2 = static_cast<float>(options.min_gradient * options.min_gradient);
+  for (int y = stride / 2; y < i2.rows; y += stride) {
+    const std::uint8_t* m = strip_mask.ptr<std::uint8_t>(y);
+    const float* px = gx.ptr<float>(y);
+    const float* py = gy.ptr<float>(y);
+    for (int x = stride / 2; x < i2.cols; x += stride) {
+      if (!m[x] || px[x] * px[x] + py[x] * py[x] < min_g2) continue;
+      samples.push_back({Eigen::Vector2d(x, y), i2.at<float>(y, x)});
+    }
+  }
+  out.samples = static_cast<int>(samples.size());
+  if (out.samples < options.min_samples) return out;
+
+  // Parameters: x, y, yaw of base2_from_base1 and a brightness offset.
+  const auto residuals = [&](const Pose2& t, double offset, std::vector<double>* r) {
+    const Eigen::Matrix3d h_inv = FloorHomography(camera, t).inverse();
+    r->assign(samples.size(), NAN);
+    for (std::size_t k = 0; k < samples.size(); ++k) {
+      double v;
+      if (Bilinear(i1, ApplyHomography(h_inv, samples[k].q), &v)) {
+        (*r)[k] = samples[k].i2 - v - offset;
+      }
+    }
+  };
+  const auto robust_cost = [&](const std::vector<double>& r, double k_huber) {
+    double sum = 0;
+    int n = 0;
+    for (double v : r) {
+      if (std::isnan(v)) continue;
+      sum += Huber(v, k_huber);
+      ++n;
+    }
+    return n > 0 ? sum / n : INFINITY;
+  };
+
+  Pose2 t = initial;
+  double offset = 0.0;
+  std::vector<double> r;
+  residuals(t, offset, &r);
+  // Huber threshold from the robust spread at the start (at least 2 grey levels).
+  std::vector<double> abs_r;
+  for (double v : r) {
+    if (!std::isnan(v)) abs_r.push_back(std::abs(v));
+  }
+  if (static_cast<int>(abs_r.size()) < options.min_samples) return out;
+  std::nth_element(abs_r.begin(), abs_r.begin() + abs_r.size() / 2, abs_r.end());
+  const double k_huber = std::max(2.0, 1.345 * 1.4826 * abs_r[abs_r.size() / 2]);
+  out.cost_before = robust_cost(r, k_huber);
+  double cost = out.cost_before;
+
+  const double eps[3] = {1e-3, 1e-3, 1e-3};
+  std::vector<double> r_plus, r_minus;
+  std::vector<Eigen::Vector4d> jacobian(samples.size());
+  for (int it = 0; it < options.max_iterations; ++it) {
+    for (int p = 0; p < 3; ++p) {
+      Pose2 tp = t, tm = t;
+      double* fp = p == 0 ? &tp.x : p == 1 ? &tp.y : &tp.yaw;
+      double* fm = p == 0 ? &tm.x : p == 1 ? &tm.y : &tm.yaw;
+      *fp += eps[p];
+      *fm -= eps[p];
+      residuals(tp, offset, &r_plus);
+      residuals(tm, offset, &r_minus);
+      for (std::size_t k = 0; k < samples.size(); ++k) {
+        jacobian[k][p] = (r_plus[k] - r_minus[k]) / (2 * eps[p]);
+      }
+    }
+    Eigen::Matrix4d a = Eigen::Matrix4d::Zero();
+    Eigen::Vector4d b = Eigen::Vector4d::Zero();
+    for (std::size_t k = 0; k < samples.size(); ++k) {
+      jacobian[k][3] = -1.0;
+      if (std::isnan(r[k]) || !jacobian[k].allFinite()) continue;
+      const double w = std::abs(r[k]) <= k_huber ? 1.0 : k_huber / std::abs(r[k]);
+      a += w * jacobian[k] * jacobian[k].transpose();
+      b += w * jacobian[k] * r[k];
+    }
+    const Eigen::Vector4d delta = a.ldlt().solve(-b);
+    if (!delta.allFinite()) break;
+    Pose2 candidate = t;
+    candidate.x += delta[0];
+    candidate.y += delta[1];
+    candidate.yaw += delta[2];
+    std::vector<double> r_new;
+    residuals(candidate, offset + delta[3], &r_new);
+    const double new_cost = robust_cost(r_new, k_huber);
+    if (!(new_cost < cost)) break;
+    t = candidate;
+    offset += delta[3];
+    r.swap(r_new);
+    cost = new_cost;
+    if (std::abs(delta[0]) < 1e-5 && std::abs(delta[1]) < 1e-5 && std::abs(delta[2]) < 1e-5) break;
+  }
+  const bool in_bounds = std::hypot(t.x - initial.x, t.y - initial.y) <= options.max_correction_m &&
+                         std::abs(t.yaw - initial.yaw) <= options.max_correction_rad;
+  if (in_bounds && cost < out.cost_before) {
+    out.base2_from_base1 = t;
+    out.refined = true;
+    out.cost_after = cost;
+  } else {
+    out.cost_after = out.cost_before;
+  }
+  return out;
+}
+
+}  // namespace monoplane

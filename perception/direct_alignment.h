@@ -1,0 +1,42 @@
+#pragma once
+
+#include <opencv2/core.hpp>
+#include <string>
+
+#include "perception/geometry/camera_model.h"
+
+namespace monoplane {
+
+// Refinement of the floor motion of an image pair by direct alignment: the planar motion (x, y,
+// yaw) and a brightness offset that make image 1, warped by the floor homography, match image 2
+// best on the textured pixels of the floor strip (Gauss-Newton, Huber weights so that obstacles
+// and moving things in the strip count little). Tracked corners give the motion to about a pixel;
+// the zero disparity of the floor is a fraction of a pixel, so the pair is aligned on all of the
+// floor's texture before the dense search.
+struct DirectAlignmentOptions {
+  bool enabled = true;
+  int sample_stride_px = 3;          // sample spacing in image 2, input pixels (>= 1)
+  double min_gradient = 6.0;         // samples need this gradient magnitude, grey levels/px (> 0)
+  int max_iterations = 10;           // Gauss-Newton iterations (>= 1)
+  int min_samples = 200;             // fewer textured samples: no refinement (>= 10)
+  double max_correction_m = 0.03;    // larger corrections are not trusted (> 0)
+  double max_correction_rad = 0.02;  // (> 0)
+
+  bool IsValid(std::string* error) const;
+};
+
+struct DirectAlignment {
+  Pose2 base2_from_base1;  // refined, or the initial motion when not refined
+  bool refined = false;    // the refinement converged, lowered the cost and stayed in bounds
+  int samples = 0;         // textured strip samples used
+  double cost_before = 0;  // mean Huber cost per sample at the initial motion (grey levels^2)
+  double cost_after = 0;   // and at the returned one
+};
+
+// image1, image2: grey CV_8U, undistorted, the calibration's size. strip_mask: CV_8U, non-zero
+// where image-2 pixels may be used (FloorStripMask).
+DirectAlignment AlignFloorDirect(const cv::Mat& image1, const cv::Mat& image2,
+                                 const CameraModel& camera, const cv::Mat& strip_mask,
+                                 const Pose2& initial, const DirectAlignmentOptions& options);
+
+}  // namespace monoplane
