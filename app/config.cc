@@ -67,6 +67,8 @@ OptionTable::OptionTable(AppConfig* config) : config_(config) {
   DirectAlignmentOptions& da = d.direct_alignment;
   AddBool("direct_alignment", "enabled", &da.enabled,
           "refine each pair's floor motion on the floor strip's texture");
+  AddBool("direct_alignment", "refine_steps", &da.refine_steps,
+          "also refine every frame-to-frame odometry step");
   AddInt("direct_alignment", "sample_stride_px", &da.sample_stride_px, "sample spacing, px (>= 1)");
   AddDouble("direct_alignment", "min_gradient", &da.min_gradient,
             "samples need this gradient, grey levels/px (> 0)");

@@ -601,6 +601,12 @@ SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, Timesta
   for (std::size_t i = 0; i < tracked.size(); ++i) {
     tracked[i].floor_inlier = out.step.status == GroundMotion::Status::kOk && inlier[i];
   }
+  if (out.step.status == GroundMotion::Status::kOk && options.direct_alignment.refine_steps) {
+    out.step.base2_from_base1 =
+        AlignFloorDirect(previous.image, prepared, camera, strip_mask_, out.step.base2_from_base1,
+                         options.direct_alignment)
+            .base2_from_base1;
+  }
   if (out.step.status != GroundMotion::Status::kFailed) {
     odom_from_base_ = previous.odom_from_base * out.step.base2_from_base1.Inverse();
     if (out.step.status == GroundMotion::Status::kOk) last_step_ = out.step.base2_from_base1;
