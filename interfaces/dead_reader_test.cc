@@ -20,7 +20,7 @@ namespace {
 
 constexpr int kDomain = 178;
 
-// The child: a reliable keep-all reader of the local map that stops itself once a writer matched.
+// The child: a reliable keep-all reader of the local map; it waits, the parent stops it.
 [[noreturn]] void RunStoppingReader() {
   prctl(PR_SET_PDEATHSIG, SIGKILL);
   const dds_entity_t participant = dds_create_participant(kDomain, nullptr, nullptr);
@@ -38,8 +38,10 @@ constexpr int kDomain = 178;
   while (dds_get_subscription_matched_status(reader, &status) >= 0 && status.current_count == 0) {
     dds_waitset_wait(waitset, nullptr, 0, DDS_SECS(30));
   }
-  raise(SIGSTOP);
-  _exit(0);
+  // The parent stops this process once it has matched this reader too: stopping here, the
+  // parent might not yet have seen the reader (discovery needs both sides), and a stopped process
+  // never answers again.
+  for (;;) pause();
 }
 
 TEST(DeadReaderTest, StoppedRemoteReaderDoesNotStallPublishing) {
@@ -58,6 +60,7 @@ TEST(DeadReaderTest, StoppedRemoteReaderDoesNotStallPublishing) {
   ASSERT_TRUE(publisher->WaitForReaders(
       MapPublisher::Topic::kLocalMap, [](int n) { return n == 1; }, 30.0))
       << "the reader process never matched";
+  ASSERT_EQ(kill(child, SIGSTOP), 0);
   int status = 0;
   ASSERT_EQ(waitpid(child, &status, WUNTRACED), child);
   ASSERT_TRUE(WIFSTOPPED(status)) << "the reader process did not stop";
