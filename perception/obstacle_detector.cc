@@ -610,8 +610,10 @@ std::vector<FeatureObservation> SequenceDetector::TrackFeatures(
   cv::calcOpticalFlowPyrLK(previous_pyramid_, current_pyramid, p0, p1, st1, err, window,
                            gm.lk_levels, criteria, flags);
   back = p0;
+  // The check starts where a consistent track must end, so the two finest levels tell whether it
+  // returns there; the coarser ones cost as much again and matter only for tracks that do not.
   cv::calcOpticalFlowPyrLK(current_pyramid, previous_pyramid_, p1, back, st2, err, window,
-                           gm.lk_levels, criteria, cv::OPTFLOW_USE_INITIAL_FLOW);
+                           std::min(1, gm.lk_levels), criteria, cv::OPTFLOW_USE_INITIAL_FLOW);
   for (std::size_t i = 0; i < p0.size(); ++i) {
     if (!st1[i] || !st2[i]) continue;
     if (std::hypot(back[i].x - p0[i].x, back[i].y - p0[i].y) > gm.forward_backward_max_px) continue;
@@ -646,6 +648,7 @@ std::vector<FeatureObservation> SequenceDetector::AddNewCorners(
       tracked_in_strip >= strip_wanted * 3 / 4) {
     return tracked;
   }
+  corners_.Compute(current);  // once for both masks below
   cv::Mat free_mask(current.size(), CV_8U, cv::Scalar(255));
   for (const auto& f : tracked) {
     cv::circle(free_mask, cv::Point(static_cast<int>(f.pixel.x()), static_cast<int>(f.pixel.y())),
@@ -653,9 +656,8 @@ std::vector<FeatureObservation> SequenceDetector::AddNewCorners(
   }
   const auto add = [&](const cv::Mat& mask, int count) {
     if (count <= 0) return;
-    std::vector<cv::Point2f> corners;
-    cv::goodFeaturesToTrack(current, corners, count, gm.corner_quality, gm.corner_min_distance_px,
-                            mask, 3, false);
+    const std::vector<cv::Point2f> corners =
+        corners_.Select(mask, count, gm.corner_quality, gm.corner_min_distance_px);
     for (const auto& c : corners) {
       FeatureObservation f;
       f.track_id = next_track_id_++;
