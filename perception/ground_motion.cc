@@ -189,11 +189,10 @@ GroundMotion EstimateGroundMotion(const cv::Mat& image1, const cv::Mat& image2,
   const cv::Size window(options.lk_window_px, options.lk_window_px);
   const cv::TermCriteria criteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 30, 0.01);
   std::vector<uchar> status_fwd, status_bwd;
-  std::vector<float> err;
-  cv::calcOpticalFlowPyrLK(image1, image2, corners1, corners2, status_fwd, err, window,
+  cv::calcOpticalFlowPyrLK(image1, image2, corners1, corners2, status_fwd, cv::noArray(), window,
                            options.lk_levels, criteria, flags);
   std::vector<cv::Point2f> back = corners1;
-  cv::calcOpticalFlowPyrLK(image2, image1, corners2, back, status_bwd, err, window,
+  cv::calcOpticalFlowPyrLK(image2, image1, corners2, back, status_bwd, cv::noArray(), window,
                            options.lk_levels, criteria, cv::OPTFLOW_USE_INITIAL_FLOW);
 
   std::vector<Eigen::Vector2d> pixels1, pixels2;

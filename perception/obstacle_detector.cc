@@ -603,16 +603,15 @@ std::vector<FeatureObservation> SequenceDetector::TrackFeatures(
     flags = cv::OPTFLOW_USE_INITIAL_FLOW;
   }
   std::vector<uchar> st1, st2;
-  std::vector<float> err;
   const cv::Size window(gm.lk_window_px, gm.lk_window_px);
   const cv::TermCriteria criteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 20, 0.02);
   // The pyramids are built once per frame and serve both directions and the next frame.
-  cv::calcOpticalFlowPyrLK(previous_pyramid_, current_pyramid, p0, p1, st1, err, window,
+  cv::calcOpticalFlowPyrLK(previous_pyramid_, current_pyramid, p0, p1, st1, cv::noArray(), window,
                            gm.lk_levels, criteria, flags);
   back = p0;
   // The check starts where a consistent track must end, so the two finest levels tell whether it
   // returns there; the coarser ones cost as much again and matter only for tracks that do not.
-  cv::calcOpticalFlowPyrLK(current_pyramid, previous_pyramid_, p1, back, st2, err, window,
+  cv::calcOpticalFlowPyrLK(current_pyramid, previous_pyramid_, p1, back, st2, cv::noArray(), window,
                            std::min(1, gm.lk_levels), criteria, cv::OPTFLOW_USE_INITIAL_FLOW);
   for (std::size_t i = 0; i < p0.size(); ++i) {
     if (!st1[i] || !st2[i]) continue;

@@ -157,12 +157,15 @@ ZeroDisparityField ComputeZeroDisparity(const cv::Mat& image1, const cv::Mat& im
     // The epipole at this level: scale its inhomogeneous part.
     const Eigen::Vector3d e(epipole.x() * f, epipole.y() * f, epipole.z());
 
+    // The per-pixel loops below read plain locals and write through unaliased row pointers, so
+    // that the compiler vectorises them.
+    const double ex = e.x(), ey = e.y(), ez = e.z();
     cv::Mat ux(rows, cols, CV_32F), uy(rows, cols, CV_32F);
     for (int y = 0; y < rows; ++y) {
-      float* pux = ux.ptr<float>(y);
-      float* puy = uy.ptr<float>(y);
+      float* __restrict pux = ux.ptr<float>(y);
+      float* __restrict puy = uy.ptr<float>(y);
       for (int x = 0; x < cols; ++x) {
-        const double dx = e.x() - e.z() * x, dy = e.y() - e.z() * y;
+        const double dx = ex - ez * x, dy = ey - ez * y;
         const double n = std::sqrt(dx * dx + dy * dy);
         pux[x] = n > 0 ? static_cast<float>(dx / n) : 0.f;
         puy[x] = n > 0 ? static_cast<float>(dy / n) : 0.f;
@@ -187,19 +190,22 @@ ZeroDisparityField ComputeZeroDisparity(const cv::Mat& image1, const cv::Mat& im
     // search needs, of the gradient along u (gu), the one across it (gp) and the zero-mean
     // difference d: (gu d, gu^2) while iterating; at the end (gu^2, |d|, gp d, gp^2), for the
     // texture, the residual and the offset across the epipolar line (a static point has none).
+    const double h00 = h_inv(0, 0), h01 = h_inv(0, 1), h02 = h_inv(0, 2);
+    const double h10 = h_inv(1, 0), h11 = h_inv(1, 1), h12 = h_inv(1, 2);
+    const double h20 = h_inv(2, 0), h21 = h_inv(2, 1), h22 = h_inv(2, 2);
     auto warp = [&](bool final) {
       for (int y = 0; y < rows; ++y) {
-        const float* ps = s.ptr<float>(y);
-        const float* pux = ux.ptr<float>(y);
-        const float* puy = uy.ptr<float>(y);
-        float* mx = map_x.ptr<float>(y);
-        float* my = map_y.ptr<float>(y);
+        const float* __restrict ps = s.ptr<float>(y);
+        const float* __restrict pux = ux.ptr<float>(y);
+        const float* __restrict puy = uy.ptr<float>(y);
+        float* __restrict mx = map_x.ptr<float>(y);
+        float* __restrict my = map_y.ptr<float>(y);
         for (int x = 0; x < cols; ++x) {
           // Where image 1 holds what image 2 shows at (x, y) for zero disparity s: H^-1 (q - s u).
           const double qx = x - ps[x] * pux[x], qy = y - ps[x] * puy[x];
-          const double w = 1.0 / (h_inv(2, 0) * qx + h_inv(2, 1) * qy + h_inv(2, 2));
-          mx[x] = static_cast<float>((h_inv(0, 0) * qx + h_inv(0, 1) * qy + h_inv(0, 2)) * w);
-          my[x] = static_cast<float>((h_inv(1, 0) * qx + h_inv(1, 1) * qy + h_inv(1, 2)) * w);
+          const double w = 1.0 / (h20 * qx + h21 * qy + h22);
+          mx[x] = static_cast<float>((h00 * qx + h01 * qy + h02) * w);
+          my[x] = static_cast<float>((h10 * qx + h11 * qy + h12) * w);
         }
       }
       cv::remap(i1, warped, map_x, map_y, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
@@ -208,14 +214,14 @@ ZeroDisparityField ComputeZeroDisparity(const cv::Mat& image1, const cv::Mat& im
       cv::boxFilter(warped, mean_w, CV_32F, box);
       terms.create(rows, cols, final ? CV_32FC4 : CV_32FC2);
       for (int y = 0; y < rows; ++y) {
-        const std::uint8_t* pw = warped.ptr<std::uint8_t>(y);
-        const std::int16_t* pdx = grad_x.ptr<std::int16_t>(y);
-        const std::int16_t* pdy = grad_y.ptr<std::int16_t>(y);
-        const float* pux = ux.ptr<float>(y);
-        const float* puy = uy.ptr<float>(y);
-        const float* pa = i2_zero_mean.ptr<float>(y);
-        const float* pm = mean_w.ptr<float>(y);
-        float* pt = terms.ptr<float>(y);
+        const std::uint8_t* __restrict pw = warped.ptr<std::uint8_t>(y);
+        const std::int16_t* __restrict pdx = grad_x.ptr<std::int16_t>(y);
+        const std::int16_t* __restrict pdy = grad_y.ptr<std::int16_t>(y);
+        const float* __restrict pux = ux.ptr<float>(y);
+        const float* __restrict puy = uy.ptr<float>(y);
+        const float* __restrict pa = i2_zero_mean.ptr<float>(y);
+        const float* __restrict pm = mean_w.ptr<float>(y);
+        float* __restrict pt = terms.ptr<float>(y);
         for (int x = 0; x < cols; ++x) {
           const float gu = pdx[x] * 0.125f * pux[x] + pdy[x] * 0.125f * puy[x];
           const float d = pa[x] - (static_cast<float>(pw[x]) - pm[x]);
@@ -238,8 +244,8 @@ ZeroDisparityField ComputeZeroDisparity(const cv::Mat& image1, const cv::Mat& im
     for (int it = 0; it < options.iterations_per_level; ++it) {
       warp(false);
       for (int y = 0; y < rows; ++y) {
-        float* ps = s.ptr<float>(y);
-        const float* pnd = sums.ptr<float>(y);
+        float* __restrict ps = s.ptr<float>(y);
+        const float* __restrict pnd = sums.ptr<float>(y);
         for (int x = 0; x < cols; ++x) {
           // I2 = W(q - (s + delta) u) ~ Ws - delta * Gu  =>  delta = -sum(Gu D) / sum(Gu^2).
           ps[x] += std::clamp(-pnd[2 * x] / (pnd[2 * x + 1] + damping), -max_step, max_step);
@@ -257,12 +263,12 @@ ZeroDisparityField ComputeZeroDisparity(const cv::Mat& image1, const cv::Mat& im
       const float scale = static_cast<float>(field.scale);
       const float area = static_cast<float>(options.window_px * options.window_px);
       for (int y = 0; y < rows; ++y) {
-        const float* m = window_means.ptr<float>(y);
-        float* tex = field.texture.ptr<float>(y);
-        float* res = field.residual.ptr<float>(y);
-        float* perpendicular = field.perpendicular_px.ptr<float>(y);
-        float* sigma = field.sigma_px.ptr<float>(y);
-        float* perpendicular_sigma = field.perpendicular_sigma_px.ptr<float>(y);
+        const float* __restrict m = window_means.ptr<float>(y);
+        float* __restrict tex = field.texture.ptr<float>(y);
+        float* __restrict res = field.residual.ptr<float>(y);
+        float* __restrict perpendicular = field.perpendicular_px.ptr<float>(y);
+        float* __restrict sigma = field.sigma_px.ptr<float>(y);
+        float* __restrict perpendicular_sigma = field.perpendicular_sigma_px.ptr<float>(y);
         for (int x = 0; x < cols; ++x) {
           const float gu2 = m[4 * x], abs_d = m[4 * x + 1], gpd = m[4 * x + 2], gp2 = m[4 * x + 3];
           tex[x] = gu2;
