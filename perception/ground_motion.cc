@@ -1,6 +1,7 @@
 #include "perception/ground_motion.h"
 
 #include <Eigen/Dense>
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <opencv2/imgproc.hpp>
@@ -189,11 +190,16 @@ GroundMotion EstimateGroundMotion(const cv::Mat& image1, const cv::Mat& image2,
   const cv::Size window(options.lk_window_px, options.lk_window_px);
   const cv::TermCriteria criteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 30, 0.01);
   std::vector<uchar> status_fwd, status_bwd;
-  cv::calcOpticalFlowPyrLK(image1, image2, corners1, corners2, status_fwd, cv::noArray(), window,
-                           options.lk_levels, criteria, flags);
+  // Each pyramid (with its derivatives) is built once for both directions, and the backward check
+  // starts where a consistent track ends, so its two finest levels suffice (as SequenceDetector).
+  std::vector<cv::Mat> pyramid1, pyramid2;
+  cv::buildOpticalFlowPyramid(image1, pyramid1, window, options.lk_levels);
+  cv::buildOpticalFlowPyramid(image2, pyramid2, window, options.lk_levels);
+  cv::calcOpticalFlowPyrLK(pyramid1, pyramid2, corners1, corners2, status_fwd, cv::noArray(),
+                           window, options.lk_levels, criteria, flags);
   std::vector<cv::Point2f> back = corners1;
-  cv::calcOpticalFlowPyrLK(image2, image1, corners2, back, status_bwd, cv::noArray(), window,
-                           options.lk_levels, criteria, cv::OPTFLOW_USE_INITIAL_FLOW);
+  cv::calcOpticalFlowPyrLK(pyramid2, pyramid1, corners2, back, status_bwd, cv::noArray(), window,
+                           std::min(1, options.lk_levels), criteria, cv::OPTFLOW_USE_INITIAL_FLOW);
 
   std::vector<Eigen::Vector2d> pixels1, pixels2;
   for (std::size_t i = 0; i < corners1.size(); ++i) {

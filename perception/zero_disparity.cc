@@ -167,8 +167,9 @@ ZeroDisparityField ComputeZeroDisparity(const cv::Mat& image1, const cv::Mat& im
       for (int x = 0; x < cols; ++x) {
         const double dx = ex - ez * x, dy = ey - ez * y;
         const double n = std::sqrt(dx * dx + dy * dy);
-        pux[x] = n > 0 ? static_cast<float>(dx / n) : 0.f;
-        puy[x] = n > 0 ? static_cast<float>(dy / n) : 0.f;
+        const double inverse = n > 0 ? 1.0 / n : 0.0;
+        pux[x] = static_cast<float>(dx * inverse);
+        puy[x] = static_cast<float>(dy * inverse);
       }
     }
     if (s.empty()) {
@@ -254,30 +255,30 @@ ZeroDisparityField ComputeZeroDisparity(const cv::Mat& image1, const cv::Mat& im
     }
     if (level == finest) {
       warp(true);
-      const cv::Mat& window_means = sums;
-      field.texture.create(rows, cols, CV_32F);
-      field.residual.create(rows, cols, CV_32F);
+      // The window sums apart: texture and residual as they are, the rest per pixel below.
+      std::vector<cv::Mat> channels;
+      cv::split(sums, channels);
+      field.texture = channels[0];
+      field.residual = channels[1];
       field.perpendicular_px.create(rows, cols, CV_32F);
       field.sigma_px.create(rows, cols, CV_32F);
       field.perpendicular_sigma_px.create(rows, cols, CV_32F);
       const float scale = static_cast<float>(field.scale);
       const float area = static_cast<float>(options.window_px * options.window_px);
       for (int y = 0; y < rows; ++y) {
-        const float* __restrict m = window_means.ptr<float>(y);
-        float* __restrict tex = field.texture.ptr<float>(y);
-        float* __restrict res = field.residual.ptr<float>(y);
+        const float* __restrict tex = field.texture.ptr<float>(y);
+        const float* __restrict res = field.residual.ptr<float>(y);
+        const float* __restrict pgd = channels[2].ptr<float>(y);
+        const float* __restrict pgg = channels[3].ptr<float>(y);
         float* __restrict perpendicular = field.perpendicular_px.ptr<float>(y);
         float* __restrict sigma = field.sigma_px.ptr<float>(y);
         float* __restrict perpendicular_sigma = field.perpendicular_sigma_px.ptr<float>(y);
         for (int x = 0; x < cols; ++x) {
-          const float gu2 = m[4 * x], abs_d = m[4 * x + 1], gpd = m[4 * x + 2], gp2 = m[4 * x + 3];
-          tex[x] = gu2;
-          res[x] = abs_d;
-          perpendicular[x] = gp2 > 1e-3f ? -gpd / gp2 * scale : 0.f;
+          perpendicular[x] = pgg[x] > 1e-3f ? -pgd[x] / pgg[x] * scale : 0.f;
           // Mean |d| of a Gaussian is 0.8 sigma; one grey level of quantisation at least.
-          const float noise = std::max(1.25f * abs_d, 1.0f);
-          sigma[x] = noise / std::sqrt(area * std::max(gu2, 1e-6f)) * scale;
-          perpendicular_sigma[x] = noise / std::sqrt(area * std::max(gp2, 1e-6f)) * scale;
+          const float noise = std::max(1.25f * res[x], 1.0f);
+          sigma[x] = noise / std::sqrt(area * std::max(tex[x], 1e-6f)) * scale;
+          perpendicular_sigma[x] = noise / std::sqrt(area * std::max(pgg[x], 1e-6f)) * scale;
         }
       }
       field.s_px = s * static_cast<float>(1 << level);
