@@ -31,10 +31,16 @@ std::vector<cv::Point2f> ShiTomasiCorners::Select(const cv::Mat& mask, int max_c
         candidates_.push_back(s + x);
     }
   }
-  // Strongest first; ties by address, as goodFeaturesToTrack orders them.
-  std::sort(candidates_.begin(), candidates_.end(), [](const float* a, const float* b) {
+  // Strongest first; ties by address, as goodFeaturesToTrack orders them. Only a head of the list
+  // is sorted at first (most candidates are weak and never looked at); the rest, all weaker, only
+  // when the spacing has rejected so many that the head runs out.
+  const auto stronger = [](const float* a, const float* b) {
     return *a > *b ? true : *a < *b ? false : a > b;
-  });
+  };
+  const std::size_t head = std::min(
+      candidates_.size(), std::max<std::size_t>(4 * static_cast<std::size_t>(max_corners), 512));
+  std::nth_element(candidates_.begin(), candidates_.begin() + head, candidates_.end(), stronger);
+  std::sort(candidates_.begin(), candidates_.begin() + head, stronger);
   // Greedy spacing on a grid of min_distance cells: each corner checks the 3x3 cells around it.
   const int cell = std::max(cvRound(min_distance_px), 1);
   const int grid_cols = (strength_.cols + cell - 1) / cell;
@@ -42,7 +48,9 @@ std::vector<cv::Point2f> ShiTomasiCorners::Select(const cv::Mat& mask, int max_c
   std::vector<std::vector<cv::Point2f>> grid(static_cast<std::size_t>(grid_cols) * grid_rows);
   const double min_distance2 = min_distance_px * min_distance_px;
   const auto* base = strength_.ptr<std::uint8_t>();
-  for (const float* c : candidates_) {
+  for (std::size_t i = 0; i < candidates_.size(); ++i) {
+    if (i == head) std::sort(candidates_.begin() + head, candidates_.end(), stronger);
+    const float* c = candidates_[i];
     const auto offset = static_cast<std::size_t>(reinterpret_cast<const std::uint8_t*>(c) - base);
     const int y = static_cast<int>(offset / strength_.step);
     const int x = static_cast<int>((offset - y * strength_.step) / sizeof(float));

@@ -31,7 +31,7 @@ TEST(ShiTomasiCorners, SameAsGoodFeaturesToTrackForEveryMask) {
     ShiTomasiCorners corners;
     corners.Compute(image);
     for (const cv::Mat& mask : {cv::Mat(), lower, holes}) {
-      for (const int count : {1, 60, 250, 5000}) {
+      for (const int count : {1, 60, 250, 700, 5000}) {
         for (const double quality : {0.005, 0.05}) {
           for (const double distance : {0.0, 1.0, 8.0, 12.5}) {
             std::vector<cv::Point2f> expected;
