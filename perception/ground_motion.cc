@@ -1,6 +1,8 @@
 #include "perception/ground_motion.h"
 
 #include <Eigen/Dense>
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/video/tracking.hpp>
@@ -9,10 +11,23 @@
 namespace monoplane {
 namespace {
 
-Eigen::Vector2d Project(const Eigen::Matrix3d& pixel_from_floor, const Pose2& t,
-                        const Eigen::Vector2d& floor1) {
-  return ApplyHomography(pixel_from_floor, t * floor1);
-}
+// pixel_from_floor * t for many floor points of frame 1: the motion's rotation is computed once,
+// not once per point (the sine and cosine dominated RANSAC and the refinement).
+class FloorProjector {
+ public:
+  FloorProjector(const Eigen::Matrix3d& pixel_from_floor, const Pose2& t)
+      : pixel_from_floor_(pixel_from_floor),
+        rotation_(t.Rotation()),
+        translation_(t.Translation()) {}
+  Eigen::Vector2d operator()(const Eigen::Vector2d& floor1) const {
+    return ApplyHomography(pixel_from_floor_, rotation_ * floor1 + translation_);
+  }
+
+ private:
+  const Eigen::Matrix3d& pixel_from_floor_;
+  Eigen::Matrix2d rotation_;
+  Eigen::Vector2d translation_;
+};
 
 // The rigid planar motion taking a0 -> b0 and a1 -> b1 (rotation from the segment directions).
 std::optional<Pose2> TwoPointMotion(const Eigen::Vector2d& a0, const Eigen::Vector2d& a1,
@@ -103,18 +118,21 @@ Pose2 RefinePlanarMotion(const CameraModel& camera, const std::vector<Eigen::Vec
   // Gauss-Newton with numeric derivatives: 3 parameters, a few dozen residual pairs.
   Pose2 t = initial;
   const Eigen::Matrix3d& g = camera.pixel_from_floor();
+  const double steps[3] = {1e-6, 1e-6, 1e-7};
   for (int iteration = 0; iteration < 10; ++iteration) {
     Eigen::Matrix3d jtj = Eigen::Matrix3d::Zero();
     Eigen::Vector3d jtr = Eigen::Vector3d::Zero();
+    const FloorProjector project(g, t);
+    const auto step = [&](int k) {
+      Pose2 d = t;
+      (k == 0 ? d.x : k == 1 ? d.y : d.yaw) += steps[k];
+      return FloorProjector(g, d);
+    };
+    const std::array<FloorProjector, 3> stepped = {step(0), step(1), step(2)};
     for (std::size_t i = 0; i < floor1.size(); ++i) {
-      const Eigen::Vector2d r = Project(g, t, floor1[i]) - pixels2[i];
+      const Eigen::Vector2d r = project(floor1[i]) - pixels2[i];
       Eigen::Matrix<double, 2, 3> j;
-      const double steps[3] = {1e-6, 1e-6, 1e-7};
-      for (int k = 0; k < 3; ++k) {
-        Pose2 d = t;
-        (k == 0 ? d.x : k == 1 ? d.y : d.yaw) += steps[k];
-        j.col(k) = (Project(g, d, floor1[i]) - pixels2[i] - r) / steps[k];
-      }
+      for (int k = 0; k < 3; ++k) j.col(k) = (stepped[k](floor1[i]) - pixels2[i] - r) / steps[k];
       jtj += j.transpose() * j;
       jtr += j.transpose() * r;
     }
@@ -172,12 +190,16 @@ GroundMotion EstimateGroundMotion(const cv::Mat& image1, const cv::Mat& image2,
   const cv::Size window(options.lk_window_px, options.lk_window_px);
   const cv::TermCriteria criteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 30, 0.01);
   std::vector<uchar> status_fwd, status_bwd;
-  std::vector<float> err;
-  cv::calcOpticalFlowPyrLK(image1, image2, corners1, corners2, status_fwd, err, window,
-                           options.lk_levels, criteria, flags);
+  // Each pyramid (with its derivatives) is built once for both directions, and the backward check
+  // starts where a consistent track ends, so its two finest levels suffice (as SequenceDetector).
+  std::vector<cv::Mat> pyramid1, pyramid2;
+  cv::buildOpticalFlowPyramid(image1, pyramid1, window, options.lk_levels);
+  cv::buildOpticalFlowPyramid(image2, pyramid2, window, options.lk_levels);
+  cv::calcOpticalFlowPyrLK(pyramid1, pyramid2, corners1, corners2, status_fwd, cv::noArray(),
+                           window, options.lk_levels, criteria, flags);
   std::vector<cv::Point2f> back = corners1;
-  cv::calcOpticalFlowPyrLK(image2, image1, corners2, back, status_bwd, err, window,
-                           options.lk_levels, criteria, cv::OPTFLOW_USE_INITIAL_FLOW);
+  cv::calcOpticalFlowPyrLK(pyramid2, pyramid1, corners2, back, status_bwd, cv::noArray(), window,
+                           std::min(1, options.lk_levels), criteria, cv::OPTFLOW_USE_INITIAL_FLOW);
 
   std::vector<Eigen::Vector2d> pixels1, pixels2;
   for (std::size_t i = 0; i < corners1.size(); ++i) {
@@ -231,8 +253,9 @@ GroundMotion FitGroundMotion(const std::vector<Eigen::Vector2d>& pixels1,
   const double threshold2 = options.inlier_threshold_px * options.inlier_threshold_px;
   auto count_inliers = [&](const Pose2& t, std::vector<int>* inliers) {
     inliers->clear();
+    const FloorProjector project(g, t);
     for (int i = 0; i < n; ++i) {
-      if ((Project(g, t, floor1[i]) - pixels2[i]).squaredNorm() < threshold2) inliers->push_back(i);
+      if ((project(floor1[i]) - pixels2[i]).squaredNorm() < threshold2) inliers->push_back(i);
     }
   };
   std::vector<int> inliers, best_inliers;
@@ -272,8 +295,9 @@ GroundMotion FitGroundMotion(const std::vector<Eigen::Vector2d>& pixels1,
     return fallback();
   }
   double sum2 = 0.0;
+  const FloorProjector project(g, t);
   for (int i : inliers) {
-    sum2 += (Project(g, t, floor1[i]) - pixels2[i]).squaredNorm();
+    sum2 += (project(floor1[i]) - pixels2[i]).squaredNorm();
     if (inlier_mask) (*inlier_mask)[index[i]] = 1;
   }
   result.rms_residual_px = std::sqrt(sum2 / result.num_inliers);

@@ -708,15 +708,16 @@ std::vector<FeatureObservation> SequenceDetector::TrackFeatures(
     flags = cv::OPTFLOW_USE_INITIAL_FLOW;
   }
   std::vector<uchar> st1, st2;
-  std::vector<float> err;
   const cv::Size window(gm.lk_window_px, gm.lk_window_px);
   const cv::TermCriteria criteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 20, 0.02);
   // The pyramids are built once per frame and serve both directions and the next frame.
-  cv::calcOpticalFlowPyrLK(previous_pyramid_, current_pyramid, p0, p1, st1, err, window,
+  cv::calcOpticalFlowPyrLK(previous_pyramid_, current_pyramid, p0, p1, st1, cv::noArray(), window,
                            gm.lk_levels, criteria, flags);
   back = p0;
-  cv::calcOpticalFlowPyrLK(current_pyramid, previous_pyramid_, p1, back, st2, err, window,
-                           gm.lk_levels, criteria, cv::OPTFLOW_USE_INITIAL_FLOW);
+  // The check starts where a consistent track must end, so the two finest levels tell whether it
+  // returns there; the coarser ones cost as much again and matter only for tracks that do not.
+  cv::calcOpticalFlowPyrLK(current_pyramid, previous_pyramid_, p1, back, st2, cv::noArray(), window,
+                           std::min(1, gm.lk_levels), criteria, cv::OPTFLOW_USE_INITIAL_FLOW);
   for (std::size_t i = 0; i < p0.size(); ++i) {
     if (!st1[i] || !st2[i]) continue;
     if (std::hypot(back[i].x - p0[i].x, back[i].y - p0[i].y) > gm.forward_backward_max_px) continue;
@@ -751,6 +752,7 @@ std::vector<FeatureObservation> SequenceDetector::AddNewCorners(
       tracked_in_strip >= strip_wanted * 3 / 4) {
     return tracked;
   }
+  corners_.Compute(current);  // once for both masks below
   cv::Mat free_mask(current.size(), CV_8U, cv::Scalar(255));
   for (const auto& f : tracked) {
     cv::circle(free_mask, cv::Point(static_cast<int>(f.pixel.x()), static_cast<int>(f.pixel.y())),
@@ -758,9 +760,8 @@ std::vector<FeatureObservation> SequenceDetector::AddNewCorners(
   }
   const auto add = [&](const cv::Mat& mask, int count) {
     if (count <= 0) return;
-    std::vector<cv::Point2f> corners;
-    cv::goodFeaturesToTrack(current, corners, count, gm.corner_quality, gm.corner_min_distance_px,
-                            mask, 3, false);
+    const std::vector<cv::Point2f> corners =
+        corners_.Select(mask, count, gm.corner_quality, gm.corner_min_distance_px);
     for (const auto& c : corners) {
       FeatureObservation f;
       f.track_id = next_track_id_++;

@@ -11,6 +11,7 @@
 #include "perception/geometry/camera_model.h"
 #include "perception/geometry/timestamp.h"
 #include "perception/ground_motion.h"
+#include "perception/shi_tomasi_corners.h"
 #include "perception/zero_disparity.h"
 
 namespace monoplane {
@@ -205,6 +206,7 @@ class SequenceDetector {
   int frames_since_detection_ = 0;
   std::vector<cv::Mat> previous_pyramid_;  // Lucas-Kanade pyramid of history_.back()
   cv::Mat strip_mask_;                     // the floor strip of the motion fit (FloorStripMask)
+  ShiTomasiCorners corners_;               // corner strength of the frame being topped up
 };
 
 // The 2x2 picture for people: input with labels, segmentation, zero disparity, top view.

@@ -145,6 +145,8 @@ ZeroDisparityField ComputeZeroDisparity(const cv::Mat& image1, const cv::Mat& im
 
   cv::Mat s;  // at the current level, in that level's pixels
   const cv::Size box(options.window_px, options.window_px);
+  // Buffers reused by the iterations (and levels) of the search.
+  cv::Mat map_x, map_y, warped, mean_w, grad_x, grad_y, terms, sums;
   for (int level = coarsest; level >= finest; --level) {
     const cv::Mat& i1 = pyr1[level];
     cv::Mat i2;
@@ -155,15 +157,19 @@ ZeroDisparityField ComputeZeroDisparity(const cv::Mat& image1, const cv::Mat& im
     // The epipole at this level: scale its inhomogeneous part.
     const Eigen::Vector3d e(epipole.x() * f, epipole.y() * f, epipole.z());
 
+    // The per-pixel loops below read plain locals and write through unaliased row pointers, so
+    // that the compiler vectorises them.
+    const double ex = e.x(), ey = e.y(), ez = e.z();
     cv::Mat ux(rows, cols, CV_32F), uy(rows, cols, CV_32F);
     for (int y = 0; y < rows; ++y) {
-      float* pux = ux.ptr<float>(y);
-      float* puy = uy.ptr<float>(y);
+      float* __restrict pux = ux.ptr<float>(y);
+      float* __restrict puy = uy.ptr<float>(y);
       for (int x = 0; x < cols; ++x) {
-        const double dx = e.x() - e.z() * x, dy = e.y() - e.z() * y;
-        const double n = std::hypot(dx, dy);
-        pux[x] = n > 0 ? static_cast<float>(dx / n) : 0.f;
-        puy[x] = n > 0 ? static_cast<float>(dy / n) : 0.f;
+        const double dx = ex - ez * x, dy = ey - ez * y;
+        const double n = std::sqrt(dx * dx + dy * dy);
+        const double inverse = n > 0 ? 1.0 / n : 0.0;
+        pux[x] = static_cast<float>(dx * inverse);
+        puy[x] = static_cast<float>(dy * inverse);
       }
     }
     if (s.empty()) {
@@ -174,95 +180,120 @@ ZeroDisparityField ComputeZeroDisparity(const cv::Mat& image1, const cv::Mat& im
       s = up * 2.0f;
     }
 
-    cv::Mat map_x(rows, cols, CV_32F), map_y(rows, cols, CV_32F), warped, gx, gy, gu, d;
-    cv::Mat num, den, mean2, mean_w;
+    // Zero-mean differences: robust to a change of exposure between the frames. Image 2's part
+    // is the same in every iteration.
+    cv::Mat mean2, i2_zero_mean;
     cv::boxFilter(i2, mean2, CV_32F, box);
-    auto warp = [&]() {
+    cv::subtract(i2, mean2, i2_zero_mean);
+    map_x.create(rows, cols, CV_32F);
+    map_y.create(rows, cols, CV_32F);
+    // Warps image 1 onto image 2 by the current s, then per pixel the terms whose window sums the
+    // search needs, of the gradient along u (gu), the one across it (gp) and the zero-mean
+    // difference d: (gu d, gu^2) while iterating; at the end (gu^2, |d|, gp d, gp^2), for the
+    // texture, the residual and the offset across the epipolar line (a static point has none).
+    const double h00 = h_inv(0, 0), h01 = h_inv(0, 1), h02 = h_inv(0, 2);
+    const double h10 = h_inv(1, 0), h11 = h_inv(1, 1), h12 = h_inv(1, 2);
+    const double h20 = h_inv(2, 0), h21 = h_inv(2, 1), h22 = h_inv(2, 2);
+    auto warp = [&](bool final) {
       for (int y = 0; y < rows; ++y) {
-        const float* ps = s.ptr<float>(y);
-        const float* pux = ux.ptr<float>(y);
-        const float* puy = uy.ptr<float>(y);
-        float* mx = map_x.ptr<float>(y);
-        float* my = map_y.ptr<float>(y);
+        const float* __restrict ps = s.ptr<float>(y);
+        const float* __restrict pux = ux.ptr<float>(y);
+        const float* __restrict puy = uy.ptr<float>(y);
+        float* __restrict mx = map_x.ptr<float>(y);
+        float* __restrict my = map_y.ptr<float>(y);
         for (int x = 0; x < cols; ++x) {
           // Where image 1 holds what image 2 shows at (x, y) for zero disparity s: H^-1 (q - s u).
           const double qx = x - ps[x] * pux[x], qy = y - ps[x] * puy[x];
-          const double w = h_inv(2, 0) * qx + h_inv(2, 1) * qy + h_inv(2, 2);
-          mx[x] = static_cast<float>((h_inv(0, 0) * qx + h_inv(0, 1) * qy + h_inv(0, 2)) / w);
-          my[x] = static_cast<float>((h_inv(1, 0) * qx + h_inv(1, 1) * qy + h_inv(1, 2)) / w);
+          const double w = 1.0 / (h20 * qx + h21 * qy + h22);
+          mx[x] = static_cast<float>((h00 * qx + h01 * qy + h02) * w);
+          my[x] = static_cast<float>((h10 * qx + h11 * qy + h12) * w);
         }
       }
       cv::remap(i1, warped, map_x, map_y, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
-      warped.convertTo(warped, CV_32F);
-      cv::Sobel(warped, gx, CV_32F, 1, 0, 3, 1.0 / 8.0);
-      cv::Sobel(warped, gy, CV_32F, 0, 1, 3, 1.0 / 8.0);
-      gu = gx.mul(ux) + gy.mul(uy);
-      // Zero-mean difference: robust to a change of exposure between the frames.
+      // The 3x3 Sobel of the 8-bit warp in one pass; the integer sums are exact, / 8 as below.
+      cv::spatialGradient(warped, grad_x, grad_y, 3);
       cv::boxFilter(warped, mean_w, CV_32F, box);
-      d = (i2 - mean2) - (warped - mean_w);
-    };
-    for (int it = 0; it < options.iterations_per_level; ++it) {
-      warp();
-      cv::boxFilter(gu.mul(d), num, CV_32F, box);
-      cv::boxFilter(gu.mul(gu), den, CV_32F, box);
-      const float max_step = static_cast<float>(options.max_step_px);
-      const float damping = static_cast<float>(options.damping);
+      terms.create(rows, cols, final ? CV_32FC4 : CV_32FC2);
       for (int y = 0; y < rows; ++y) {
-        float* ps = s.ptr<float>(y);
-        const float* pn = num.ptr<float>(y);
-        const float* pd = den.ptr<float>(y);
+        const std::uint8_t* __restrict pw = warped.ptr<std::uint8_t>(y);
+        const std::int16_t* __restrict pdx = grad_x.ptr<std::int16_t>(y);
+        const std::int16_t* __restrict pdy = grad_y.ptr<std::int16_t>(y);
+        const float* __restrict pux = ux.ptr<float>(y);
+        const float* __restrict puy = uy.ptr<float>(y);
+        const float* __restrict pa = i2_zero_mean.ptr<float>(y);
+        const float* __restrict pm = mean_w.ptr<float>(y);
+        float* __restrict pt = terms.ptr<float>(y);
+        for (int x = 0; x < cols; ++x) {
+          const float gu = pdx[x] * 0.125f * pux[x] + pdy[x] * 0.125f * puy[x];
+          const float d = pa[x] - (static_cast<float>(pw[x]) - pm[x]);
+          if (!final) {
+            pt[2 * x] = gu * d;
+            pt[2 * x + 1] = gu * gu;
+          } else {
+            const float gp = pdy[x] * 0.125f * pux[x] - pdx[x] * 0.125f * puy[x];
+            pt[4 * x] = gu * gu;
+            pt[4 * x + 1] = std::abs(d);
+            pt[4 * x + 2] = gp * d;
+            pt[4 * x + 3] = gp * gp;
+          }
+        }
+      }
+      cv::boxFilter(terms, sums, CV_32F, box);
+    };
+    const float max_step = static_cast<float>(options.max_step_px);
+    const float damping = static_cast<float>(options.damping);
+    for (int it = 0; it < options.iterations_per_level; ++it) {
+      warp(false);
+      for (int y = 0; y < rows; ++y) {
+        float* __restrict ps = s.ptr<float>(y);
+        const float* __restrict pnd = sums.ptr<float>(y);
         for (int x = 0; x < cols; ++x) {
           // I2 = W(q - (s + delta) u) ~ Ws - delta * Gu  =>  delta = -sum(Gu D) / sum(Gu^2).
-          ps[x] += std::clamp(-pn[x] / (pd[x] + damping), -max_step, max_step);
+          ps[x] += std::clamp(-pnd[2 * x] / (pnd[2 * x + 1] + damping), -max_step, max_step);
         }
       }
     }
     if (level == finest) {
-      // The floor hypothesis (zero disparity everywhere) first, then the found one.
-      cv::Mat found;
+      // The floor hypothesis (zero disparity everywhere) first: its residual over each pixel's own
+      // 3x3 neighbourhood; then the same at the zero disparity found.
+      const cv::Size fine(3, 3);
+      cv::Mat found, abs_d;
       cv::swap(found, s);
       s = cv::Mat::zeros(rows, cols, CV_32F);
-      warp();
-      const cv::Size fine(3, 3);
-      cv::boxFilter(cv::abs(d), field.floor_residual_fine, CV_32F, fine);
+      warp(true);
+      cv::extractChannel(terms, abs_d, 1);
+      cv::boxFilter(abs_d, field.floor_residual_fine, CV_32F, fine);
       s = found;
-      warp();
-      cv::boxFilter(gu.mul(gu), field.texture, CV_32F, box);
-      cv::Mat abs_d = cv::abs(d);
-      cv::boxFilter(abs_d, field.residual, CV_32F, box);
+      warp(true);
+      cv::extractChannel(terms, abs_d, 1);
       cv::boxFilter(abs_d, field.residual_fine, CV_32F, fine);
-      // Best offset perpendicular to the epipolar line: a static point has none.
-      cv::Mat gp = gy.mul(ux) - gx.mul(uy);
-      cv::Mat sp, spp;
-      cv::boxFilter(gp.mul(d), sp, CV_32F, box);
-      cv::boxFilter(gp.mul(gp), spp, CV_32F, box);
-      field.perpendicular_px = cv::Mat::zeros(rows, cols, CV_32F);
+      // The window sums apart: texture and residual as they are, the rest per pixel below.
+      std::vector<cv::Mat> channels;
+      cv::split(sums, channels);
+      field.texture = channels[0];
+      field.residual = channels[1];
+      field.perpendicular_px.create(rows, cols, CV_32F);
+      field.sigma_px.create(rows, cols, CV_32F);
+      field.perpendicular_sigma_px.create(rows, cols, CV_32F);
+      const float scale = static_cast<float>(field.scale);
+      const float area = static_cast<float>(options.window_px * options.window_px);
       for (int y = 0; y < rows; ++y) {
-        const float* a = sp.ptr<float>(y);
-        const float* b = spp.ptr<float>(y);
-        float* out = field.perpendicular_px.ptr<float>(y);
+        const float* __restrict tex = field.texture.ptr<float>(y);
+        const float* __restrict res = field.residual.ptr<float>(y);
+        const float* __restrict pgd = channels[2].ptr<float>(y);
+        const float* __restrict pgg = channels[3].ptr<float>(y);
+        float* __restrict perpendicular = field.perpendicular_px.ptr<float>(y);
+        float* __restrict sigma = field.sigma_px.ptr<float>(y);
+        float* __restrict perpendicular_sigma = field.perpendicular_sigma_px.ptr<float>(y);
         for (int x = 0; x < cols; ++x) {
-          out[x] = b[x] > 1e-3f ? -a[x] / b[x] * static_cast<float>(field.scale) : 0.f;
+          perpendicular[x] = pgg[x] > 1e-3f ? -pgd[x] / pgg[x] * scale : 0.f;
+          // Mean |d| of a Gaussian is 0.8 sigma; one grey level of quantisation at least.
+          const float noise = std::max(1.25f * res[x], 1.0f);
+          sigma[x] = noise / std::sqrt(area * std::max(tex[x], 1e-6f)) * scale;
+          perpendicular_sigma[x] = noise / std::sqrt(area * std::max(pgg[x], 1e-6f)) * scale;
         }
       }
       field.s_px = s * static_cast<float>(1 << level);
-      field.sigma_px = cv::Mat(rows, cols, CV_32F);
-      field.perpendicular_sigma_px = cv::Mat(rows, cols, CV_32F);
-      const float area = static_cast<float>(options.window_px * options.window_px);
-      for (int y = 0; y < rows; ++y) {
-        const float* res = field.residual.ptr<float>(y);
-        const float* tex = field.texture.ptr<float>(y);
-        float* out = field.sigma_px.ptr<float>(y);
-        for (int x = 0; x < cols; ++x) {
-          // Mean |d| of a Gaussian is 0.8 sigma; one grey level of quantisation at least.
-          const float noise = std::max(1.25f * res[x], 1.0f);
-          out[x] =
-              noise / std::sqrt(area * std::max(tex[x], 1e-6f)) * static_cast<float>(field.scale);
-          field.perpendicular_sigma_px.at<float>(y, x) =
-              noise / std::sqrt(area * std::max(spp.at<float>(y, x), 1e-6f)) *
-              static_cast<float>(field.scale);
-        }
-      }
       field.ux = ux;
       field.uy = uy;
     }

@@ -141,7 +141,7 @@ std::optional<ParallaxPoint> TriangulateWithMotion(const CameraModel& camera,
   const Eigen::Vector3d d1 = camera.RayInBase(pixel1);
   const Eigen::Vector3d a = camera2_from_base1 * c1;
   const Eigen::Vector3d b = camera2_from_base1.linear() * d1;
-  const Eigen::Vector3d m = (camera.K().inverse() * pixel2.homogeneous());
+  const Eigen::Vector3d m = camera.K_inverse() * pixel2.homogeneous();
   const Eigen::Vector3d mb = m.cross(b), ma = m.cross(a);
   const double denom = mb.squaredNorm();
   // No parallax: the baseline is (nearly) along the ray, or there is no baseline.

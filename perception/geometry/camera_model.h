@@ -19,6 +19,7 @@ class CameraModel {
 
   const CameraCalibration& calibration() const { return calibration_; }
   const Eigen::Matrix3d& K() const { return k_; }
+  const Eigen::Matrix3d& K_inverse() const { return k_inv_; }
   const Eigen::Isometry3d& base_from_camera() const { return base_from_camera_; }
   const Eigen::Isometry3d& camera_from_base() const { return camera_from_base_; }
   // Homography from floor coordinates (x, y, 1) in the base frame to homogeneous pixels, and back.

@@ -6,6 +6,7 @@
 #include <benchmark/benchmark.h>
 
 #include <cstdlib>
+#include <ctime>
 #include <map>
 #include <memory>
 #include <opencv2/core.hpp>
@@ -157,23 +158,41 @@ void BM_Detect(benchmark::State& state) {
 }
 BENCHMARK(BM_Detect)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
 
+// The first 40 frames of the office scene, as rendered (the input of the sequence benchmarks).
+struct Sequence {
+  CameraCalibration calibration;
+  std::vector<cv::Mat> frames;
+};
+
+const Sequence& OfficeSequence() {
+  static const Sequence* sequence = [] {
+    auto* s = new Sequence;
+    sim::Scene scene;
+    std::string error;
+    if (!sim::LoadSceneFile(std::string(MONOPLANE_SOURCE_DIR) + "/tests/data/scenes/office.yaml",
+                            &scene, &error)) {
+      std::fprintf(stderr, "bench_perception: %s\n", error.c_str());
+      std::exit(2);
+    }
+    s->calibration = scene.calibration;
+    const sim::SceneRenderer renderer(scene, scene.calibration);
+    for (int i = 0; i < 40; ++i) s->frames.push_back(renderer.RenderAtTime(i / scene.fps).image);
+    return s;
+  }();
+  return *sequence;
+}
+
 // The whole per-frame chain in steady state: the sequence detector on consecutive frames
 // (odometry step, feature tracks, pair motion, detection). Time per frame.
 void BM_SequenceFrame(benchmark::State& state) {
-  sim::Scene scene;
-  std::string error;
-  sim::LoadSceneFile(std::string(MONOPLANE_SOURCE_DIR) + "/tests/data/scenes/office.yaml", &scene,
-                     &error);
-  const sim::SceneRenderer renderer(scene, scene.calibration);
-  std::vector<cv::Mat> frames;
-  for (int i = 0; i < 40; ++i) frames.push_back(renderer.RenderAtTime(i / scene.fps).image);
+  const std::vector<cv::Mat>& frames = OfficeSequence().frames;
   const DetectorOptions options = OptionsFor(static_cast<int>(state.range(0)));
   std::unique_ptr<SequenceDetector> sequence;
   std::size_t next = frames.size();
   for (auto _ : state) {
     if (next == frames.size()) {
       state.PauseTiming();
-      sequence = std::make_unique<SequenceDetector>(scene.calibration, options);
+      sequence = std::make_unique<SequenceDetector>(OfficeSequence().calibration, options);
       for (next = 0; next < 8; ++next) sequence->Process(frames[next], next);  // warm up
       state.ResumeTiming();
     }
@@ -183,6 +202,84 @@ void BM_SequenceFrame(benchmark::State& state) {
   state.SetLabel(state.range(0) == 0 ? "epipolar" : "farneback");
 }
 BENCHMARK(BM_SequenceFrame)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
+
+// The same chain as BM_SequenceFrame (epipolar), with each stage's share of the time per frame:
+// tracking (Process without the dense detection, image preparation taken out) and the dense
+// detection (Finish) split into zero disparity, floor features and the rest (classification,
+// aggregation, local map). Preparation, zero disparity and floor features are timed again on their
+// own on the same inputs; those extra runs are not part of the reported time, which is the thread's
+// CPU time. Counters: ms per frame (averaged over all frames, detected or not) and percent of the
+// whole.
+void BM_SequenceStages(benchmark::State& state) {
+  // This thread's CPU time (everything runs on it with one OpenCV thread): steadier than the wall
+  // clock on a machine shared with other work.
+  struct Clock {
+    static double now() {
+      timespec t{};
+      clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+      return t.tv_sec * 1e3 + t.tv_nsec * 1e-6;
+    }
+  };
+  const auto ms_since = [](double t0) { return Clock::now() - t0; };
+  const std::vector<cv::Mat>& frames = OfficeSequence().frames;
+  const CameraCalibration& calibration = OfficeSequence().calibration;
+  std::string error;
+  const DetectorOptions options;
+  const ObstacleDetector detector(calibration, options);
+  const FloorFeatureExtractor floor_features(detector.camera(), options.floor_features);
+  std::unique_ptr<SequenceDetector> sequence;
+  std::size_t next = frames.size();
+  double prepare = 0, tracking = 0, zero_disparity = 0, floor = 0, detection = 0;
+  int detections = 0;
+  for (auto _ : state) {
+    if (next == frames.size()) {
+      sequence = std::make_unique<SequenceDetector>(calibration, options);
+      for (next = 0; next < 8; ++next) sequence->Process(frames[next], next);  // warm up
+    }
+    auto t0 = Clock::now();
+    benchmark::DoNotOptimize(detector.Prepare(frames[next], &error));
+    const double prepare_ms = ms_since(t0);
+    t0 = Clock::now();
+    SequenceDetector::Output out =
+        sequence->Process(frames[next], static_cast<TimestampNs>(next), /*defer_detection=*/true);
+    const double process_ms = ms_since(t0);
+    double detect_ms = 0;
+    if (out.pending) {
+      const SequenceDetector::Output::PendingDetection p = *out.pending;
+      t0 = Clock::now();
+      sequence->Finish(&out);
+      detect_ms = ms_since(t0);
+      t0 = Clock::now();
+      benchmark::DoNotOptimize(ComputeZeroDisparity(p.reference, p.current, detector.camera(),
+                                                    p.motion.base2_from_base1,
+                                                    options.zero_disparity));
+      zero_disparity += ms_since(t0);
+      t0 = Clock::now();
+      benchmark::DoNotOptimize(floor_features.Compute(p.current, out.result->labels));
+      floor += ms_since(t0);
+      ++detections;
+    }
+    prepare += prepare_ms;
+    tracking += process_ms - prepare_ms;
+    detection += detect_ms;
+    state.SetIterationTime((process_ms + detect_ms) / 1000.0);
+    ++next;
+  }
+  const double frames_run = static_cast<double>(state.iterations());
+  const double total = prepare + tracking + detection;
+  const double classification = detection - zero_disparity - floor;
+  const auto report = [&](const std::string& name, double sum_ms) {
+    state.counters[name + "_ms"] = sum_ms / frames_run;
+    state.counters[name + "_%"] = total > 0 ? 100.0 * sum_ms / total : 0.0;
+  };
+  report("1prepare", prepare);
+  report("2tracking", tracking);
+  report("3zero_disparity", zero_disparity);
+  report("4classification_map", classification);
+  report("5floor_features", floor);
+  state.counters["detected_share"] = detections / frames_run;
+}
+BENCHMARK(BM_SequenceStages)->UseManualTime()->Unit(benchmark::kMillisecond);
 
 // Floor features (top view, ORB, floor points) on one 640x480 frame of the concrete-floor `loop`
 // scene, as Detect computes them for loop closure; counter features = keypoints kept.
@@ -218,4 +315,13 @@ BENCHMARK(BM_FloorFeatures)->Arg(300)->Arg(500)->Arg(1000)->Unit(benchmark::kMil
 }  // namespace
 }  // namespace monoplane
 
-BENCHMARK_MAIN();
+// One core, whatever the benchmark filter selects (OpenCV would otherwise spread LK, remap and
+// filters over every core).
+int main(int argc, char** argv) {
+  cv::setNumThreads(1);
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}
