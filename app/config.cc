@@ -173,6 +173,8 @@ OptionTable::OptionTable(AppConfig* config) : config_(config) {
             "same place: headings within this, rad (> 0)");
   AddDouble("mapping", "cull_max_error_m", &m.cull_max_error_m,
             "same place: floor match within this of the estimate, m (> 0)");
+  AddDouble("mapping", "cull_min_travel_m", &m.cull_min_travel_m,
+            "merge only into keyframes at least this much path back, m (>= 0)");
   AddDouble("mapping", "grid_resolution_m", &m.grid_resolution_m,
             "global grid cell side, m (> 0; a saved map keeps its own)");
   AddFloat("mapping", "log_odds_hit", &m.log_odds.hit,

@@ -137,6 +137,7 @@ bool Mapper::Options::IsValid(std::string* error) const {
   if (!(cull_max_error_m > 0)) return fail("cull_max_error_m", cull_max_error_m, "> 0");
   if (!(cull_max_error_rad > 0)) return fail("cull_max_error_rad", cull_max_error_rad, "> 0");
   if (cull_max_candidates < 1) return fail("cull_max_candidates", cull_max_candidates, ">= 1");
+  if (!(cull_min_travel_m >= 0)) return fail("cull_min_travel_m", cull_min_travel_m, ">= 0");
   if (!(grid_resolution_m > 0)) return fail("grid_resolution_m", grid_resolution_m, "> 0");
   std::string sub;
   auto nested = [&](bool ok, const std::string& key) {
@@ -323,7 +324,9 @@ bool Mapper::CullIfRedundant(int index, FrameUpdate* update) {
   std::vector<std::pair<double, int>> candidates;
   for (int j = 0; j < index; ++j) {
     const Keyframe& k = keyframes_[j];
-    if (k.floor_features.empty()) continue;
+    if (k.floor_features.empty() ||
+        current.path_length_m - k.path_length_m < options_.cull_min_travel_m)
+      continue;
     const Pose2 delta = Between(k.map_from_base, current.map_from_base);
     if (delta.TranslationNorm() <= options_.cull_distance_m &&
         std::abs(delta.yaw) <= options_.cull_rotation_rad) {
