@@ -190,6 +190,16 @@ OptionTable::OptionTable(AppConfig* config) : config_(config) {
             "floor RANSAC inlier threshold, m (> 0)");
   AddDouble("mapping", "floor_gate_m", &m.floor_match.gate_m,
             "floor features match within this of where the estimate puts them, m (> 0)");
+  AddBool("mapping", "cull_redundant_keyframes", &m.cull_redundant_keyframes,
+          "merge a keyframe into an older one of the same place (map grows with area, not time)");
+  AddDouble("mapping", "cull_distance_m", &m.cull_distance_m,
+            "same place: keyframes within this, m (> 0)");
+  AddDouble("mapping", "cull_rotation_rad", &m.cull_rotation_rad,
+            "same place: headings within this, rad (> 0)");
+  AddDouble("mapping", "cull_max_error_m", &m.cull_max_error_m,
+            "same place: floor match within this of the estimate, m (> 0)");
+  AddDouble("mapping", "cull_min_travel_m", &m.cull_min_travel_m,
+            "merge only into keyframes at least this much path back, m (>= 0)");
   AddDouble("mapping", "grid_resolution_m", &m.grid_resolution_m,
             "global grid cell side, m (> 0; a saved map keeps its own)");
   AddFloat("mapping", "log_odds_hit", &m.log_odds.hit,

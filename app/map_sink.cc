@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <functional>
+#include <map>
 #include <mutex>
 #include <thread>
 
@@ -103,6 +104,7 @@ struct MapSink::Impl {
   // Mapping-thread state.
   std::vector<FrameRecord> pending_frames;  // not yet handed to the writer
   std::vector<FrameRecord> records;         // every frame given to the mapper, as first written
+  std::map<int, std::size_t> record_of_keyframe;  // mapper keyframe id -> index into records
   std::optional<Pose2> last_odom;
   TimestampNs last_map_stamp = 0;
   bool map_published = false;
@@ -279,6 +281,7 @@ bool MapSink::Add(const InputFrame& frame, const SequenceDetector::Output& outpu
   m.last_odom = output.odom_from_base;
   s.trajectory.emplace_back(update.map_from_base, frame.stamp_ns);
   if (update.keyframe) ++s.keyframes;
+  s.keyframes_culled += static_cast<int>(update.culled_keyframe_ids.size());
   if (update.loop_closed) ++s.loop_closures;
   s.loop_closure_attempts = m.mapper->counters().loop_closure_attempts;
 
@@ -288,7 +291,27 @@ bool MapSink::Add(const InputFrame& frame, const SequenceDetector::Output& outpu
   record.is_keyframe = update.keyframe;
   record.map_from_base_raw = update.map_from_base;
   m.records.push_back(record);
+  if (update.keyframe) m.record_of_keyframe[update.keyframe_id] = m.records.size() - 1;
+  // A keyframe the mapper merged into an older one is a plain frame from now on, in the map file
+  // too: the file holds the keyframes the mapper holds, so a later run that extends the map loads
+  // as many as there are places. Its grid tiles are kept, as the mapper keeps what it fused.
+  std::vector<std::int64_t> culled_indices;
+  for (const int id : update.culled_keyframe_ids) {
+    const auto it = m.record_of_keyframe.find(id);
+    if (it == m.record_of_keyframe.end()) continue;
+    m.records[it->second].is_keyframe = false;
+    culled_indices.push_back(m.records[it->second].index);
+    m.record_of_keyframe.erase(it);
+  }
   if (m.db) {
+    if (!culled_indices.empty()) {
+      // Queued after the keyframe's own write (the writer keeps the order).
+      m.Enqueue([&m, indices = std::move(culled_indices)](std::string* e) {
+        const StorageStatus st = m.db->DeleteKeyframes(m.run_id, indices);
+        if (!st.ok()) *e = st.message();
+        return st.ok();
+      });
+    }
     if (update.keyframe) {
       m.FlushFrames();
       const Keyframe& k = m.mapper->keyframes().back();
@@ -331,7 +354,7 @@ bool MapSink::Close(std::string* error) {
   Impl& m = *impl_;
   RunSummary& s = *m.summary;
   const Mapper& mapper = *m.mapper;
-  s.saved_keyframes = static_cast<int>(mapper.keyframes().size()) - mapper.counters().keyframes;
+  s.saved_keyframes = mapper.num_saved_keyframes();
   if (mapper.localization()) s.localization = mapper.localization()->message;
   const OccupancyGrid grid = ToOccupancyGrid(mapper.grid());
   const GridGeometry& g = grid.geometry;
@@ -355,6 +378,7 @@ bool MapSink::Close(std::string* error) {
     std::map<std::string, double> stats = {
         {"frames", c.frames},
         {"keyframes", c.keyframes},
+        {"keyframes_culled", c.keyframes_culled},
         {"loop_closures_accepted", c.loop_closures_accepted},
         {"loop_closures_rejected", c.loop_closures_rejected},
         {"distance_m", s.distance_m},

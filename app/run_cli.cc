@@ -146,6 +146,10 @@ void PrintSummary(const RunRequest& request, const RunSummary& s) {
               s.status_counts[0], s.status_counts[1], s.status_counts[2], s.status_counts[3]);
   std::printf("  keyframes %d, loop closures %d (of %d attempts), distance travelled %.2f m\n",
               s.keyframes, s.loop_closures, s.loop_closure_attempts, s.distance_m);
+  if (s.keyframes_culled > 0) {
+    std::printf("  %d of the keyframes merged into older ones of the same place, %d kept\n",
+                s.keyframes_culled, s.keyframes - s.keyframes_culled);
+  }
   if (s.saved_keyframes > 0) {
     if (s.localization == "localised") {
       std::printf("  extended a map of %d keyframes: localised in it\n", s.saved_keyframes);

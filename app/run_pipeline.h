@@ -39,8 +39,9 @@ struct RunSummary {
   double read_ms = 0, perception_ms = 0, frame_outputs_ms = 0, mapping_ms = 0, storage_ms = 0;
   double wall_s = 0;
   double distance_m = 0;
-  int keyframes = 0;        // made by this run
-  int saved_keyframes = 0;  // of the map this run extended
+  int keyframes = 0;         // made by this run
+  int keyframes_culled = 0;  // of those, merged into older ones (mapping.cull_*)
+  int saved_keyframes = 0;   // of the map this run extended
   int loop_closures = 0;
   int loop_closure_attempts = 0;
   std::string localization;  // extending a map: how the run was placed in it

@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <limits>
+#include <map>
 #include <unordered_set>
 
 namespace monoplane {
@@ -35,6 +36,42 @@ std::pair<Eigen::Vector2d, Eigen::Vector2d> LocalMapBounds(const OccupancyGrid& 
     hi = hi.cwiseMax(m);
   }
   return {lo.array() - margin_m, hi.array() + margin_m};
+}
+
+// Parallel edges at `node` (a lap that repeats an older one gives the same pair of keyframes
+// again) become one: the measurements averaged by their information, with the noise of the more
+// certain one, so that repeated laps neither grow the graph nor make it ever stiffer. The first
+// edge of a pair keeps its direction and place.
+void FuseParallelEdges(int node, std::vector<PoseGraphEdge>* edges) {
+  std::map<int, std::size_t> edge_to;  // other end -> index into fused
+  std::vector<PoseGraphEdge> fused;
+  fused.reserve(edges->size());
+  for (const PoseGraphEdge& e : *edges) {
+    if (e.from != node && e.to != node) {
+      fused.push_back(e);
+      continue;
+    }
+    const int other = e.from == node ? e.to : e.from;
+    const auto [it, inserted] = edge_to.emplace(other, fused.size());
+    if (inserted) {
+      fused.push_back(e);
+      continue;
+    }
+    PoseGraphEdge& f = fused[it->second];
+    const Pose2 m = f.from == e.from ? e.from_T_to : e.from_T_to.Inverse();
+    const double w_xy = 1.0 / (e.sigma_xy_m * e.sigma_xy_m);
+    const double f_xy = 1.0 / (f.sigma_xy_m * f.sigma_xy_m);
+    const double w_yaw = 1.0 / (e.sigma_yaw_rad * e.sigma_yaw_rad);
+    const double f_yaw = 1.0 / (f.sigma_yaw_rad * f.sigma_yaw_rad);
+    const double a = w_xy / (w_xy + f_xy), b = w_yaw / (w_yaw + f_yaw);
+    f.from_T_to = {f.from_T_to.x + a * (m.x - f.from_T_to.x),
+                   f.from_T_to.y + a * (m.y - f.from_T_to.y),
+                   WrapAngle(f.from_T_to.yaw + b * WrapAngle(m.yaw - f.from_T_to.yaw))};
+    f.sigma_xy_m = std::min(f.sigma_xy_m, e.sigma_xy_m);
+    f.sigma_yaw_rad = std::min(f.sigma_yaw_rad, e.sigma_yaw_rad);
+    f.robust = f.robust || e.robust;
+  }
+  edges->swap(fused);
 }
 
 }  // namespace
@@ -95,6 +132,12 @@ bool Mapper::Options::IsValid(std::string* error) const {
     return fail("rebuild_min_change_m", rebuild_min_change_m, ">= 0");
   if (!(rebuild_min_change_rad >= 0))
     return fail("rebuild_min_change_rad", rebuild_min_change_rad, ">= 0");
+  if (!(cull_distance_m > 0)) return fail("cull_distance_m", cull_distance_m, "> 0");
+  if (!(cull_rotation_rad > 0)) return fail("cull_rotation_rad", cull_rotation_rad, "> 0");
+  if (!(cull_max_error_m > 0)) return fail("cull_max_error_m", cull_max_error_m, "> 0");
+  if (!(cull_max_error_rad > 0)) return fail("cull_max_error_rad", cull_max_error_rad, "> 0");
+  if (cull_max_candidates < 1) return fail("cull_max_candidates", cull_max_candidates, ">= 1");
+  if (!(cull_min_travel_m >= 0)) return fail("cull_min_travel_m", cull_min_travel_m, ">= 0");
   if (!(grid_resolution_m > 0)) return fail("grid_resolution_m", grid_resolution_m, "> 0");
   std::string sub;
   auto nested = [&](bool ok, const std::string& key) {
@@ -195,10 +238,14 @@ Mapper::FrameUpdate Mapper::AddFrame(const FrameObservation& frame) {
   const int keyframe_index = static_cast<int>(keyframes_.size()) > num_saved_
                                  ? static_cast<int>(keyframes_.size()) - 1
                                  : -1;
-  frames_.push_back({frame.stamp_ns, frame.odom_from_base, keyframe_index});
+  const Pose2 keyframe_from_base =
+      keyframe_index >= 0 ? Between(keyframes_[keyframe_index].odom_from_base, frame.odom_from_base)
+                          : Pose2::Identity();
+  frames_.push_back({frame.stamp_ns, frame.odom_from_base, keyframe_index, keyframe_from_base});
   if (WantsKeyframe(frame)) {
     AddKeyframe(frame, &update);
     frames_.back().keyframe_index = static_cast<int>(keyframes_.size()) - 1;
+    frames_.back().keyframe_from_base = Pose2::Identity();
   }
   update.map_from_base = CurrentPose();
   return update;
@@ -265,7 +312,97 @@ void Mapper::AddKeyframe(const FrameObservation& frame, FrameUpdate* update) {
   // The keyframe that was the fixed end of this window takes part in no later window: from now on
   // it serves only loop-closure targets and rebuilds, which need its local map and obstacle points.
   const int left_window = index + 1 - options_.window_size;
-  if (left_window >= FirstRunIndex()) Pack(&keyframes_[left_window]);
+  if (left_window >= FirstRunIndex() && !CullIfRedundant(left_window, update))
+    Pack(&keyframes_[left_window]);
+}
+
+bool Mapper::CullIfRedundant(int index, FrameUpdate* update) {
+  // The run's first keyframe holds the gauge.
+  if (!options_.cull_redundant_keyframes || index <= FirstRunIndex()) return false;
+  const Keyframe& current = keyframes_[index];
+  if (current.floor_features.empty()) return false;
+  std::vector<std::pair<double, int>> candidates;
+  for (int j = 0; j < index; ++j) {
+    const Keyframe& k = keyframes_[j];
+    if (k.floor_features.empty() ||
+        current.path_length_m - k.path_length_m < options_.cull_min_travel_m)
+      continue;
+    const Pose2 delta = Between(k.map_from_base, current.map_from_base);
+    if (delta.TranslationNorm() <= options_.cull_distance_m &&
+        std::abs(delta.yaw) <= options_.cull_rotation_rad) {
+      candidates.push_back({delta.TranslationNorm(), j});
+    }
+  }
+  std::sort(candidates.begin(), candidates.end());
+  if (static_cast<int>(candidates.size()) > options_.cull_max_candidates)
+    candidates.resize(options_.cull_max_candidates);
+  for (const auto& [d, j] : candidates) {
+    // The same place only if the floor says so, and where the estimates put it: a keyframe whose
+    // estimate is off keeps its observations until a loop closure has corrected it.
+    const Pose2 estimate = Between(keyframes_[j].map_from_base, current.map_from_base);
+    const FloorMatchResult f = MatchFloorFeatures(
+        current.floor_features, keyframes_[j].floor_features, options_.floor_match, estimate);
+    if (!f.accepted) continue;
+    const Pose2 error = Between(estimate, f.target_from_source);
+    if (error.TranslationNorm() > options_.cull_max_error_m ||
+        std::abs(error.yaw) > options_.cull_max_error_rad)
+      continue;
+    update->culled_keyframe_ids.push_back(current.id);
+    MergeKeyframe(index, j, f.target_from_source);
+    ++counters_.keyframes_culled;
+    return true;
+  }
+  return false;
+}
+
+void Mapper::MergeKeyframe(int culled, int survivor, const Pose2& survivor_from_culled) {
+  // Edges: an edge to the culled keyframe becomes one to the survivor, measured through the floor
+  // match (so its noise grows by the floor-loop noise); odometry edges between culled and survivor
+  // vanish. The raw odometry edges serve windows only, and none holds the culled keyframe again.
+  const Pose2 culled_from_survivor = survivor_from_culled.Inverse();
+  auto reindex = [culled](int i) { return i > culled ? i - 1 : i; };
+  auto move_edges = [&](std::vector<PoseGraphEdge>* edges, bool compose) {
+    std::vector<PoseGraphEdge> kept;
+    kept.reserve(edges->size());
+    for (PoseGraphEdge e : *edges) {
+      if (e.from == culled || e.to == culled) {
+        if (!compose) continue;
+        if (e.from == culled) {
+          e.from = survivor;
+          e.from_T_to = survivor_from_culled * e.from_T_to;
+        }
+        if (e.to == culled) {
+          e.to = survivor;
+          e.from_T_to = e.from_T_to * culled_from_survivor;
+        }
+        if (e.from == e.to) continue;
+        e.sigma_xy_m = std::hypot(e.sigma_xy_m, options_.floor_loop_sigma_xy_m);
+        e.sigma_yaw_rad = std::hypot(e.sigma_yaw_rad, options_.floor_loop_sigma_yaw_rad);
+      }
+      e.from = reindex(e.from);
+      e.to = reindex(e.to);
+      kept.push_back(e);
+    }
+    edges->swap(kept);
+  };
+  move_edges(&odometry_edges_, /*compose=*/false);
+  move_edges(&refined_edges_, /*compose=*/true);
+  move_edges(&loop_edges_, /*compose=*/true);
+  FuseParallelEdges(survivor, &refined_edges_);
+  FuseParallelEdges(survivor, &loop_edges_);
+
+  // Frames keep their current estimates and from now on move with the survivor.
+  const Pose2 survivor_from_culled_estimate =
+      Between(keyframes_[survivor].map_from_base, keyframes_[culled].map_from_base);
+  for (FrameRecord& f : frames_) {
+    if (f.keyframe_index == culled) {
+      f.keyframe_index = survivor;
+      f.keyframe_from_base = survivor_from_culled_estimate * f.keyframe_from_base;
+    } else {
+      f.keyframe_index = reindex(f.keyframe_index);
+    }
+  }
+  keyframes_.erase(keyframes_.begin() + culled);
 }
 
 void Mapper::Pack(Keyframe* keyframe) const {
@@ -314,10 +451,11 @@ void Mapper::OptimizeWindow() {
 
 bool Mapper::TryLoopClosure(int index) {
   if (!options_.loop_closure) return false;
-  if (last_closure_index_ >= 0 &&
-      index - last_closure_index_ <= options_.loop_min_interval_keyframes)
-    return false;
   const Keyframe& current = keyframes_[index];
+  // Counted in keyframes made (ids): with culling the index of the newest one stays put.
+  if (last_closure_id_ >= 0 &&
+      current.id - last_closure_id_ <= options_.loop_min_interval_keyframes)
+    return false;
   std::vector<std::pair<double, int>> candidates;
   for (int j = 0; j < index; ++j) {
     const Keyframe& k = keyframes_[j];
@@ -377,7 +515,7 @@ bool Mapper::TryLoopClosure(int index) {
     floor_event->anchor_id = keyframes_[anchor].id;
     loop_events_.push_back(*floor_event);
     ++counters_.loop_closures_accepted;
-    last_closure_index_ = index;
+    last_closure_id_ = current.id;
     PoseGraphEdge edge;
     edge.from = anchor;
     edge.to = index;
@@ -417,7 +555,7 @@ bool Mapper::TryLoopClosure(int index) {
     return false;
   }
   ++counters_.loop_closures_accepted;
-  last_closure_index_ = index;
+  last_closure_id_ = current.id;
   PoseGraphEdge edge;
   edge.from = anchor;
   edge.to = index;
@@ -502,7 +640,7 @@ std::vector<FramePose> Mapper::Trajectory() const {
     if (f.keyframe_index >= 0) {
       const Keyframe& k = keyframes_[f.keyframe_index];
       p.keyframe_id = k.id;
-      p.map_from_base = k.map_from_base * Between(k.odom_from_base, f.odom_from_base);
+      p.map_from_base = k.map_from_base * f.keyframe_from_base;
     } else {
       p.map_from_base = map_from_odom_.value_or(Pose2::Identity()) * f.odom_from_base;
     }
@@ -514,10 +652,8 @@ std::vector<FramePose> Mapper::Trajectory() const {
 Pose2 Mapper::CurrentPose() const {
   if (frames_.empty()) return initial_map_from_base_;
   const FrameRecord& f = frames_.back();
-  if (f.keyframe_index >= 0) {
-    const Keyframe& k = keyframes_[f.keyframe_index];
-    return k.map_from_base * Between(k.odom_from_base, f.odom_from_base);
-  }
+  if (f.keyframe_index >= 0)
+    return keyframes_[f.keyframe_index].map_from_base * f.keyframe_from_base;
   return map_from_odom_.value_or(Pose2::Identity()) * f.odom_from_base;
 }
 

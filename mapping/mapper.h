@@ -55,7 +55,7 @@ class Mapper {
     double loop_min_travel_m = 5.0;        // path length between candidate and current, >= 0
     double loop_candidate_radius_m = 5.0;  // candidates within this of the current estimate, > 0
     int loop_max_candidates = 40;          // nearest candidates fused into the target, >= 1
-    int loop_min_interval_keyframes = 3;   // keyframes between accepted closures, >= 0
+    int loop_min_interval_keyframes = 3;   // keyframes made between accepted closures, >= 0
     double loop_sigma_xy_m = 0.05;         // loop constraint noise, > 0
     double loop_sigma_yaw_rad = 0.02;      // > 0
     ScanMatchOptions loop_match;
@@ -70,6 +70,30 @@ class Mapper {
     double floor_loop_sigma_xy_m = 0.02;          // floor loop constraint noise, > 0
     double floor_loop_sigma_yaw_rad = 0.01;       // > 0
     PoseGraphOptions pose_graph;
+    // Keyframe culling, so that the map grows with the explored area and not with the time spent
+    // in it (as RTAB-Map's rehearsal merges a new node into a similar old one). A keyframe of this
+    // run that leaves the sliding window is merged into an older keyframe that shows the same
+    // place: within cull_distance_m and cull_rotation_rad of it (estimates), their floor features
+    // confirming the relative pose to within cull_max_error_m and cull_max_error_rad. Its
+    // pose-graph edges move to the older keyframe (composed with the floor match; edges that now
+    // join the same two keyframes are fused into one), its frames ride on the older keyframe,
+    // and its local map, obstacle points and floor features are
+    // dropped; what it fused into the grid and the OctoMap stays there until the next rebuild,
+    // which fuses the keyframes that remain. Saved keyframes carry no floor features and are no
+    // merge targets.
+    bool cull_redundant_keyframes = true;
+    // Below the keyframe spacing, so that a run's consecutive keyframes are not merged, but at
+    // least half of it, so that a revisit along the same path always finds one.
+    double cull_distance_m = 0.15;     // > 0
+    double cull_rotation_rad = 0.10;   // > 0
+    double cull_max_error_m = 0.10;    // floor match against the estimates, > 0
+    double cull_max_error_rad = 0.05;  // > 0
+    // Only into a keyframe of an earlier visit: at least this much path before the merged one.
+    // Merging the keyframes of one pass into each other would replace the window's accurate
+    // odometry between them by floor matches, edge after edge (the `loop` scene's ATE rose from
+    // 0.9 to 3.5 cm). >= 0
+    double cull_min_travel_m = 1.0;
+    int cull_max_candidates = 3;  // nearest older keyframes whose floor is matched, >= 1
     // Rebuild the grid and the OctoMap when a correction moves any keyframe by more than this.
     double rebuild_min_change_m = 0.02;    // >= 0
     double rebuild_min_change_rad = 0.01;  // >= 0
@@ -102,7 +126,10 @@ class Mapper {
     int keyframe_id = -1;
     bool loop_closed = false;  // an accepted loop closure corrected the poses
     bool map_rebuilt = false;  // the grid and the OctoMap were rebuilt from the keyframes
-    Pose2 map_from_base;       // this frame's pose
+    // Keyframes merged into older ones (see Options::cull_redundant_keyframes) and so gone from
+    // keyframes(); an earlier frame that was one of them is a plain frame now.
+    std::vector<int> culled_keyframe_ids;
+    Pose2 map_from_base;  // this frame's pose
   };
 
   // A fresh map. Aborts on invalid options or calibration (check IsValid first).
@@ -117,9 +144,15 @@ class Mapper {
   FrameUpdate AddFrame(const FrameObservation& frame);
 
   // Outputs.
-  // In insertion order. Saved keyframes and those of this run that no later sliding window holds
-  // are packed (see Keyframe); the last window_size - 1 of this run, and so the newest, are full.
+  // In insertion order (culled ones removed). Saved keyframes and those of this run that no later
+  // sliding window holds are packed (see Keyframe); the last window_size - 1 of this run, and so
+  // the newest, are full.
   const std::vector<Keyframe>& keyframes() const { return keyframes_; }
+  int num_saved_keyframes() const { return num_saved_; }  // the first ones of keyframes()
+  // Edges of the pose graph that loop closures optimise (odometry and loop constraints).
+  int num_pose_graph_edges() const {
+    return static_cast<int>(refined_edges_.size() + loop_edges_.size());
+  }
   std::vector<FramePose> Trajectory() const;  // every frame, latest correction applied
   Pose2 CurrentPose() const;
   const TiledGrid& grid() const { return grid_; }
@@ -144,7 +177,8 @@ class Mapper {
   struct FrameRecord {
     TimestampNs stamp_ns;
     Pose2 odom_from_base;
-    int keyframe_index;
+    int keyframe_index;        // the keyframe the frame rides on, -1 before the first one
+    Pose2 keyframe_from_base;  // the frame relative to that keyframe
   };
 
   double StepSigmaFactor(const GroundMotion& step) const;
@@ -155,6 +189,12 @@ class Mapper {
   bool OptimizeAllAndMaybeRebuild();
   // Packs a keyframe that left the sliding window (see Keyframe).
   void Pack(Keyframe* keyframe) const;
+  // Merges keyframe `index` (of this run, out of every later window) into an older one showing the
+  // same place, if there is one (see Options::cull_redundant_keyframes); true when it did.
+  bool CullIfRedundant(int index, FrameUpdate* update);
+  // Removes keyframe `culled`: edges and frames move to `survivor` (< culled) through
+  // survivor_from_culled (measured, for the edges) and the current estimates (for the frames).
+  void MergeKeyframe(int culled, int survivor, const Pose2& survivor_from_culled);
   void FuseKeyframe(const Keyframe& keyframe);
   void Rebuild();
   int FirstRunIndex() const { return num_saved_; }
@@ -175,7 +215,7 @@ class Mapper {
   Pose2 initial_map_from_base_;
   double path_length_m_ = 0;
   double pending_var_xy_ = 0, pending_var_yaw_ = 0;
-  int last_closure_index_ = -1;
+  int last_closure_id_ = -1;  // the keyframe of the last accepted closure
 
   TiledGrid grid_;
   TiledGrid saved_grid_;

@@ -36,11 +36,17 @@ std::vector<Pose2> Odometry(const testing::SyntheticRun& run) {
   return out;
 }
 
-// Accepted closures whose relative pose is more than 0.2 m off the truth.
-int FalseClosures(const Mapper& mapper, const testing::SyntheticRun& run) {
+// Accepted closures whose relative pose is more than 0.2 m off the truth. Keyframes are looked up
+// in stamp_of_id when given (every keyframe made, culled ones too), else in the mapper's.
+int FalseClosures(const Mapper& mapper, const testing::SyntheticRun& run,
+                  const std::map<int, TimestampNs>* stamp_of_id = nullptr) {
   std::map<int, Pose2> truth_of_id;
   for (const Keyframe& k : mapper.keyframes())
     truth_of_id[k.id] = run.truth[FrameOfStamp(k.stamp_ns)];
+  if (stamp_of_id) {
+    for (const auto& [id, stamp_ns] : *stamp_of_id)
+      truth_of_id[id] = run.truth[FrameOfStamp(stamp_ns)];
+  }
   int wrong = 0;
   for (const LoopClosureEvent& e : mapper.loop_closures()) {
     if (!e.accepted) continue;
@@ -220,48 +226,62 @@ TEST(Mapper, PacksKeyframesThatLeftTheWindowLosslesslyForTheGrid) {
   EXPECT_EQ(fx.rebuild_differences, 0);
 }
 
-TEST(Mapper, RebuiltGridMatchesTheGridAtTruePoses) {
-  LoopFixture& fx = FeatureLoop();
-  ASSERT_GE(fx.mapper.counters().map_rebuilds, 1);
-  TiledGrid truth_grid(0.05);
-  for (const Keyframe& k : fx.mapper.keyframes()) {
-    FuseLocalMap(k.LocalMap(), k.ObstaclePoints(), fx.run.truth[FrameOfStamp(k.stamp_ns)],
-                 k.stamp_ns, LogOddsOptions(), &truth_grid);
-  }
-  const OccupancyGrid expected = ToOccupancyGrid(truth_grid);
-  const TiledGrid& grid = fx.mapper.grid();
+// The mapper's grid against the grid fused from its keyframes at their true poses (trinary cells).
+struct GridComparison {
   int both_known = 0, agree = 0, occupied = 0, occupied_near_truth = 0;
+  int truth_width = 0;  // of the true grid as an OccupancyGrid
+  double Agreement() const { return static_cast<double>(agree) / std::max(both_known, 1); }
+  double OccupiedNearTruth() const {
+    return static_cast<double>(occupied_near_truth) / std::max(occupied, 1);
+  }
+};
+
+GridComparison CompareWithTruePoses(const Mapper& mapper, const testing::SyntheticRun& run) {
+  TiledGrid truth_grid(0.05);
+  for (const Keyframe& k : mapper.keyframes()) {
+    FuseLocalMap(k.LocalMap(), k.ObstaclePoints(), run.truth[FrameOfStamp(k.stamp_ns)], k.stamp_ns,
+                 LogOddsOptions(), &truth_grid);
+  }
+  GridComparison out;
+  out.truth_width = ToOccupancyGrid(truth_grid).geometry.width;
   auto trinary = [](float l) { return l >= 0.619f ? 1 : (l <= -1.0986f ? 0 : -1); };
-  for (const auto& [key, tile] : grid.tiles()) {
+  for (const auto& [key, tile] : mapper.grid().tiles()) {
     for (int k = 0; k < TiledGrid::kTileSize * TiledGrid::kTileSize; ++k) {
       const Eigen::Vector2i cell(key.first * TiledGrid::kTileSize + k % TiledGrid::kTileSize,
                                  key.second * TiledGrid::kTileSize + k / TiledGrid::kTileSize);
       const int mine = trinary(tile.log_odds[k]);
       const int theirs = trinary(truth_grid.LogOdds(cell));
       if (mine >= 0 && theirs >= 0) {
-        ++both_known;
-        agree += mine == theirs ? 1 : 0;
+        ++out.both_known;
+        out.agree += mine == theirs ? 1 : 0;
       }
       if (mine == 1) {
-        ++occupied;
+        ++out.occupied;
         bool near = false;
         for (int dy = -1; dy <= 1 && !near; ++dy) {
           for (int dx = -1; dx <= 1 && !near; ++dx)
             near = trinary(truth_grid.LogOdds(cell + Eigen::Vector2i(dx, dy))) == 1;
         }
-        occupied_near_truth += near ? 1 : 0;
+        out.occupied_near_truth += near ? 1 : 0;
       }
     }
   }
+  return out;
+}
+
+TEST(Mapper, RebuiltGridMatchesTheGridAtTruePoses) {
+  LoopFixture& fx = FeatureLoop();
+  ASSERT_GE(fx.mapper.counters().map_rebuilds, 1);
+  const GridComparison c = CompareWithTruePoses(fx.mapper, fx.run);
   std::printf(
       "cells known in both %d, agreement %.4f, occupied %d, within one cell of truth %.4f\n",
-      both_known, static_cast<double>(agree) / both_known, occupied,
-      static_cast<double>(occupied_near_truth) / occupied);
-  ASSERT_GT(both_known, 10000);
-  EXPECT_GT(static_cast<double>(agree) / both_known, 0.97);
-  ASSERT_GT(occupied, 500);
-  EXPECT_GT(static_cast<double>(occupied_near_truth) / occupied, 0.9);
-  EXPECT_GT(expected.geometry.width, 0);
+      c.both_known, c.Agreement(), c.occupied, c.OccupiedNearTruth());
+  ASSERT_GT(c.both_known, 10000);
+  EXPECT_GT(c.Agreement(), 0.97);
+  ASSERT_GT(c.occupied, 500);
+  EXPECT_GT(c.OccupiedNearTruth(), 0.9);
+  EXPECT_GT(c.truth_width, 0);
+  const TiledGrid& grid = fx.mapper.grid();
 
   // Changed tiles: all of them once, then none until the next change.
   Mapper& mapper = fx.mapper;
@@ -332,6 +352,95 @@ TEST(Mapper, ExtendsASavedMapAfterLocalising) {
               first.mapper.keyframes(), Pose2{30.0, 30.0, 0.0});
   for (const FrameObservation& f : second.frames) lost.AddFrame(f);
   EXPECT_FALSE(lost.localization()->success);
+}
+
+// The square loop driven `laps` times with floor features; lap_ends[i] is the last frame of lap i.
+struct LapsRun {
+  testing::SyntheticRun run;
+  std::vector<std::size_t> lap_ends;
+};
+
+LapsRun SquareLaps(int laps) {
+  std::vector<Pose2> path;
+  LapsRun out;
+  for (int lap = 0; lap < laps; ++lap) {
+    const std::vector<Pose2> one = testing::PathThrough(
+        {{0, 0, 0}, {4, 0, M_PI / 2}, {4, 4, M_PI}, {0, 4, -M_PI / 2}, {0, 0, 0}}, 0.05, 0.1);
+    path.insert(path.end(), one.begin() + (lap == 0 ? 0 : 1), one.end());
+    out.lap_ends.push_back(path.size() - 1);
+  }
+  testing::RunOptions options;
+  options.features = false;
+  options.num_floor_descriptor_points = 1500;
+  out.run = testing::MakeRun(testing::SquareLoopWorld(), path, testing::TestCamera(), options);
+  return out;
+}
+
+// Driving the same loop again and again: keyframes (with their floor descriptors, local maps and
+// pose-graph nodes) grow with the area, not with the laps, and the trajectory and the grid stay
+// right.
+TEST(Mapper, RepeatedLapsMergeKeyframesOfPlacesAlreadyMapped) {
+  const int kLaps = 4;
+  const LapsRun laps = SquareLaps(kLaps);
+  const testing::SyntheticRun& run = laps.run;
+  std::map<int, TimestampNs> stamp_of_id;  // every keyframe made, merged ones too
+  Mapper::Options options;
+  // As `monoplane run` has it: as long as the window, so that the newest keyframe's index, which
+  // culling keeps in place, would never get that far from the last closure's.
+  options.loop_min_interval_keyframes = options.window_size;
+  Mapper mapper(options, testing::TestCamera());
+  mapper.SetKeyframeCallback([&](const Keyframe& k) { stamp_of_id[k.id] = k.stamp_ns; });
+  std::vector<std::size_t> kept;  // keyframes after each lap
+  std::vector<int> edges;         // pose-graph edges after each lap
+  for (std::size_t i = 0; i < run.frames.size(); ++i) {
+    mapper.AddFrame(run.frames[i]);
+    if (kept.size() < laps.lap_ends.size() && i == laps.lap_ends[kept.size()]) {
+      kept.push_back(mapper.keyframes().size());
+      edges.push_back(mapper.num_pose_graph_edges());
+    }
+  }
+  ASSERT_EQ(kept.size(), static_cast<std::size_t>(kLaps));
+  const double path = PathLength(run.truth);
+  const double ate = Ate(Estimates(mapper), run.truth);
+  const MapperCounters& c = mapper.counters();
+  std::printf(
+      "path %.1f m; after each lap keyframes %zu %zu %zu %zu (%d made, %d merged), graph edges %d "
+      "%d %d %d; ATE %.3f m (dead reckoning %.3f m); closures %d\n",
+      path, kept[0], kept[1], kept[2], kept[3], c.keyframes, c.keyframes_culled, edges[0], edges[1],
+      edges[2], edges[3], ate, Ate(Odometry(run), run.truth), c.loop_closures_accepted);
+
+  // Keeping every keyframe, each lap adds as many as the first (84, 168, 252, 336 when
+  // measured); merged into the first lap's, the later laps add few (places seen from a new
+  // angle), the last one hardly any.
+  EXPECT_LT(kept[kLaps - 1], kept[0] + kept[0] / 4);
+  EXPECT_LE(kept[kLaps - 1] - kept[kLaps - 2], kept[0] / 20);
+  EXPECT_EQ(static_cast<int>(mapper.keyframes().size()), c.keyframes - c.keyframes_culled);
+  // The pose graph likewise: a later lap's edges join the first lap's keyframes, as its own did.
+  EXPECT_LT(edges[kLaps - 1], edges[0] + edges[0] / 2);
+  for (std::size_t i = 1; i < mapper.keyframes().size(); ++i)
+    EXPECT_LT(mapper.keyframes()[i - 1].id, mapper.keyframes()[i].id);
+
+  // The trajectory: every frame, as accurate as with every keyframe kept (0.059 m when
+  // measured).
+  const std::vector<FramePose> trajectory = mapper.Trajectory();
+  ASSERT_EQ(trajectory.size(), run.frames.size());
+  EXPECT_GE(c.loop_closures_accepted, kLaps - 1);
+  EXPECT_EQ(FalseClosures(mapper, run, &stamp_of_id), 0);
+  EXPECT_LT(ate, 0.06);
+  // Frames whose keyframe was merged ride on the older one: none leaves the path.
+  for (std::size_t i = 1; i < trajectory.size(); ++i) {
+    const FramePose& p = trajectory[i];
+    ASSERT_GE(p.keyframe_id, 0) << i;  // only the first frame precedes the first keyframe
+    EXPECT_LT((p.map_from_base.Translation() - run.truth[i].Translation()).norm(), 0.15) << i;
+  }
+
+  // The grid of what remains still agrees with the truth.
+  const GridComparison grid = CompareWithTruePoses(mapper, run);
+  std::printf("grid: agreement %.4f of %d cells, occupied within one cell of truth %.4f\n",
+              grid.Agreement(), grid.both_known, grid.OccupiedNearTruth());
+  EXPECT_GT(grid.both_known, 10000);
+  EXPECT_GT(grid.Agreement(), 0.97);
+  EXPECT_GT(grid.OccupiedNearTruth(), 0.9);
 }
 
 TEST(Mapper, OptionsNameTheKey) {

@@ -100,7 +100,8 @@ struct LocalizationResult {
 
 struct MapperCounters {
   int frames = 0;
-  int keyframes = 0;  // created in this run
+  int keyframes = 0;         // created in this run
+  int keyframes_culled = 0;  // of those, merged into older ones (Mapper::Options cull_*)
   int window_optimizations = 0;
   int loop_closure_attempts = 0;  // keyframes that had candidates and were matched
   int loop_closures_accepted = 0;

@@ -684,6 +684,31 @@ StorageStatus MapDatabase::WriteKeyframe(std::int64_t run_id, const FrameRecord&
   });
 }
 
+StorageStatus MapDatabase::DeleteKeyframes(std::int64_t run_id,
+                                           const std::vector<std::int64_t>& frame_indices) {
+  constexpr const char* kContext = "deleting keyframes";
+  Impl& d = *impl_;
+  return d.InTransaction(run_id, kContext, [&] {
+    Statement frame_stmt, map_stmt;
+    StorageStatus st =
+        d.Prepare("UPDATE frames SET is_keyframe = 0 WHERE run_id = ? AND frame_index = ?",
+                  &frame_stmt, kContext);
+    if (st.ok()) {
+      st = d.Prepare("DELETE FROM local_maps WHERE run_id = ? AND frame_index = ?", &map_stmt,
+                     kContext);
+    }
+    for (std::size_t i = 0; i < frame_indices.size() && st.ok(); ++i) {
+      for (const Statement* s : {&frame_stmt, &map_stmt}) {
+        sqlite3_reset(s->get());
+        if (st.ok()) st = d.BindInt(*s, 1, run_id, kContext);
+        if (st.ok()) st = d.BindInt(*s, 2, frame_indices[i], kContext);
+        if (st.ok()) st = d.StepDone(*s, kContext);
+      }
+    }
+    return st;
+  });
+}
+
 StorageStatus MapDatabase::WriteFrames(std::int64_t run_id,
                                        const std::vector<FrameRecord>& frames) {
   constexpr const char* kContext = "writing frames";

@@ -140,6 +140,11 @@ class MapDatabase {
   // the robot base frame at that frame) in one transaction. Rewriting a keyframe replaces it.
   StorageStatus WriteKeyframe(std::int64_t run_id, const FrameRecord& frame,
                               const OccupancyGrid& local_map_in_base);
+  // Turns keyframes of a run back into plain frames (by input index) in one transaction: their
+  // local maps are deleted, the frames and their poses stay. Indices that are not keyframes of the
+  // run are ignored. The grid tiles are not touched (mapping keeps what a dropped keyframe fused).
+  StorageStatus DeleteKeyframes(std::int64_t run_id,
+                                const std::vector<std::int64_t>& frame_indices);
   // Stores (or updates, e.g. with optimised poses) frames of a run in one transaction. A frame
   // already stored as a keyframe stays a keyframe.
   StorageStatus WriteFrames(std::int64_t run_id, const std::vector<FrameRecord>& frames);

@@ -265,6 +265,45 @@ TEST(MapDatabase, SecondRunExtendsTheMapAndUsesWal) {
   sqlite3_close(raw);
 }
 
+TEST(MapDatabase, DeletedKeyframesBecomePlainFramesWithoutLocalMaps) {
+  TempDir dir;
+  MakeSmallMap(dir.File("map.db"));
+  auto db = MustOpen(dir.File("map.db"), OpenMode::kReadWrite);
+  ASSERT_TRUE(db);
+  std::vector<RunInfo> runs;
+  ASSERT_TRUE(db->ListRuns(&runs).ok());
+  ASSERT_EQ(runs.size(), 1u);
+  const std::int64_t run = runs[0].id;
+  // Frame 1 and an index that is no keyframe (ignored).
+  const StorageStatus st = db->DeleteKeyframes(run, {1, 42});
+  ASSERT_TRUE(st.ok()) << st.message();
+  MapInfo info;
+  ASSERT_TRUE(db->Info(&info).ok());
+  EXPECT_EQ(info.frames, 3);
+  EXPECT_EQ(info.keyframes, 2);
+  EXPECT_EQ(info.local_maps, 2);
+  OccupancyGrid back;
+  EXPECT_EQ(db->ReadLocalMap(run, 1, &back).kind(), StorageErrorKind::kNotFound);
+  ASSERT_TRUE(db->ReadLocalMap(run, 2, &back).ok());
+  EXPECT_EQ(back.cells, TestLocalMap(160, 2).cells);
+  // Later pose updates of the frame keep it a plain frame.
+  FrameRecord f;
+  f.index = 1;
+  f.stamp_ns = 1000000000ll;
+  f.map_from_base_raw = {0.1, 0.0, 0.0};
+  f.map_from_base_optimised = Pose2{0.12, 0.01, 0.0};
+  ASSERT_TRUE(db->WriteFrames(run, {f}).ok());
+  std::vector<TrajectoryPoint> trajectory;
+  ASSERT_TRUE(db->ReadTrajectory(run, PoseSource::kOptimised, &trajectory).ok());
+  ASSERT_EQ(trajectory.size(), 3u);
+  EXPECT_TRUE(trajectory[0].is_keyframe);
+  EXPECT_FALSE(trajectory[1].is_keyframe);
+  EXPECT_DOUBLE_EQ(trajectory[1].map_from_base.x, 0.12);
+  EXPECT_TRUE(trajectory[2].is_keyframe);
+  // An unknown run is refused.
+  EXPECT_FALSE(db->DeleteKeyframes(run + 5, {0}).ok());
+}
+
 TEST(MapDatabase, ReaderSeesCommitsWhileWriterWrites) {
   TempDir dir;
   const std::string path = dir.File("map.db");

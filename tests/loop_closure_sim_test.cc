@@ -61,13 +61,19 @@ struct RunResult {
   double ate_optimised_m = 0;  // RMS, no alignment (both start in the base frame at frame 0)
   double ate_dead_reckoning_m = 0;
   std::vector<eval::StampedPose2> truth;
-  std::vector<Keyframe> keyframes;
+  std::vector<Keyframe> keyframes;  // every keyframe made (merged ones too): id and stamp only
 };
 
 RunResult MapScene(const PerceivedScene& scene, const Mapper::Options& mapper_options) {
   RunResult out;
   out.truth = scene.truth;
   Mapper mapper(mapper_options, scene.calibration);
+  mapper.SetKeyframeCallback([&out](const Keyframe& k) {
+    Keyframe made;
+    made.id = k.id;
+    made.stamp_ns = k.stamp_ns;
+    out.keyframes.push_back(made);
+  });
   for (const FrameObservation& frame : scene.frames) mapper.AddFrame(frame);
   std::vector<eval::StampedPose2> optimised, dead_reckoning;
   for (const FramePose& f : mapper.Trajectory()) {
@@ -83,7 +89,6 @@ RunResult MapScene(const PerceivedScene& scene, const Mapper::Options& mapper_op
   out.path_length_m = a.gt_path_length_m;
   out.events = mapper.loop_closures();
   out.counters = mapper.counters();
-  out.keyframes = mapper.keyframes();
   const std::string& name = scene.name;
   for (const LoopClosureEvent& e : out.events) {
     std::printf("  %s keyframe %d -> %d: %s score %.2f second %.2f inliers %d %s\n", name.c_str(),

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <opencv2/core.hpp>
 #include <random>
 
 #include "perception/geometry/camera_model.h"
@@ -236,6 +237,21 @@ SyntheticRun MakeRun(const SyntheticWorld& world, const std::vector<Pose2>& trut
     }
   }
 
+  std::mt19937 floor_rng(options.seed + 1000);
+  std::vector<Eigen::Vector2d> floor_points;
+  std::normal_distribution<double> gauss_floor(0.0, 1.0);
+  cv::Mat floor_descriptors(options.num_floor_descriptor_points, 32, CV_8U);
+  {
+    std::uniform_real_distribution<double> fx(lo.x(), hi.x()), fy(lo.y(), hi.y());
+    while (static_cast<int>(floor_points.size()) < options.num_floor_descriptor_points) {
+      const Eigen::Vector2d p(fx(floor_rng), fy(floor_rng));
+      if (!world.Occupied(p)) floor_points.push_back(p);
+    }
+    for (int r = 0; r < floor_descriptors.rows; ++r) {
+      for (int c = 0; c < 32; ++c) floor_descriptors.at<std::uint8_t>(r, c) = floor_rng() & 0xff;
+    }
+  }
+
   Pose2 odom = Pose2::Identity();
   for (std::size_t i = 0; i < truth.size(); ++i) {
     FrameObservation f;
@@ -256,6 +272,24 @@ SyntheticRun MakeRun(const SyntheticWorld& world, const std::vector<Pose2>& trut
       f.has_result = true;
       f.local_map = RenderLocalMap(world, truth[i], options.render);
       f.obstacle_points_in_base = RenderObstaclePoints(world, truth[i], f.local_map);
+      std::vector<int> seen;
+      for (std::size_t k = 0; k < floor_points.size(); ++k) {
+        const Eigen::Vector2d b = truth[i].Inverse() * floor_points[k];
+        const auto px = model.ProjectToPixel(Eigen::Vector3d(b.x(), b.y(), 0.0));
+        if (b.norm() > options.render.max_range_m || !px || px->x() < 0 || px->y() < 0 ||
+            px->x() >= camera.intrinsics.width || px->y() >= camera.intrinsics.height) {
+          continue;
+        }
+        seen.push_back(static_cast<int>(k));
+        f.floor_features.points_in_base.push_back(
+            (b + options.floor_point_noise_m *
+                     Eigen::Vector2d(gauss_floor(floor_rng), gauss_floor(floor_rng)))
+                .cast<float>());
+      }
+      f.floor_features.descriptors = cv::Mat(static_cast<int>(seen.size()), 32, CV_8U);
+      for (std::size_t r = 0; r < seen.size(); ++r)
+        floor_descriptors.row(seen[r]).copyTo(
+            f.floor_features.descriptors.row(static_cast<int>(r)));
     }
     f.odom_from_base = odom;
     for (std::size_t id = 0; id < landmarks.size(); ++id) {

@@ -88,6 +88,12 @@ struct RunOptions {
   bool features = true;  // simulate tracked features on the floor and on boxes
   int num_floor_landmarks = 800;
   double pixel_noise_px = 0.5;
+  // Floor features (FrameObservation::floor_features) for appearance-based loop closure: this many
+  // floor points, each with its own random 256-bit descriptor, reported in frames with a result
+  // when in view (0: none). Drawn from their own random stream, so that the rest of a run does not
+  // change with it.
+  int num_floor_descriptor_points = 0;
+  double floor_point_noise_m = 0.003;
   std::uint32_t seed = 7;
   RenderOptions render;
 };
