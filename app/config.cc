@@ -69,6 +69,7 @@ OptionTable::OptionTable(AppConfig* config) : config_(config) {
           "refine each pair's floor motion on the floor strip's texture");
   AddBool("direct_alignment", "refine_steps", &da.refine_steps,
           "also refine every frame-to-frame odometry step");
+  AddInt("direct_alignment", "level", &da.level, "0: full resolution, 1: half (faster)");
   AddInt("direct_alignment", "sample_stride_px", &da.sample_stride_px, "sample spacing, px (>= 1)");
   AddDouble("direct_alignment", "min_gradient", &da.min_gradient,
             "samples need this gradient, grey levels/px (> 0)");

@@ -42,6 +42,7 @@ bool DirectAlignmentOptions::IsValid(std::string* error) const {
   if (sample_stride_px < 1) return fail("sample_stride_px: must be >= 1");
   if (!(min_gradient > 0)) return fail("min_gradient: must be > 0");
   if (max_iterations < 1) return fail("max_iterations: must be >= 1");
+  if (level < 0 || level > 1) return fail("level: must be 0 or 1");
   if (min_samples < 10) return fail("min_samples: must be >= 10");
   if (!(max_correction_m > 0)) return fail("max_correction_m: must be > 0");
   if (!(max_correction_rad > 0)) return fail("max_correction_rad: must be > 0");
@@ -57,32 +58,53 @@ DirectAlignment AlignFloorDirect(const cv::Mat& image1, const cv::Mat& image2,
       strip_mask.size() != image2.size()) {
     return out;
   }
-  // A little smoothing widens the basin of convergence and tames aliasing.
-  cv::Mat i1, i2, gx, gy;
-  image1.convertTo(i1, CV_32F);
-  image2.convertTo(i2, CV_32F);
-  cv::GaussianBlur(i1, i1, cv::Size(5, 5), 1.0);
-  cv::GaussianBlur(i2, i2, cv::Size(5, 5), 1.0);
-  cv::Sobel(i2, gx, CV_32F, 1, 0, 3, 1.0 / 8.0);
-  cv::Sobel(i2, gy, CV_32F, 0, 1, 3, 1.0 / 8.0);
+  // Smoothed (which widens the basin of convergence), at full or half resolution: the corners
+  // put the motion within about a pixel already.
+  cv::Mat small1, small2, i1, i2, gx1, gy1, gx2, gy2;
+  const int level = options.level;
+  const double f = 1.0 / (1 << level);
+  if (level == 0) {
+    cv::GaussianBlur(image1, small1, cv::Size(5, 5), 1.0);
+    cv::GaussianBlur(image2, small2, cv::Size(5, 5), 1.0);
+  } else {
+    cv::pyrDown(image1, small1);
+    cv::pyrDown(image2, small2);
+  }
+  small1.convertTo(i1, CV_32F);
+  small2.convertTo(i2, CV_32F);
+  cv::Sobel(i1, gx1, CV_32F, 1, 0, 3, 1.0 / 8.0);
+  cv::Sobel(i1, gy1, CV_32F, 0, 1, 3, 1.0 / 8.0);
+  cv::Sobel(i2, gx2, CV_32F, 1, 0, 3, 1.0 / 8.0);
+  cv::Sobel(i2, gy2, CV_32F, 0, 1, 3, 1.0 / 8.0);
   std::vector<Sample> samples;
-  const int stride = options.sample_stride_px;
-  const float min_g2 = static_cast<float>(options.min_gradient * options.min_gradient);
+  const int step = 1 << level;
+  const int stride = std::max(1, (options.sample_stride_px + step - 1) / step);
+  // Gradients per level pixel are 2^level those per input pixel.
+  const float min_g2 =
+      static_cast<float>(step * step * options.min_gradient * options.min_gradient);
   for (int y = stride / 2; y < i2.rows; y += stride) {
-    const std::uint8_t* m = strip_mask.ptr<std::uint8_t>(y);
-    const float* px = gx.ptr<float>(y);
-    const float* py = gy.ptr<float>(y);
+    const std::uint8_t* m = strip_mask.ptr<std::uint8_t>(std::min(step * y, strip_mask.rows - 1));
+    const float* px = gx2.ptr<float>(y);
+    const float* py = gy2.ptr<float>(y);
     for (int x = stride / 2; x < i2.cols; x += stride) {
-      if (!m[x] || px[x] * px[x] + py[x] * py[x] < min_g2) continue;
+      if (!m[std::min(step * x, strip_mask.cols - 1)] || px[x] * px[x] + py[x] * py[x] < min_g2) {
+        continue;
+      }
       samples.push_back({Eigen::Vector2d(x, y), i2.at<float>(y, x)});
     }
   }
   out.samples = static_cast<int>(samples.size());
   if (out.samples < options.min_samples) return out;
 
-  // Parameters: x, y, yaw of base2_from_base1 and a brightness offset.
+  // Image-1 position (level pixels) of an image-2 sample under motion t.
+  const Eigen::Matrix3d to_level = Eigen::Vector3d(f, f, 1.0).asDiagonal();
+  const Eigen::Matrix3d from_level = Eigen::Vector3d(1.0 / f, 1.0 / f, 1.0).asDiagonal();
+  const auto inverse_homography = [&](const Pose2& t) -> Eigen::Matrix3d {
+    return to_level * FloorHomography(camera, t).inverse() * from_level;
+  };
+  // Residuals r = I2 - I1(H^-1 q) - offset; NaN outside image 1.
   const auto residuals = [&](const Pose2& t, double offset, std::vector<double>* r) {
-    const Eigen::Matrix3d h_inv = FloorHomography(camera, t).inverse();
+    const Eigen::Matrix3d h_inv = inverse_homography(t);
     r->assign(samples.size(), NAN);
     for (std::size_t k = 0; k < samples.size(); ++k) {
       double v;
@@ -117,30 +139,37 @@ DirectAlignment AlignFloorDirect(const cv::Mat& image1, const cv::Mat& image2,
   out.cost_before = robust_cost(r, k_huber);
   double cost = out.cost_before;
 
-  const double eps[3] = {1e-3, 1e-3, 1e-3};
-  std::vector<double> r_plus, r_minus;
-  std::vector<Eigen::Vector4d> jacobian(samples.size());
+  constexpr double kEps = 1e-4;  // m and rad, for the derivatives of the point mapping
+  std::vector<double> r_new;
   for (int it = 0; it < options.max_iterations; ++it) {
+    // J = -grad I1(p1) . d p1 / d(x, y, yaw), and -1 for the offset.
+    Eigen::Matrix3d h_plus[3], h_minus[3];
     for (int p = 0; p < 3; ++p) {
       Pose2 tp = t, tm = t;
-      double* fp = p == 0 ? &tp.x : p == 1 ? &tp.y : &tp.yaw;
-      double* fm = p == 0 ? &tm.x : p == 1 ? &tm.y : &tm.yaw;
-      *fp += eps[p];
-      *fm -= eps[p];
-      residuals(tp, offset, &r_plus);
-      residuals(tm, offset, &r_minus);
-      for (std::size_t k = 0; k < samples.size(); ++k) {
-        jacobian[k][p] = (r_plus[k] - r_minus[k]) / (2 * eps[p]);
-      }
+      (p == 0 ? tp.x : p == 1 ? tp.y : tp.yaw) += kEps;
+      (p == 0 ? tm.x : p == 1 ? tm.y : tm.yaw) -= kEps;
+      h_plus[p] = inverse_homography(tp);
+      h_minus[p] = inverse_homography(tm);
     }
+    const Eigen::Matrix3d h_inv = inverse_homography(t);
     Eigen::Matrix4d a = Eigen::Matrix4d::Zero();
     Eigen::Vector4d b = Eigen::Vector4d::Zero();
     for (std::size_t k = 0; k < samples.size(); ++k) {
-      jacobian[k][3] = -1.0;
-      if (std::isnan(r[k]) || !jacobian[k].allFinite()) continue;
+      if (std::isnan(r[k])) continue;
+      const Eigen::Vector2d p1 = ApplyHomography(h_inv, samples[k].q);
+      double gx, gy;
+      if (!Bilinear(gx1, p1, &gx) || !Bilinear(gy1, p1, &gy)) continue;
+      Eigen::Vector4d j;
+      for (int p = 0; p < 3; ++p) {
+        const Eigen::Vector2d dp =
+            (ApplyHomography(h_plus[p], samples[k].q) - ApplyHomography(h_minus[p], samples[k].q)) /
+            (2 * kEps);
+        j[p] = -(gx * dp.x() + gy * dp.y());
+      }
+      j[3] = -1.0;
       const double w = std::abs(r[k]) <= k_huber ? 1.0 : k_huber / std::abs(r[k]);
-      a += w * jacobian[k] * jacobian[k].transpose();
-      b += w * jacobian[k] * r[k];
+      a += w * j * j.transpose();
+      b += w * j * r[k];
     }
     const Eigen::Vector4d delta = a.ldlt().solve(-b);
     if (!delta.allFinite()) break;
@@ -148,7 +177,6 @@ DirectAlignment AlignFloorDirect(const cv::Mat& image1, const cv::Mat& image2,
     candidate.x += delta[0];
     candidate.y += delta[1];
     candidate.yaw += delta[2];
-    std::vector<double> r_new;
     residuals(candidate, offset + delta[3], &r_new);
     const double new_cost = robust_cost(r_new, k_huber);
     if (!(new_cost < cost)) break;

@@ -18,6 +18,7 @@ struct DirectAlignmentOptions {
   // Also refine each frame-to-frame step of the odometry (not only the pairs of the detection):
   // a few milliseconds on the tracking thread; ATE 0.060 -> 0.007 m on the office scene.
   bool refine_steps = true;
+  int level = 0;                     // 0: full resolution, 1: half (faster, less accurate)
   int sample_stride_px = 3;          // sample spacing in image 2, input pixels (>= 1)
   double min_gradient = 6.0;         // samples need this gradient magnitude, grey levels/px (> 0)
   int max_iterations = 10;           // Gauss-Newton iterations (>= 1)
