@@ -245,7 +245,7 @@ OptionTable::OptionTable(AppConfig* config) : config_(config) {
   AddDouble("input", "fps", &config->input.fps,
             "frame rate for inputs without timestamps, Hz (> 0)");
   AddInt("output", "panels_every", &config->output.panels_every,
-         "panels every N-th frame with --frames-out (>= 1)");
+         "panels every N-th frame (the first with heights from there) with --frames-out (>= 1)");
 }
 
 namespace {

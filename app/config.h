@@ -16,7 +16,9 @@ namespace monoplane::app {
 
 // What `monoplane run` writes besides the map.
 struct OutputOptions {
-  int panels_every = 1;  // write panels/NNNNNN.jpg every N-th frame with --frames-out (>= 1)
+  // Write panels/NNNNNN.jpg for every N-th frame with --frames-out (>= 1): the first frame with
+  // heights at or after each multiple of N.
+  int panels_every = 1;
   bool IsValid(std::string* error) const;
 };
 

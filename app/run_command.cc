@@ -182,6 +182,7 @@ int Run(const RunRequest& request, RunSummary* summary) {
 
   Progress progress(source->size(), request.quiet);
   bool sink_failed = false;
+  std::int64_t next_panel_index = 0;  // panels: the first detected frame from here on
   while (auto p = perceived.Pop()) {
     summary->perception_ms += p->perception_ms;
     if (!p->output.image_ok) {
@@ -199,7 +200,12 @@ int Run(const RunRequest& request, RunSummary* summary) {
       ++summary->status_counts[static_cast<int>(r.status)];
       if (!request.frames_out.empty()) {
         const auto t0 = Clock::now();
-        const bool panels = p->frame.index % request.config.output.panels_every == 0;
+        // Every N-th frame, or the first one after it with heights: a panel of a frame turning
+        // on the spot would show nothing.
+        const int every = request.config.output.panels_every;
+        const bool panels =
+            every == 1 || (p->frame.index >= next_panel_index && r.status == PairStatus::kOk);
+        if (panels) next_panel_index = (p->frame.index / every + 1) * every;
         if (!WriteFrameOutputs(request.frames_out, p->frame.index, p->frame.image, r, panels,
                                &error)) {
           std::cerr << "\nmonoplane run: " << error << "\n";
