@@ -313,14 +313,16 @@ std::vector<Eigen::Vector2d> OffEpipolarCorners(const CameraModel& camera,
   const Eigen::Matrix3d h_infinity =
       camera.K() * camera2_from_camera1.linear() * camera.K().inverse();
   const Eigen::Vector3d epipole = EpipoleInImage2(camera, base2_from_base1);
+  // Near the epipole the line is ill-defined: points there are not judged.
+  const bool finite_epipole = std::abs(epipole.z()) > 1e-12;
+  const Eigen::Vector2d e =
+      finite_epipole ? Eigen::Vector2d(epipole.head<2>() / epipole.z()) : Eigen::Vector2d::Zero();
   for (std::size_t i = 0; i < pixels1.size() && i < pixels2.size(); ++i) {
     const Eigen::Vector3d line = epipole.cross(h_infinity * pixels1[i].homogeneous());
     const double norm = line.head<2>().norm();
     if (!(norm > 1e-9)) continue;
     const double distance = std::abs(line.dot(pixels2[i].homogeneous())) / norm;
-    // Near the epipole the line is ill-defined: the point must also be away from it.
-    const Eigen::Vector2d e = epipole.head<2>() / epipole.z();
-    if (std::abs(epipole.z()) > 1e-12 && (pixels2[i] - e).norm() < 4.0 * min_px) continue;
+    if (finite_epipole && (pixels2[i] - e).norm() < 4.0 * min_px) continue;
     if (distance > min_px) moving.push_back(pixels2[i]);
   }
   return moving;
