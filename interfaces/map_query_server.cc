@@ -2,6 +2,7 @@
 
 #include <dds/dds.h>
 
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <random>
@@ -240,7 +241,9 @@ struct MapQueryServer::Impl {
   QueryEndpoints endpoints;
   dds_entity_t reader = 0;
   dds_entity_t writer = 0;
-  std::int64_t answered = 0;
+  // Read by other threads (answered()); counted before the reply is written, so that a client
+  // holding its reply never sees a count without it.
+  std::atomic<std::int64_t> answered{0};
 };
 
 MapQueryServer::MapQueryServer(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
@@ -302,13 +305,14 @@ int MapQueryServer::Serve(double timeout_s, std::string* error) {
       }
       monoplane_msg_dds__MapQueryReply_ out;
       ToIdl(reply, client_id, request_id, kind, &out);
+      ++impl_->answered;
       const dds_return_t rc = dds_write(impl_->writer, &out);
       if (rc < 0 && rc != DDS_RETCODE_TIMEOUT) {
+        --impl_->answered;
         if (error) *error = DdsError(rc, "writing a map query reply");
         return -1;
       }
       ++answered;
-      ++impl_->answered;
     } else {
       dds_return_loan(impl_->reader, samples, n);
     }
