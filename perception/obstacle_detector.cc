@@ -559,8 +559,7 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
 
 SequenceDetector::SequenceDetector(const CameraCalibration& calibration,
                                    const DetectorOptions& options)
-    : detector_(calibration, options),
-      strip_mask_(FloorStripMask(detector_.camera(), options.ground_motion)) {}
+    : detector_(calibration, options) {}
 
 void SequenceDetector::Finish(Output* output) const {
   if (!output->pending) return;
@@ -605,8 +604,8 @@ SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, Timesta
   }
   if (out.step.status == GroundMotion::Status::kOk && options.direct_alignment.refine_steps) {
     out.step.base2_from_base1 =
-        AlignFloorDirect(previous.image, prepared, camera, strip_mask_, out.step.base2_from_base1,
-                         options.direct_alignment)
+        AlignFloorDirect(previous.image, prepared, camera, detector_.strip_mask(),
+                         out.step.base2_from_base1, options.direct_alignment)
             .base2_from_base1;
   }
   if (out.step.status != GroundMotion::Status::kFailed) {
@@ -745,8 +744,8 @@ std::vector<FeatureObservation> SequenceDetector::AddNewCorners(
   const int strip_wanted = wanted / 2;
   const auto in_strip = [&](const Eigen::Vector2d& p) {
     const int x = static_cast<int>(p.x()), y = static_cast<int>(p.y());
-    return x >= 0 && y >= 0 && x < strip_mask_.cols && y < strip_mask_.rows &&
-           strip_mask_.at<std::uint8_t>(y, x) != 0;
+    return x >= 0 && y >= 0 && x < detector_.strip_mask().cols && y < detector_.strip_mask().rows &&
+           detector_.strip_mask().at<std::uint8_t>(y, x) != 0;
   };
   int tracked_in_strip = 0;
   for (const auto& f : tracked) tracked_in_strip += in_strip(f.pixel) ? 1 : 0;
@@ -775,7 +774,7 @@ std::vector<FeatureObservation> SequenceDetector::AddNewCorners(
   };
   if (tracked_in_strip < strip_wanted) {
     cv::Mat strip_free;
-    cv::bitwise_and(free_mask, strip_mask_, strip_free);
+    cv::bitwise_and(free_mask, detector_.strip_mask(), strip_free);
     add(strip_free, strip_wanted - tracked_in_strip);
   }
   add(free_mask, wanted - static_cast<int>(tracked.size()));

@@ -123,6 +123,7 @@ class ObstacleDetector {
 
   const CameraModel& camera() const { return camera_; }
   const DetectorOptions& options() const { return options_; }
+  const cv::Mat& strip_mask() const { return strip_mask_; }  // FloorStripMask of the options
 
   // Converts any 8-bit grey or colour image of the calibration's size to the undistorted grey
   // image the detector works on. Returns an empty Mat and a reason for unusable images.
@@ -138,7 +139,7 @@ class ObstacleDetector {
   CameraModel camera_;
   DetectorOptions options_;
   cv::Mat undistort_map_x_, undistort_map_y_;
-  cv::Mat strip_mask_;  // FloorStripMask, for the direct alignment
+  cv::Mat strip_mask_;  // FloorStripMask: the direct alignment's and the tracker's floor strip
   FloorFeatureExtractor floor_features_;
 };
 
@@ -205,7 +206,6 @@ class SequenceDetector {
   std::int64_t next_track_id_ = 0;
   int frames_since_detection_ = 0;
   std::vector<cv::Mat> previous_pyramid_;  // Lucas-Kanade pyramid of history_.back()
-  cv::Mat strip_mask_;                     // the floor strip of the motion fit (FloorStripMask)
   ShiTomasiCorners corners_;               // corner strength of the frame being topped up
 };
 
