@@ -125,6 +125,8 @@ OptionTable::OptionTable(AppConfig* config) : config_(config) {
          "median neighbourhood radius, samples (>= 1)");
   AddDouble("classification", "segment_size_px", &c.segment_size_px, "superpixel side, px (>= 4)");
   AddInt("classification", "segment_iterations", &c.segment_iterations, "SLIC iterations (>= 1)");
+  AddInt("classification", "segment_level", &c.segment_level,
+         "superpixels at 1/2^level of the search resolution (0 or 1)");
   AddInt("classification", "segment_min_samples", &c.segment_min_samples,
          "measured samples a segment needs (>= 1)");
   AddDouble("classification", "segment_fill_fraction", &c.segment_fill_fraction,

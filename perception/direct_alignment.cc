@@ -49,33 +49,51 @@ bool DirectAlignmentOptions::IsValid(std::string* error) const {
   return true;
 }
 
+AlignmentImage PrepareAlignmentImage(const cv::Mat& image, const DirectAlignmentOptions& options) {
+  AlignmentImage out;
+  if (!options.enabled || image.empty()) return out;
+  // The corners put the motion within about a pixel already: a light blur at full resolution, or
+  // the half-resolution level.
+  cv::Mat small;
+  out.level = options.level;
+  if (options.level == 0) {
+    cv::GaussianBlur(image, small, cv::Size(5, 5), 1.0);
+  } else {
+    cv::pyrDown(image, small);
+  }
+  small.convertTo(out.intensity, CV_32F);
+  cv::Sobel(out.intensity, out.gx, CV_32F, 1, 0, 3, 1.0 / 8.0);
+  cv::Sobel(out.intensity, out.gy, CV_32F, 0, 1, 3, 1.0 / 8.0);
+  return out;
+}
+
 DirectAlignment AlignFloorDirect(const cv::Mat& image1, const cv::Mat& image2,
+                                 const CameraModel& camera, const cv::Mat& strip_mask,
+                                 const Pose2& initial, const DirectAlignmentOptions& options) {
+  return AlignFloorDirect(PrepareAlignmentImage(image1, options),
+                          PrepareAlignmentImage(image2, options), camera, strip_mask, initial,
+                          options);
+}
+
+DirectAlignment AlignFloorDirect(const AlignmentImage& image1, const AlignmentImage& image2,
                                  const CameraModel& camera, const cv::Mat& strip_mask,
                                  const Pose2& initial, const DirectAlignmentOptions& options) {
   DirectAlignment out;
   out.base2_from_base1 = initial;
-  if (!options.enabled || image1.empty() || image1.size() != image2.size() ||
-      strip_mask.size() != image2.size()) {
+  const int level = options.level;
+  if (!options.enabled || image1.empty() || image2.empty() || image1.level != level ||
+      image2.level != level || image1.intensity.size() != image2.intensity.size() ||
+      strip_mask.empty() || (strip_mask.cols + (1 << level) - 1) >> level != image2.intensity.cols ||
+      (strip_mask.rows + (1 << level) - 1) >> level != image2.intensity.rows) {
     return out;
   }
-  // Smoothed (which widens the basin of convergence), at full or half resolution: the corners
-  // put the motion within about a pixel already.
-  cv::Mat small1, small2, i1, i2, gx1, gy1, gx2, gy2;
-  const int level = options.level;
+  const cv::Mat& i1 = image1.intensity;
+  const cv::Mat& i2 = image2.intensity;
+  const cv::Mat& gx1 = image1.gx;
+  const cv::Mat& gy1 = image1.gy;
+  const cv::Mat& gx2 = image2.gx;
+  const cv::Mat& gy2 = image2.gy;
   const double f = 1.0 / (1 << level);
-  if (level == 0) {
-    cv::GaussianBlur(image1, small1, cv::Size(5, 5), 1.0);
-    cv::GaussianBlur(image2, small2, cv::Size(5, 5), 1.0);
-  } else {
-    cv::pyrDown(image1, small1);
-    cv::pyrDown(image2, small2);
-  }
-  small1.convertTo(i1, CV_32F);
-  small2.convertTo(i2, CV_32F);
-  cv::Sobel(i1, gx1, CV_32F, 1, 0, 3, 1.0 / 8.0);
-  cv::Sobel(i1, gy1, CV_32F, 0, 1, 3, 1.0 / 8.0);
-  cv::Sobel(i2, gx2, CV_32F, 1, 0, 3, 1.0 / 8.0);
-  cv::Sobel(i2, gy2, CV_32F, 0, 1, 3, 1.0 / 8.0);
   std::vector<Sample> samples;
   const int step = 1 << level;
   const int stride = std::max(1, (options.sample_stride_px + step - 1) / step);

@@ -37,8 +37,26 @@ struct DirectAlignment {
   double cost_after = 0;   // and at the returned one
 };
 
-// image1, image2: grey CV_8U, undistorted, the calibration's size. strip_mask: CV_8U, non-zero
-// where image-2 pixels may be used (FloorStripMask).
+// One image as the alignment reads it: smoothed (which widens the basin of convergence) at the
+// options' level, as float, with its gradients (grey levels per level pixel). Prepared once per
+// frame, it serves every alignment the frame takes part in.
+struct AlignmentImage {
+  int level = 0;
+  cv::Mat intensity, gx, gy;  // CV_32F, the level's size
+  bool empty() const { return intensity.empty(); }
+};
+
+// image: grey CV_8U, undistorted. Empty when the alignment is disabled or the image is empty.
+AlignmentImage PrepareAlignmentImage(const cv::Mat& image, const DirectAlignmentOptions& options);
+
+// image1, image2: prepared from grey undistorted images of the calibration's size with the same
+// options. strip_mask: CV_8U, the calibration's size, non-zero where image-2 pixels may be used
+// (FloorStripMask).
+DirectAlignment AlignFloorDirect(const AlignmentImage& image1, const AlignmentImage& image2,
+                                 const CameraModel& camera, const cv::Mat& strip_mask,
+                                 const Pose2& initial, const DirectAlignmentOptions& options);
+
+// The same from grey CV_8U images of the calibration's size (prepares both).
 DirectAlignment AlignFloorDirect(const cv::Mat& image1, const cv::Mat& image2,
                                  const CameraModel& camera, const cv::Mat& strip_mask,
                                  const Pose2& initial, const DirectAlignmentOptions& options);

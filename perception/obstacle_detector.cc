@@ -69,8 +69,9 @@ float Median(std::vector<float>* values) {
   return *mid;
 }
 
-// Superpixels of the current image at the search level, labels at input resolution.
-cv::Mat Superpixels(const cv::Mat& current, const ClassificationOptions& co, double scale) {
+// Superpixels of the current image at the search level (or coarser), labels at input resolution.
+cv::Mat Superpixels(const cv::Mat& current, const ClassificationOptions& co, double search_scale) {
+  const double scale = search_scale * (1 << co.segment_level);
   cv::Mat small;
   cv::resize(current, small, cv::Size(), 1.0 / scale, 1.0 / scale, cv::INTER_AREA);
   cv::Ptr<cv::ximgproc::SuperpixelSLIC> slic = cv::ximgproc::createSuperpixelSLIC(
@@ -192,6 +193,7 @@ bool ClassificationOptions::IsValid(std::string* error) const {
   if (median_radius < 1) return fail("median_radius: must be >= 1");
   if (!(segment_size_px >= 4)) return fail("segment_size_px: must be >= 4");
   if (segment_iterations < 1) return fail("segment_iterations: must be >= 1");
+  if (segment_level < 0 || segment_level > 1) return fail("segment_level: must be 0 or 1");
   if (segment_min_samples < 1) return fail("segment_min_samples: must be >= 1");
   if (!(segment_fill_fraction >= 0 && segment_fill_fraction <= 1)) {
     return fail("segment_fill_fraction: must be in [0, 1]");
@@ -330,7 +332,8 @@ std::vector<Eigen::Vector2d> OffEpipolarCorners(const CameraModel& camera,
 
 FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& current,
                                      const GroundMotion& motion,
-                                     const std::vector<Eigen::Vector2d>& moving_pixels) const {
+                                     const std::vector<Eigen::Vector2d>& moving_pixels,
+                                     const AlignmentImage& current_alignment) const {
   const CameraIntrinsics& in = camera_.calibration().intrinsics;
   const cv::Size size(in.width, in.height);
   const ClassificationOptions& co = options_.classification;
@@ -347,9 +350,13 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
   }
   // The tracked corners give the motion to about a pixel; the floor's texture to a fraction.
   GroundMotion refined = motion;
-  refined.base2_from_base1 = AlignFloorDirect(reference, current, camera_, strip_mask_,
-                                              motion.base2_from_base1, options_.direct_alignment)
-                                 .base2_from_base1;
+  const DirectAlignmentOptions& da = options_.direct_alignment;
+  refined.base2_from_base1 =
+      AlignFloorDirect(PrepareAlignmentImage(reference, da),
+                       current_alignment.empty() ? PrepareAlignmentImage(current, da)
+                                                 : current_alignment,
+                       camera_, strip_mask_, motion.base2_from_base1, da)
+          .base2_from_base1;
   const Pose2& t = refined.base2_from_base1;
   // Camera baseline: without it there is no parallax and nothing is known.
   const Eigen::Vector2d c1 = camera_.CameraCentreInBase().head<2>();
@@ -564,7 +571,8 @@ SequenceDetector::SequenceDetector(const CameraCalibration& calibration,
 void SequenceDetector::Finish(Output* output) const {
   if (!output->pending) return;
   const Output::PendingDetection& p = *output->pending;
-  output->result = detector_.Detect(p.reference, p.current, p.motion, p.moving_pixels);
+  output->result =
+      detector_.Detect(p.reference, p.current, p.motion, p.moving_pixels, p.current_alignment);
   output->pending.reset();
 }
 
@@ -584,11 +592,16 @@ SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, Timesta
   std::vector<cv::Mat> pyramid;
   cv::buildOpticalFlowPyramid(prepared, pyramid, cv::Size(lk_window, lk_window),
                               options.ground_motion.lk_levels);
+  // For the direct alignment of the step, and then of the pair when this frame is detected.
+  AlignmentImage alignment;
+  if (options.direct_alignment.refine_steps)
+    alignment = PrepareAlignmentImage(prepared, options.direct_alignment);
   if (history_.empty()) {
     out.odom_from_base = odom_from_base_;
     out.features = AddNewCorners(prepared, {});
     history_.push_back({prepared, odom_from_base_, stamp_ns, out.features});
     previous_pyramid_ = std::move(pyramid);
+    previous_alignment_ = std::move(alignment);
     return out;
   }
   const Frame& previous = history_.back();
@@ -604,7 +617,7 @@ SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, Timesta
   }
   if (out.step.status == GroundMotion::Status::kOk && options.direct_alignment.refine_steps) {
     out.step.base2_from_base1 =
-        AlignFloorDirect(previous.image, prepared, camera, detector_.strip_mask(),
+        AlignFloorDirect(previous_alignment_, alignment, camera, detector_.strip_mask(),
                          out.step.base2_from_base1, options.direct_alignment)
             .base2_from_base1;
   }
@@ -672,8 +685,8 @@ SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, Timesta
           moving = OffEpipolarCorners(camera, motion.base2_from_base1, p_ref, p_cur,
                                       options.classification.moving_track_min_px);
         }
-        out.pending =
-            Output::PendingDetection{reference->image, prepared, motion, std::move(moving)};
+        out.pending = Output::PendingDetection{reference->image, prepared, motion,
+                                               std::move(moving), alignment};
         if (!defer_detection) Finish(&out);
         frames_since_detection_ = 0;
       }
@@ -681,6 +694,7 @@ SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, Timesta
   }
   history_.push_back({prepared, odom_from_base_, stamp_ns, out.features});
   previous_pyramid_ = std::move(pyramid);
+  previous_alignment_ = std::move(alignment);
   while (static_cast<int>(history_.size()) > options.pair_selection.max_history) {
     history_.pop_front();
   }

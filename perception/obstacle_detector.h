@@ -67,6 +67,9 @@ struct ClassificationOptions {
   int median_radius = 1;          // samples, for kMedian (>= 1)
   double segment_size_px = 16.0;  // superpixel side, input pixels, for kSegments (>= 4)
   int segment_iterations = 2;     // SLIC iterations (>= 1); 4 measured no better, 1 worse
+  // Superpixels computed at 1 / 2^segment_level of the search resolution (0 or 1): 1 is about four
+  // times cheaper, with segments of the same size in input pixels.
+  int segment_level = 1;
   int segment_min_samples = 3;    // measured samples a segment needs to be labelled (>= 1)
   // A segment labelled obstacle whose measured samples are at least this fraction of its samples
   // labels its unmeasured (textureless) samples obstacle too, for kSegments; in [0, 1], 1 = never.
@@ -132,8 +135,11 @@ class ObstacleDetector {
   // The whole chain on a prepared pair (reference, current) with a known or estimated motion.
   // `motion` may come from EstimateGroundMotion or from odometry.
   // moving_pixels: corners of `current` known to move on their own (OffEpipolarCorners).
+  // current_alignment: `current` prepared for the direct alignment when the caller has it
+  // already (PrepareAlignmentImage); otherwise prepared here.
   FrameResult Detect(const cv::Mat& reference, const cv::Mat& current, const GroundMotion& motion,
-                     const std::vector<Eigen::Vector2d>& moving_pixels = {}) const;
+                     const std::vector<Eigen::Vector2d>& moving_pixels = {},
+                     const AlignmentImage& current_alignment = {}) const;
 
  private:
   CameraModel camera_;
@@ -170,6 +176,7 @@ class SequenceDetector {
       cv::Mat reference, current;
       GroundMotion motion;
       std::vector<Eigen::Vector2d> moving_pixels;
+      AlignmentImage current_alignment;
     };
     std::optional<PendingDetection> pending;
   };
@@ -206,6 +213,7 @@ class SequenceDetector {
   std::int64_t next_track_id_ = 0;
   int frames_since_detection_ = 0;
   std::vector<cv::Mat> previous_pyramid_;  // Lucas-Kanade pyramid of history_.back()
+  AlignmentImage previous_alignment_;      // and its direct-alignment image
   ShiTomasiCorners corners_;               // corner strength of the frame being topped up
 };
 
