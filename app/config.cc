@@ -60,6 +60,8 @@ OptionTable::OptionTable(AppConfig* config) : config_(config) {
   AddInt("ground_motion", "ransac_iterations", &gm.ransac_iterations, "RANSAC iterations (> 0)");
   AddDouble("ground_motion", "inlier_threshold_px", &gm.inlier_threshold_px,
             "RANSAC inlier threshold in image 2, px (> 0)");
+  AddDouble("ground_motion", "below_floor_weight", &gm.below_floor_weight,
+            "score a motion loses per strip point it puts below the floor, inliers (>= 0)");
   AddInt("ground_motion", "min_inliers", &gm.min_inliers, "inliers needed to trust the fit (>= 2)");
   AddDouble("ground_motion", "min_inlier_ratio", &gm.min_inlier_ratio,
             "inlier share needed (0, 1]");

@@ -8,6 +8,8 @@
 #include <opencv2/video/tracking.hpp>
 #include <random>
 
+#include "perception/zero_disparity.h"
+
 namespace monoplane {
 namespace {
 
@@ -74,6 +76,7 @@ bool GroundMotionOptions::IsValid(std::string* error) const {
   if (!(forward_backward_max_px > 0)) return fail("forward_backward_max_px: must be > 0");
   if (ransac_iterations <= 0) return fail("ransac_iterations: must be > 0");
   if (!(inlier_threshold_px > 0)) return fail("inlier_threshold_px: must be > 0");
+  if (!(below_floor_weight >= 0)) return fail("below_floor_weight: must be >= 0");
   if (min_inliers < 2) return fail("min_inliers: must be >= 2");
   if (!(min_inlier_ratio > 0 && min_inlier_ratio <= 1)) {
     return fail("min_inlier_ratio: must be in (0, 1]");
@@ -251,23 +254,44 @@ GroundMotion FitGroundMotion(const std::vector<Eigen::Vector2d>& pixels1,
   std::mt19937 rng(options.seed);
   std::uniform_int_distribution<int> pick(0, n - 1);
   const double threshold2 = options.inlier_threshold_px * options.inlier_threshold_px;
+  // Inliers of a hypothesis, and its score: the inliers less below_floor_weight for each point
+  // the hypothesis puts below the floor.
+  const Eigen::Vector3d c1 = camera.CameraCentreInBase();
   auto count_inliers = [&](const Pose2& t, std::vector<int>* inliers) {
     inliers->clear();
     const FloorProjector project(g, t);
+    // The epipole in image 2 (homogeneous): a point above the floor lies beyond its floor
+    // prediction p along e_xy - e_z p (ZeroDisparity.DirectionMatchesGeometry).
+    const Eigen::Vector3d e = EpipoleInImage2(camera, t);
+    const bool has_parallax =
+        options.below_floor_weight > 0 && (t * c1.head<2>() - c1.head<2>()).norm() > 1e-4;
+    int below = 0;
     for (int i = 0; i < n; ++i) {
-      if ((project(floor1[i]) - pixels2[i]).squaredNorm() < threshold2) inliers->push_back(i);
+      const Eigen::Vector2d p = project(floor1[i]);
+      const Eigen::Vector2d r = pixels2[i] - p;
+      const double r2 = r.squaredNorm();
+      if (r2 < threshold2) {
+        inliers->push_back(i);
+      } else if (has_parallax) {
+        const Eigen::Vector2d up = e.head<2>() - e.z() * p;
+        const double norm = up.norm();
+        if (norm > 1e-9 && r.dot(up) < 0) ++below;
+      }
     }
+    return static_cast<double>(inliers->size()) - options.below_floor_weight * below;
   };
   std::vector<int> inliers, best_inliers;
   Pose2 best = prior.value_or(Pose2{});
-  if (prior) count_inliers(*prior, &best_inliers);
+  double best_score = -1e300;
+  if (prior) best_score = count_inliers(*prior, &best_inliers);
   for (int it = 0; it < options.ransac_iterations; ++it) {
     const int a = pick(rng), b = pick(rng);
     if (a == b || !floor2[a].allFinite() || !floor2[b].allFinite()) continue;
     const auto t = TwoPointMotion(floor1[a], floor1[b], floor2[a], floor2[b]);
     if (!t) continue;
-    count_inliers(*t, &inliers);
-    if (inliers.size() > best_inliers.size()) {
+    const double score = count_inliers(*t, &inliers);
+    if (score > best_score) {
+      best_score = score;
       best_inliers = inliers;
       best = *t;
     }

@@ -173,6 +173,37 @@ TEST(GroundMotion, FailsOnBlankImagesAndFallsBackToPrior) {
   EXPECT_DOUBLE_EQ(m.base2_from_base1.x, -0.03);
 }
 
+// Corners on the flat top of a box outnumber those on the floor in the strip, as on a floor with
+// little texture: the plain inlier count fits the "floor" to the box top; the floor as the lowest
+// surface in view (below_floor_weight) fits it to the floor.
+TEST(GroundMotion, PrefersTheLowestSurfaceOverMoreCornersOnABoxTop) {
+  const CameraModel camera(DefaultCalibration());
+  const Pose2 truth = Pose2{0.05, 0.005, 0.02}.Inverse();  // base2_from_base1, driving forward
+  std::vector<Eigen::Vector2d> pixels1, pixels2;
+  const auto add = [&](double x, double y, double z) {
+    const Eigen::Vector2d xy2 = truth * Eigen::Vector2d(x, y);
+    const auto a = camera.ProjectToPixel({x, y, z});
+    const auto b = camera.ProjectToPixel({xy2.x(), xy2.y(), z});
+    ASSERT_TRUE(a && b);
+    pixels1.push_back(*a);
+    pixels2.push_back(*b);
+  };
+  for (int i = 0; i < 15; ++i) add(0.6 + 0.05 * i, -0.5 + 0.07 * i, 0.0);  // floor
+  for (int i = 0; i < 40; ++i) add(1.0 + 0.01 * i, -0.2 + 0.02 * (i % 7), 0.2);  // box top
+  GroundMotionOptions options;
+  options.below_floor_weight = 0.0;
+  const GroundMotion plain = FitGroundMotion(pixels1, pixels2, camera, options);
+  ASSERT_EQ(plain.status, GroundMotion::Status::kOk);
+  EXPECT_GT(std::abs(plain.base2_from_base1.x - truth.x), 0.003);  // the box top's motion
+  options = GroundMotionOptions{};
+  const GroundMotion lowest = FitGroundMotion(pixels1, pixels2, camera, options);
+  ASSERT_EQ(lowest.status, GroundMotion::Status::kOk);
+  EXPECT_EQ(lowest.num_inliers, 15);
+  EXPECT_NEAR(lowest.base2_from_base1.x, truth.x, 1e-4);
+  EXPECT_NEAR(lowest.base2_from_base1.y, truth.y, 1e-4);
+  EXPECT_NEAR(lowest.base2_from_base1.yaw, truth.yaw, 1e-5);
+}
+
 TEST(ZeroDisparity, DirectionMatchesGeometry) {
   const CameraModel camera(DefaultCalibration());
   const Pose2 t = Pose2{0.1, 0.02, 0.05}.Inverse();
