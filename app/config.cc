@@ -62,6 +62,8 @@ OptionTable::OptionTable(AppConfig* config) : config_(config) {
             "RANSAC inlier threshold in image 2, px (> 0)");
   AddDouble("ground_motion", "below_floor_weight", &gm.below_floor_weight,
             "score a motion loses per strip point it puts below the floor, inliers (>= 0)");
+  AddDouble("ground_motion", "below_floor_px", &gm.below_floor_px,
+            "how far below the floor counts, px along the epipolar line (> 0)");
   AddInt("ground_motion", "min_inliers", &gm.min_inliers, "inliers needed to trust the fit (>= 2)");
   AddDouble("ground_motion", "min_inlier_ratio", &gm.min_inlier_ratio,
             "inlier share needed (0, 1]");

@@ -77,6 +77,7 @@ bool GroundMotionOptions::IsValid(std::string* error) const {
   if (ransac_iterations <= 0) return fail("ransac_iterations: must be > 0");
   if (!(inlier_threshold_px > 0)) return fail("inlier_threshold_px: must be > 0");
   if (!(below_floor_weight >= 0)) return fail("below_floor_weight: must be >= 0");
+  if (!(below_floor_px > 0)) return fail("below_floor_px: must be > 0");
   if (min_inliers < 2) return fail("min_inliers: must be >= 2");
   if (!(min_inlier_ratio > 0 && min_inlier_ratio <= 1)) {
     return fail("min_inlier_ratio: must be in (0, 1]");
@@ -257,6 +258,7 @@ GroundMotion FitGroundMotion(const std::vector<Eigen::Vector2d>& pixels1,
   // Inliers of a hypothesis, and its score: the inliers less below_floor_weight for each point
   // the hypothesis puts below the floor.
   const Eigen::Vector3d c1 = camera.CameraCentreInBase();
+  const double below2 = options.below_floor_px * options.below_floor_px;
   auto count_inliers = [&](const Pose2& t, std::vector<int>* inliers) {
     inliers->clear();
     const FloorProjector project(g, t);
@@ -272,10 +274,10 @@ GroundMotion FitGroundMotion(const std::vector<Eigen::Vector2d>& pixels1,
       const double r2 = r.squaredNorm();
       if (r2 < threshold2) {
         inliers->push_back(i);
-      } else if (has_parallax) {
+      } else if (has_parallax && r2 > below2) {
         const Eigen::Vector2d up = e.head<2>() - e.z() * p;
         const double norm = up.norm();
-        if (norm > 1e-9 && r.dot(up) < 0) ++below;
+        if (norm > 1e-9 && r.dot(up) < -options.below_floor_px * norm) ++below;
       }
     }
     return static_cast<double>(inliers->size()) - options.below_floor_weight * below;

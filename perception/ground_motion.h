@@ -30,12 +30,14 @@ struct GroundMotionOptions {
   // RANSAC over 2-point planar motions: iterations (> 0) and inlier threshold in image 2 (px, > 0).
   int ransac_iterations = 200;
   double inlier_threshold_px = 1.0;
-  // The floor is the lowest surface in view: a motion hypothesis loses this many inliers' worth of
-  // score for each strip point it puts below the floor (outside the inlier threshold, on the far
-  // side of the epipolar line). Without it, on a floor with little texture the corners on an
+  // The floor is the lowest surface in view: a motion hypothesis loses below_floor_weight inliers'
+  // worth of score for each strip point it puts more than below_floor_px below the floor (along
+  // the epipolar line, input pixels). Without it, on a floor with little texture the corners on an
   // obstacle outvote the few on the floor, and the fitted "floor" lies at their height, which puts
-  // the real floor below the floor and obstacles lower than they are (>= 0; 0 = off).
-  double below_floor_weight = 5.0;
+  // the real floor below the floor and obstacles lower than they are. The margin keeps tracking
+  // noise and the unevenness of real roads from counting (weight >= 0, 0 = off; margin > 0).
+  double below_floor_weight = 2.0;
+  double below_floor_px = 3.0;
   // The fit is trusted with at least this many inliers (>= 2) and this inlier share (0, 1].
   int min_inliers = 12;
   double min_inlier_ratio = 0.25;
