@@ -4,10 +4,9 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <opencv2/core/hal/hal.hpp>
 #include <random>
 #include <unordered_map>
-
-#include <opencv2/core/hal/hal.hpp>
 
 namespace monoplane {
 

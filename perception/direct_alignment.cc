@@ -83,7 +83,8 @@ DirectAlignment AlignFloorDirect(const AlignmentImage& image1, const AlignmentIm
   const int level = options.level;
   if (!options.enabled || image1.empty() || image2.empty() || image1.level != level ||
       image2.level != level || image1.intensity.size() != image2.intensity.size() ||
-      strip_mask.empty() || (strip_mask.cols + (1 << level) - 1) >> level != image2.intensity.cols ||
+      strip_mask.empty() ||
+      (strip_mask.cols + (1 << level) - 1) >> level != image2.intensity.cols ||
       (strip_mask.rows + (1 << level) - 1) >> level != image2.intensity.rows) {
     return out;
   }

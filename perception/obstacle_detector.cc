@@ -352,10 +352,10 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
   GroundMotion refined = motion;
   const DirectAlignmentOptions& da = options_.direct_alignment;
   refined.base2_from_base1 =
-      AlignFloorDirect(PrepareAlignmentImage(reference, da),
-                       current_alignment.empty() ? PrepareAlignmentImage(current, da)
-                                                 : current_alignment,
-                       camera_, strip_mask_, motion.base2_from_base1, da)
+      AlignFloorDirect(
+          PrepareAlignmentImage(reference, da),
+          current_alignment.empty() ? PrepareAlignmentImage(current, da) : current_alignment,
+          camera_, strip_mask_, motion.base2_from_base1, da)
           .base2_from_base1;
   const Pose2& t = refined.base2_from_base1;
   // Camera baseline: without it there is no parallax and nothing is known.

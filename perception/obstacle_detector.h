@@ -70,7 +70,7 @@ struct ClassificationOptions {
   // Superpixels computed at 1 / 2^segment_level of the search resolution (0 or 1): 1 is about four
   // times cheaper, with segments of the same size in input pixels.
   int segment_level = 1;
-  int segment_min_samples = 3;    // measured samples a segment needs to be labelled (>= 1)
+  int segment_min_samples = 3;  // measured samples a segment needs to be labelled (>= 1)
   // A segment labelled obstacle whose measured samples are at least this fraction of its samples
   // labels its unmeasured (textureless) samples obstacle too, for kSegments; in [0, 1], 1 = never.
   double segment_fill_fraction = 0.25;

@@ -188,7 +188,7 @@ TEST(GroundMotion, PrefersTheLowestSurfaceOverMoreCornersOnABoxTop) {
     pixels1.push_back(*a);
     pixels2.push_back(*b);
   };
-  for (int i = 0; i < 15; ++i) add(0.6 + 0.05 * i, -0.5 + 0.07 * i, 0.0);  // floor
+  for (int i = 0; i < 15; ++i) add(0.6 + 0.05 * i, -0.5 + 0.07 * i, 0.0);        // floor
   for (int i = 0; i < 40; ++i) add(1.0 + 0.01 * i, -0.2 + 0.02 * (i % 7), 0.2);  // box top
   GroundMotionOptions options;
   options.below_floor_weight = 0.0;
