@@ -85,6 +85,10 @@ OptionTable::OptionTable(AppConfig* config) : config_(config) {
             "larger corrections are not trusted, m (> 0)");
   AddDouble("direct_alignment", "max_correction_rad", &da.max_correction_rad,
             "larger corrections are not trusted, rad (> 0)");
+  AddBool("direct_alignment", "estimate_pitch", &da.estimate_pitch,
+          "also estimate the camera's pitch change between the frames (vehicles on suspension)");
+  AddDouble("direct_alignment", "max_pitch_rad", &da.max_pitch_rad,
+            "larger pitch changes are not trusted, rad (> 0)");
   ZeroDisparityOptions& zd = d.zero_disparity;
   AddInt("zero_disparity", "finest_level", &zd.finest_level,
          "finest pyramid level searched [0, 3]");

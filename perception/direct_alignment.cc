@@ -46,7 +46,15 @@ bool DirectAlignmentOptions::IsValid(std::string* error) const {
   if (min_samples < 10) return fail("min_samples: must be >= 10");
   if (!(max_correction_m > 0)) return fail("max_correction_m: must be > 0");
   if (!(max_correction_rad > 0)) return fail("max_correction_rad: must be > 0");
+  if (!(max_pitch_rad > 0)) return fail("max_pitch_rad: must be > 0");
   return true;
+}
+
+Eigen::Matrix3d PitchHomography(const CameraModel& camera, double pitch_rad) {
+  const double c = std::cos(pitch_rad), s = std::sin(pitch_rad);
+  Eigen::Matrix3d r;
+  r << 1, 0, 0, 0, c, s, 0, -s, c;
+  return camera.K() * r * camera.K_inverse();
 }
 
 AlignmentImage PrepareAlignmentImage(const cv::Mat& image, const DirectAlignmentOptions& options) {
@@ -118,17 +126,25 @@ DirectAlignment AlignFloorDirect(const AlignmentImage& image1, const AlignmentIm
   // Image-1 position (level pixels) of an image-2 sample under motion t.
   const Eigen::Matrix3d to_level = Eigen::Vector3d(f, f, 1.0).asDiagonal();
   const Eigen::Matrix3d from_level = Eigen::Vector3d(1.0 / f, 1.0 / f, 1.0).asDiagonal();
-  const auto inverse_homography = [&](const Pose2& t) -> Eigen::Matrix3d {
-    return to_level * FloorHomography(camera, t).inverse() * from_level;
+  // The state: the planar motion, the pitch of camera 2 relative to camera 1 (when estimated)
+  // and the brightness offset.
+  struct State {
+    Pose2 t;
+    double pitch = 0.0;
+    double offset = 0.0;
+  };
+  const auto inverse_homography = [&](const State& x) -> Eigen::Matrix3d {
+    return to_level * (PitchHomography(camera, x.pitch) * FloorHomography(camera, x.t)).inverse() *
+           from_level;
   };
   // Residuals r = I2 - I1(H^-1 q) - offset; NaN outside image 1.
-  const auto residuals = [&](const Pose2& t, double offset, std::vector<double>* r) {
-    const Eigen::Matrix3d h_inv = inverse_homography(t);
+  const auto residuals = [&](const State& x, std::vector<double>* r) {
+    const Eigen::Matrix3d h_inv = inverse_homography(x);
     r->assign(samples.size(), NAN);
     for (std::size_t k = 0; k < samples.size(); ++k) {
       double v;
       if (Bilinear(i1, ApplyHomography(h_inv, samples[k].q), &v)) {
-        (*r)[k] = samples[k].i2 - v - offset;
+        (*r)[k] = samples[k].i2 - v - x.offset;
       }
     }
   };
@@ -143,10 +159,9 @@ DirectAlignment AlignFloorDirect(const AlignmentImage& image1, const AlignmentIm
     return n > 0 ? sum / n : INFINITY;
   };
 
-  Pose2 t = initial;
-  double offset = 0.0;
+  State x{initial, 0.0, 0.0};
   std::vector<double> r;
-  residuals(t, offset, &r);
+  residuals(x, &r);
   // Huber threshold from the robust spread at the start (at least 2 grey levels).
   std::vector<double> abs_r;
   for (double v : r) {
@@ -158,57 +173,62 @@ DirectAlignment AlignFloorDirect(const AlignmentImage& image1, const AlignmentIm
   out.cost_before = robust_cost(r, k_huber);
   double cost = out.cost_before;
 
+  // Parameters 0-2: x, y, yaw; 3: pitch (only when estimated); last: the offset.
+  const int geometric = options.estimate_pitch ? 4 : 3;
+  const int n = geometric + 1;
+  const auto perturbed = [](State x, int p, double d) {
+    (p == 0 ? x.t.x : p == 1 ? x.t.y : p == 2 ? x.t.yaw : x.pitch) += d;
+    return x;
+  };
   constexpr double kEps = 1e-4;  // m and rad, for the derivatives of the point mapping
   std::vector<double> r_new;
   for (int it = 0; it < options.max_iterations; ++it) {
-    // J = -grad I1(p1) . d p1 / d(x, y, yaw), and -1 for the offset.
-    Eigen::Matrix3d h_plus[3], h_minus[3];
-    for (int p = 0; p < 3; ++p) {
-      Pose2 tp = t, tm = t;
-      (p == 0 ? tp.x : p == 1 ? tp.y : tp.yaw) += kEps;
-      (p == 0 ? tm.x : p == 1 ? tm.y : tm.yaw) -= kEps;
-      h_plus[p] = inverse_homography(tp);
-      h_minus[p] = inverse_homography(tm);
+    // J = -grad I1(p1) . d p1 / d(geometric parameters), and -1 for the offset.
+    Eigen::Matrix3d h_plus[4], h_minus[4];
+    for (int p = 0; p < geometric; ++p) {
+      h_plus[p] = inverse_homography(perturbed(x, p, kEps));
+      h_minus[p] = inverse_homography(perturbed(x, p, -kEps));
     }
-    const Eigen::Matrix3d h_inv = inverse_homography(t);
-    Eigen::Matrix4d a = Eigen::Matrix4d::Zero();
-    Eigen::Vector4d b = Eigen::Vector4d::Zero();
+    const Eigen::Matrix3d h_inv = inverse_homography(x);
+    Eigen::Matrix<double, 5, 5> a = Eigen::Matrix<double, 5, 5>::Zero();
+    Eigen::Matrix<double, 5, 1> b = Eigen::Matrix<double, 5, 1>::Zero();
     for (std::size_t k = 0; k < samples.size(); ++k) {
       if (std::isnan(r[k])) continue;
       const Eigen::Vector2d p1 = ApplyHomography(h_inv, samples[k].q);
       double gx, gy;
       if (!Bilinear(gx1, p1, &gx) || !Bilinear(gy1, p1, &gy)) continue;
-      Eigen::Vector4d j;
-      for (int p = 0; p < 3; ++p) {
+      Eigen::Matrix<double, 5, 1> j = Eigen::Matrix<double, 5, 1>::Zero();
+      for (int p = 0; p < geometric; ++p) {
         const Eigen::Vector2d dp =
             (ApplyHomography(h_plus[p], samples[k].q) - ApplyHomography(h_minus[p], samples[k].q)) /
             (2 * kEps);
         j[p] = -(gx * dp.x() + gy * dp.y());
       }
-      j[3] = -1.0;
+      j[geometric] = -1.0;
       const double w = std::abs(r[k]) <= k_huber ? 1.0 : k_huber / std::abs(r[k]);
       a += w * j * j.transpose();
       b += w * j * r[k];
     }
-    const Eigen::Vector4d delta = a.ldlt().solve(-b);
+    const Eigen::VectorXd delta = a.topLeftCorner(n, n).ldlt().solve(-b.head(n));
     if (!delta.allFinite()) break;
-    Pose2 candidate = t;
-    candidate.x += delta[0];
-    candidate.y += delta[1];
-    candidate.yaw += delta[2];
-    residuals(candidate, offset + delta[3], &r_new);
+    State candidate = x;
+    for (int p = 0; p < geometric; ++p) candidate = perturbed(candidate, p, delta[p]);
+    candidate.offset += delta[geometric];
+    residuals(candidate, &r_new);
     const double new_cost = robust_cost(r_new, k_huber);
     if (!(new_cost < cost)) break;
-    t = candidate;
-    offset += delta[3];
+    x = candidate;
     r.swap(r_new);
     cost = new_cost;
-    if (std::abs(delta[0]) < 1e-5 && std::abs(delta[1]) < 1e-5 && std::abs(delta[2]) < 1e-5) break;
+    if (delta.head(geometric).cwiseAbs().maxCoeff() < 1e-5) break;
   }
+  const Pose2& t = x.t;
   const bool in_bounds = std::hypot(t.x - initial.x, t.y - initial.y) <= options.max_correction_m &&
-                         std::abs(t.yaw - initial.yaw) <= options.max_correction_rad;
+                         std::abs(t.yaw - initial.yaw) <= options.max_correction_rad &&
+                         std::abs(x.pitch) <= options.max_pitch_rad;
   if (in_bounds && cost < out.cost_before) {
     out.base2_from_base1 = t;
+    out.pitch2_rad = x.pitch;
     out.refined = true;
     out.cost_after = cost;
   } else {

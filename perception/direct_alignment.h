@@ -25,17 +25,30 @@ struct DirectAlignmentOptions {
   int min_samples = 200;             // fewer textured samples: no refinement (>= 10)
   double max_correction_m = 0.03;    // larger corrections are not trusted (> 0)
   double max_correction_rad = 0.02;  // (> 0)
+  // Also estimate the pitch of camera 2 relative to camera 1: a car pitches on its suspension by
+  // a few tenths of a degree between frames, which shifts the whole image by pixels and makes the
+  // near road look below the far one. A robot on an indoor floor does not: off by default.
+  bool estimate_pitch = false;
+  double max_pitch_rad = 0.01;  // larger relative pitches are not trusted (> 0)
 
   bool IsValid(std::string* error) const;
 };
 
 struct DirectAlignment {
   Pose2 base2_from_base1;  // refined, or the initial motion when not refined
+  // Pitch of camera 2 relative to camera 1 (rad; 0 unless estimate_pitch): image 2 is
+  // PitchHomography(camera, pitch2_rad) applied to the image a camera at camera 1's pitch would
+  // have taken.
+  double pitch2_rad = 0.0;
   bool refined = false;    // the refinement converged, lowered the cost and stayed in bounds
   int samples = 0;         // textured strip samples used
   double cost_before = 0;  // mean Huber cost per sample at the initial motion (grey levels^2)
   double cost_after = 0;   // and at the returned one
 };
+
+// The image motion of turning the camera by `pitch_rad` about its own x axis (positive: the
+// image content moves down): K * R_x(pitch) * K^-1.
+Eigen::Matrix3d PitchHomography(const CameraModel& camera, double pitch_rad);
 
 // One image as the alignment reads it: smoothed (which widens the basin of convergence) at the
 // options' level, as float, with its gradients (grey levels per level pixel). Prepared once per

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <opencv2/calib3d.hpp>
+#include <opencv2/core/eigen.hpp>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/video/tracking.hpp>
 #include <opencv2/ximgproc/slic.hpp>
@@ -351,13 +352,29 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
   // The tracked corners give the motion to about a pixel; the floor's texture to a fraction.
   GroundMotion refined = motion;
   const DirectAlignmentOptions& da = options_.direct_alignment;
-  refined.base2_from_base1 =
-      AlignFloorDirect(
-          PrepareAlignmentImage(reference, da),
-          current_alignment.empty() ? PrepareAlignmentImage(current, da) : current_alignment,
-          camera_, strip_mask_, motion.base2_from_base1, da)
-          .base2_from_base1;
+  const DirectAlignment aligned = AlignFloorDirect(
+      PrepareAlignmentImage(reference, da),
+      current_alignment.empty() ? PrepareAlignmentImage(current, da) : current_alignment, camera_,
+      strip_mask_, motion.base2_from_base1, da);
+  refined.base2_from_base1 = aligned.base2_from_base1;
   const Pose2& t = refined.base2_from_base1;
+  // A camera pitched relative to the reference (a car on its suspension): the chain below works
+  // on the current image as a camera at the reference's pitch would have taken it, and the
+  // per-pixel results are mapped back to the current image at the end.
+  const cv::Mat* current_level = &current;
+  cv::Mat unpitched;
+  std::vector<Eigen::Vector2d> moving_level = moving_pixels;
+  const Eigen::Matrix3d pitch_h = PitchHomography(camera_, aligned.pitch2_rad);  // level -> actual
+  const bool pitched = aligned.pitch2_rad != 0.0;
+  cv::Mat pitch_cv;
+  if (pitched) {
+    cv::eigen2cv(pitch_h, pitch_cv);
+    cv::warpPerspective(current, unpitched, pitch_cv, size, cv::INTER_LINEAR | cv::WARP_INVERSE_MAP,
+                        cv::BORDER_REPLICATE);
+    current_level = &unpitched;
+    const Eigen::Matrix3d inverse = pitch_h.inverse();
+    for (Eigen::Vector2d& p : moving_level) p = ApplyHomography(inverse, p);
+  }
   // Camera baseline: without it there is no parallax and nothing is known.
   const Eigen::Vector2d c1 = camera_.CameraCentreInBase().head<2>();
   const double baseline_m = (t * c1 - c1).norm();
@@ -371,7 +388,7 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
   FrameResult r = UnknownResult(size, options_.local_map, PairStatus::kOk, "");
   r.motion = refined;
   const ZeroDisparityField field =
-      ComputeZeroDisparity(reference, current, camera_, t, options_.zero_disparity);
+      ComputeZeroDisparity(reference, *current_level, camera_, t, options_.zero_disparity);
   const Eigen::Matrix3d h_inv = FloorHomography(camera_, t).inverse();
 
   const int stride = co.sample_stride;
@@ -455,7 +472,7 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
       }
     }
   } else if (co.aggregation == ClassificationOptions::Aggregation::kSegments) {
-    r.segments = Superpixels(current, co, field.scale);
+    r.segments = Superpixels(*current_level, co, field.scale);
     AggregateBySegment(r.segments, samples, sample_rows, sample_cols, stride, field.scale, co,
                        camera_height, &labels);
   }
@@ -466,18 +483,18 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
   if (radius_px > 0) {
     const double sample_px = stride * field.scale;
     const int reach = static_cast<int>(std::ceil(radius_px / sample_px));
-    for (std::size_t a = 0; a < moving_pixels.size(); ++a) {
+    for (std::size_t a = 0; a < moving_level.size(); ++a) {
       bool confirmed = false;
-      for (std::size_t b = 0; b < moving_pixels.size() && !confirmed; ++b) {
-        confirmed = b != a && (moving_pixels[a] - moving_pixels[b]).norm() <= radius_px;
+      for (std::size_t b = 0; b < moving_level.size() && !confirmed; ++b) {
+        confirmed = b != a && (moving_level[a] - moving_level[b]).norm() <= radius_px;
       }
       if (!confirmed) continue;
-      const int ci = static_cast<int>(moving_pixels[a].y() / sample_px);
-      const int cj = static_cast<int>(moving_pixels[a].x() / sample_px);
+      const int ci = static_cast<int>(moving_level[a].y() / sample_px);
+      const int cj = static_cast<int>(moving_level[a].x() / sample_px);
       for (int i = std::max(0, ci - reach); i <= std::min(sample_rows - 1, ci + reach); ++i) {
         for (int j = std::max(0, cj - reach); j <= std::min(sample_cols - 1, cj + reach); ++j) {
           const Eigen::Vector2d centre((j + 0.5) * sample_px, (i + 0.5) * sample_px);
-          if ((centre - moving_pixels[a]).norm() > radius_px) continue;
+          if ((centre - moving_level[a]).norm() > radius_px) continue;
           PixelLabel& label = labels[i * sample_cols + j];
           if (label != PixelLabel::kFloor) label = PixelLabel::kMoving;
         }
@@ -537,6 +554,25 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
                      std::min(size.height, labels_full.rows));
   labels_full(roi).copyTo(r.labels(roi));
   height_full(roi).copyTo(r.height_mm(roi));
+  // Floor features from the image and labels the chain worked on (camera 1's pitch).
+  r.floor_features = floor_features_.Compute(*current_level, r.labels);
+  if (pitched) {
+    // Back to the current image: pixel x there shows what pixel pitch_h^-1 x showed here.
+    cv::Mat inverse_cv;
+    cv::eigen2cv(Eigen::Matrix3d(pitch_h.inverse()), inverse_cv);
+    cv::Mat labels_level = r.labels, height_level = r.height_mm;
+    cv::warpPerspective(labels_level, r.labels, inverse_cv, size,
+                        cv::INTER_NEAREST | cv::WARP_INVERSE_MAP, cv::BORDER_CONSTANT,
+                        cv::Scalar(static_cast<int>(PixelLabel::kUnknown)));
+    cv::warpPerspective(height_level, r.height_mm, inverse_cv, size,
+                        cv::INTER_NEAREST | cv::WARP_INVERSE_MAP, cv::BORDER_CONSTANT,
+                        cv::Scalar(0));
+    if (!r.segments.empty()) {
+      cv::Mat segments_level = r.segments;
+      cv::warpPerspective(segments_level, r.segments, inverse_cv, size,
+                          cv::INTER_NEAREST | cv::WARP_INVERSE_MAP, cv::BORDER_REPLICATE);
+    }
+  }
   r.num_unknown = 0;
   for (int yy = 0; yy < r.labels.rows; ++yy) {
     const std::uint8_t* p = r.labels.ptr<std::uint8_t>(yy);
@@ -560,7 +596,6 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
       }
     }
   }
-  r.floor_features = floor_features_.Compute(current, r.labels);
   return r;
 }
 

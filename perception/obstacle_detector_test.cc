@@ -224,6 +224,48 @@ class DetectorOnSyntheticScene : public ::testing::Test {
   DetectorOptions options_;
 };
 
+// A camera that pitched between the frames (a car on its suspension) shifts the whole image: the
+// floor homography alone then puts the near floor below the far floor. With estimate_pitch the
+// alignment finds the pitch and the detection works on the image as the reference's pitch saw it.
+TEST_F(DetectorOnSyntheticScene, RelativePitchIsEstimatedAndTheFloorStaysFloor) {
+  CameraCalibration pitched = calib_;
+  pitched.mount.pitch_deg += 0.3;
+  const CameraModel camera(calib_), camera2(pitched);
+  Scene scene;
+  const Pose2 p1{0, 0, 0}, p2{0.15, 0.0, 0.02};
+  const Rendered a = Render(scene, camera, p1), b = Render(scene, camera2, p2);
+  options_.direct_alignment.estimate_pitch = true;
+  const DirectAlignment d =
+      AlignFloorDirect(a.image, b.image, camera, FloorStripMask(camera, options_.ground_motion),
+                       KnownMotion(p1, p2).base2_from_base1, options_.direct_alignment);
+  ASSERT_TRUE(d.refined);
+  EXPECT_NEAR(std::abs(d.pitch2_rad), 0.3 * M_PI / 180, 0.0003);
+  const auto floor_share = [&](const ObstacleDetector& detector, int* not_floor) {
+    const FrameResult r = detector.Detect(a.image, b.image, KnownMotion(p1, p2));
+    EXPECT_EQ(r.status, PairStatus::kOk) << r.message;
+    int floor = 0, near = 0;
+    *not_floor = 0;
+    for (int y = 0; y < 480; ++y) {
+      for (int x = 0; x < 640; ++x) {
+        const auto f = camera2.PixelToFloor({x, y});
+        if (!f || f->norm() > 3.0) continue;
+        ++near;
+        const auto label = static_cast<PixelLabel>(r.labels.at<std::uint8_t>(y, x));
+        floor += label == PixelLabel::kFloor;
+        *not_floor += label != PixelLabel::kFloor && label != PixelLabel::kUnknown;
+      }
+    }
+    return static_cast<double>(floor) / near;
+  };
+  int not_floor_with = 0, not_floor_without = 0;
+  const double with_pitch = floor_share(ObstacleDetector(calib_, options_), &not_floor_with);
+  options_.direct_alignment.estimate_pitch = false;
+  const double without = floor_share(ObstacleDetector(calib_, options_), &not_floor_without);
+  EXPECT_GT(with_pitch, 0.7);
+  EXPECT_LT(not_floor_with, not_floor_without / 4);
+  EXPECT_LT(without, with_pitch);
+}
+
 TEST_F(DetectorOnSyntheticScene, FloorOnlyIsFloorNotObstacle) {
   const ObstacleDetector detector(calib_, options_);
   Scene scene;
