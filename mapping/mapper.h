@@ -135,7 +135,8 @@ class Mapper {
 
   // A fresh map. Aborts on invalid options or calibration (check IsValid first).
   Mapper(const Options& options, const CameraCalibration& calibration);
-  // Extends a saved map: its grid and keyframes (kept fixed). The first keyframe of this run is
+  // Extends a saved map: its grid and keyframes (kept fixed; with their floor features, when they
+  // have them, for loop closure and as merge targets). The first keyframe of this run is
   // localised against the saved grid around initial_map_from_base (the map pose of this run's first
   // frame); see localization().
   Mapper(const Options& options, const CameraCalibration& calibration, TiledGrid saved_grid,
