@@ -7,7 +7,7 @@
 # features, and the map grows by at most a quarter (a map without stored floor features doubled).
 set -eu
 mp=$1
-seq=$2
+seq=$(cd "$2" && pwd)  # absolute: the images are linked from another folder
 dir=$3
 rm -rf "$dir/twice.db"* "$dir/twice_input"
 mkdir -p "$dir/twice_input"
