@@ -115,7 +115,6 @@ struct MapSink::Impl {
   TimestampNs last_map_stamp = 0;
   bool map_published = false;
   std::size_t loop_events_logged = 0;
-  std::size_t loop_events_counted = 0;
   int first_run_keyframe_id = 0;  // keyframe ids below it are of the saved map
 
   void Enqueue(Job job) {
@@ -303,6 +302,11 @@ bool MapSink::Add(const InputFrame& frame, const SequenceDetector::Output& outpu
     const LoopClosureEvent& e = events[m.loop_events_logged];
     spdlog::debug("loop closure keyframe {} -> {}: score {:.3f}, second {:.3f}, {}", e.keyframe_id,
                   e.anchor_id, e.score, e.second_score, e.accepted ? "accepted" : e.reason);
+    // Saved keyframes have the ids below the first of this run (ids only grow).
+    if (e.accepted && e.anchor_id < m.first_run_keyframe_id) {
+      ++m.summary->loop_closures_to_saved;
+      m.summary->loop_closures_to_saved_floor += e.source == "floor" ? 1 : 0;
+    }
   }
 
   RunSummary& s = *m.summary;
@@ -314,14 +318,6 @@ bool MapSink::Add(const InputFrame& frame, const SequenceDetector::Output& outpu
   s.keyframes_culled += static_cast<int>(update.culled_keyframe_ids.size());
   if (update.loop_closed) ++s.loop_closures;
   s.loop_closure_attempts = m.mapper->counters().loop_closure_attempts;
-  const auto& closures = m.mapper->loop_closures();
-  for (; m.loop_events_counted < closures.size(); ++m.loop_events_counted) {
-    const LoopClosureEvent& e = closures[m.loop_events_counted];
-    // Saved keyframes have the ids below the first of this run (ids only grow).
-    if (!e.accepted || e.anchor_id >= m.first_run_keyframe_id) continue;
-    ++s.loop_closures_to_saved;
-    s.loop_closures_to_saved_floor += e.source == "floor" ? 1 : 0;
-  }
 
   FrameRecord record;
   record.index = frame.index;
