@@ -95,7 +95,9 @@ int InfoCommand(const InfoArgs& args) {
           << "}";
     }
     out << "], \"frames\": " << info.frames << ", \"keyframes\": " << info.keyframes
-        << ", \"local_maps\": " << info.local_maps << ", \"tiles\": " << info.tiles
+        << ", \"local_maps\": " << info.local_maps
+        << ", \"floor_feature_sets\": " << info.floor_feature_sets
+        << ", \"floor_features\": " << info.floor_features << ", \"tiles\": " << info.tiles
         << ", \"landmarks\": " << info.landmarks << ", \"octomap_bytes\": " << info.octomap_bytes
         << ", \"resolution_m\": " << (info.tiles ? Num(info.resolution_m) : "null")
         << ", \"extent_m\": ";
@@ -122,7 +124,8 @@ int InfoCommand(const InfoArgs& args) {
           << " keyframes)\n";
     }
     out << "frames: " << info.frames << " (" << info.keyframes << " keyframes, " << info.local_maps
-        << " local maps)\n";
+        << " local maps, " << info.floor_feature_sets
+        << " with floor features: " << info.floor_features << ")\n";
     if (info.extent_min_m) {
       const Eigen::Vector2d size = *info.extent_max_m - *info.extent_min_m;
       out << "grid: resolution " << Num(info.resolution_m, 3) << " m, " << info.tiles

@@ -2,6 +2,7 @@
 // thread fed by a bounded queue (back-pressure: mapping waits when the writer is 32 jobs behind).
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cstdio>
@@ -43,7 +44,8 @@ TiledGrid CopyTiles(const TiledGrid& grid, const std::set<TiledGrid::TileKey>& k
   return copy;
 }
 
-// Loads the keyframes of a saved map (poses, local maps) for the mapper to extend it.
+// Loads the keyframes of a saved map (poses, local maps, floor features where stored) for the
+// mapper to extend it.
 StorageStatus LoadSavedKeyframes(MapDatabase* db, std::vector<Keyframe>* keyframes) {
   std::vector<monoplane::TrajectoryPoint> trajectory;
   StorageStatus status = db->ReadTrajectory(std::nullopt, PoseSource::kOptimised, &trajectory);
@@ -70,6 +72,10 @@ StorageStatus LoadSavedKeyframes(MapDatabase* db, std::vector<Keyframe>* keyfram
     status = db->ReadLocalMap(point.run_id, point.index, &k.local_map);
     if (status.kind() == StorageErrorKind::kNotFound) continue;
     if (!status.ok()) return status;
+    // Without them (a map of schema 1, a textureless floor) the keyframe is matched by its local
+    // map only and is no merge target.
+    status = db->ReadFloorFeatures(point.run_id, point.index, &k.floor_features);
+    if (!status.ok() && status.kind() != StorageErrorKind::kNotFound) return status;
     keyframes->push_back(std::move(k));
   }
   return StorageStatus();
@@ -109,6 +115,7 @@ struct MapSink::Impl {
   TimestampNs last_map_stamp = 0;
   bool map_published = false;
   std::size_t loop_events_logged = 0;
+  int first_run_keyframe_id = 0;  // keyframe ids below it are of the saved map
 
   void Enqueue(Job job) {
     if (!writer.joinable()) {
@@ -170,6 +177,26 @@ struct MapSink::Impl {
       return s.ok();
     });
   }
+  // A keyframe the mapper merged into an older one is a plain frame from now on, in the map file
+  // too: the file holds the keyframes the mapper holds, so a later run that extends the map loads
+  // as many as there are places. Its grid tiles are kept, as the mapper keeps what it fused.
+  void DropMergedKeyframes(const std::vector<int>& ids) {
+    std::vector<std::int64_t> indices;
+    for (const int id : ids) {
+      const auto it = record_of_keyframe.find(id);
+      if (it == record_of_keyframe.end()) continue;
+      records[it->second].is_keyframe = false;
+      indices.push_back(records[it->second].index);
+      record_of_keyframe.erase(it);
+    }
+    if (!db || indices.empty()) return;
+    // Queued after the keyframe's own write (the writer keeps the order).
+    Enqueue([this, indices = std::move(indices)](std::string* e) {
+      const StorageStatus st = db->DeleteKeyframes(run_id, indices);
+      if (!st.ok()) *e = st.message();
+      return st.ok();
+    });
+  }
   void PublishMap(TimestampNs stamp_ns, bool force) {
     if (!publisher) return;
     const double period_ns = request.config.dds.map_period_s * 1e9;
@@ -224,6 +251,8 @@ bool MapSink::Open(std::string* error) {
       return false;
     }
   }
+  for (const Keyframe& k : saved_keyframes)
+    m.first_run_keyframe_id = std::max(m.first_run_keyframe_id, k.id + 1);
   if (!saved_keyframes.empty()) {
     spdlog::info(
         "extending {}: {} keyframes, localising the first keyframe near ({:.2f}, {:.2f}, {:.2f})",
@@ -273,6 +302,11 @@ bool MapSink::Add(const InputFrame& frame, const SequenceDetector::Output& outpu
     const LoopClosureEvent& e = events[m.loop_events_logged];
     spdlog::debug("loop closure keyframe {} -> {}: score {:.3f}, second {:.3f}, {}", e.keyframe_id,
                   e.anchor_id, e.score, e.second_score, e.accepted ? "accepted" : e.reason);
+    // Saved keyframes have the ids below the first of this run (ids only grow).
+    if (e.accepted && e.anchor_id < m.first_run_keyframe_id) {
+      ++m.summary->loop_closures_to_saved;
+      m.summary->loop_closures_to_saved_floor += e.source == "floor" ? 1 : 0;
+    }
   }
 
   RunSummary& s = *m.summary;
@@ -292,31 +326,15 @@ bool MapSink::Add(const InputFrame& frame, const SequenceDetector::Output& outpu
   record.map_from_base_raw = update.map_from_base;
   m.records.push_back(record);
   if (update.keyframe) m.record_of_keyframe[update.keyframe_id] = m.records.size() - 1;
-  // A keyframe the mapper merged into an older one is a plain frame from now on, in the map file
-  // too: the file holds the keyframes the mapper holds, so a later run that extends the map loads
-  // as many as there are places. Its grid tiles are kept, as the mapper keeps what it fused.
-  std::vector<std::int64_t> culled_indices;
-  for (const int id : update.culled_keyframe_ids) {
-    const auto it = m.record_of_keyframe.find(id);
-    if (it == m.record_of_keyframe.end()) continue;
-    m.records[it->second].is_keyframe = false;
-    culled_indices.push_back(m.records[it->second].index);
-    m.record_of_keyframe.erase(it);
-  }
+  m.DropMergedKeyframes(update.culled_keyframe_ids);
   if (m.db) {
-    if (!culled_indices.empty()) {
-      // Queued after the keyframe's own write (the writer keeps the order).
-      m.Enqueue([&m, indices = std::move(culled_indices)](std::string* e) {
-        const StorageStatus st = m.db->DeleteKeyframes(m.run_id, indices);
-        if (!st.ok()) *e = st.message();
-        return st.ok();
-      });
-    }
     if (update.keyframe) {
       m.FlushFrames();
       const Keyframe& k = m.mapper->keyframes().back();
-      m.Enqueue([&m, record, local_map = k.local_map](std::string* e) {
-        const StorageStatus st = m.db->WriteKeyframe(m.run_id, record, local_map);
+      // The writer gets its own descriptor bytes: cv::Mat copies would share them with the mapper.
+      m.Enqueue([&m, record, local_map = k.local_map,
+                 floor_features = k.floor_features.Clone()](std::string* e) {
+        const StorageStatus st = m.db->WriteKeyframe(m.run_id, record, local_map, floor_features);
         if (!st.ok()) *e = st.message();
         return st.ok();
       });
@@ -353,6 +371,10 @@ bool MapSink::Add(const InputFrame& frame, const SequenceDetector::Output& outpu
 bool MapSink::Close(std::string* error) {
   Impl& m = *impl_;
   RunSummary& s = *m.summary;
+  // The keyframes the last sliding window still held are merged where they repeat older ones.
+  const std::vector<int> merged = m.mapper->FinishRun();
+  s.keyframes_culled += static_cast<int>(merged.size());
+  m.DropMergedKeyframes(merged);
   const Mapper& mapper = *m.mapper;
   s.saved_keyframes = mapper.num_saved_keyframes();
   if (mapper.localization()) s.localization = mapper.localization()->message;

@@ -152,13 +152,15 @@ void PrintSummary(const RunRequest& request, const RunSummary& s) {
   }
   if (s.saved_keyframes > 0) {
     if (s.localization == "localised") {
-      std::printf("  extended a map of %d keyframes: localised in it\n", s.saved_keyframes);
+      std::printf("  extended a map of %d keyframes: localised in it", s.saved_keyframes);
     } else {
       std::printf(
           "  extended a map of %d keyframes: NOT localised (%s); this run's trajectory "
-          "starts at the start pose (config start.x_m/y_m/yaw_rad) in the map frame\n",
+          "starts at the start pose (config start.x_m/y_m/yaw_rad) in the map frame",
           s.saved_keyframes, s.localization.c_str());
     }
+    std::printf("; %d loop closures against it (%d by floor features)\n", s.loop_closures_to_saved,
+                s.loop_closures_to_saved_floor);
   }
   if (s.extent_min_m) {
     std::printf("  map extent x [%.2f, %.2f] y [%.2f, %.2f] m\n", s.extent_min_m->x(),

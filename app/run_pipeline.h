@@ -44,7 +44,9 @@ struct RunSummary {
   int saved_keyframes = 0;   // of the map this run extended
   int loop_closures = 0;
   int loop_closure_attempts = 0;
-  std::string localization;  // extending a map: how the run was placed in it
+  int loop_closures_to_saved = 0;        // of loop_closures, anchored on a saved keyframe
+  int loop_closures_to_saved_floor = 0;  // of those, by floor features
+  std::string localization;              // extending a map: how the run was placed in it
   std::optional<Eigen::Vector2d> extent_min_m, extent_max_m;  // of the global grid
   std::int64_t dds_sent = 0, dds_dropped = 0;
   std::vector<std::pair<Pose2, TimestampNs>> trajectory;  // map_from_base per processed frame

@@ -217,6 +217,7 @@ bool Mapper::WantsKeyframe(const FrameObservation& frame) const {
 }
 
 Mapper::FrameUpdate Mapper::AddFrame(const FrameObservation& frame) {
+  CheckOrDie(!finished_, "AddFrame after FinishRun");
   FrameUpdate update;
   ++counters_.frames;
   if (!frames_.empty()) {
@@ -316,16 +317,33 @@ void Mapper::AddKeyframe(const FrameObservation& frame, FrameUpdate* update) {
     Pack(&keyframes_[left_window]);
 }
 
-bool Mapper::CullIfRedundant(int index, FrameUpdate* update) {
-  // The run's first keyframe holds the gauge.
-  if (!options_.cull_redundant_keyframes || index <= FirstRunIndex()) return false;
+std::vector<int> Mapper::FinishRun() {
+  CheckOrDie(!finished_, "FinishRun called twice");
+  finished_ = true;
+  FrameUpdate update;
+  // The others before the newest window were tried when they left a window.
+  const int n = static_cast<int>(keyframes_.size());
+  int i = std::max(FirstRunIndex() + 1, n - options_.window_size + 1);
+  if (FirstRunIndex() < n && CullIfRedundant(FirstRunIndex(), &update, /*may_be_first=*/true)) --i;
+  while (i < static_cast<int>(keyframes_.size())) {
+    if (!CullIfRedundant(i, &update, /*may_be_first=*/true)) ++i;  // else i is the next one now
+  }
+  return update.culled_keyframe_ids;
+}
+
+bool Mapper::CullIfRedundant(int index, FrameUpdate* update, bool may_be_first) {
+  // The run's first keyframe holds the gauge while the run goes on.
+  if (!options_.cull_redundant_keyframes || index < FirstRunIndex() ||
+      (index == FirstRunIndex() && !may_be_first))
+    return false;
   const Keyframe& current = keyframes_[index];
   if (current.floor_features.empty()) return false;
   std::vector<std::pair<double, int>> candidates;
   for (int j = 0; j < index; ++j) {
     const Keyframe& k = keyframes_[j];
+    // A saved keyframe is of an earlier visit by definition (its path length counts in its run).
     if (k.floor_features.empty() ||
-        current.path_length_m - k.path_length_m < options_.cull_min_travel_m)
+        (!k.from_saved_map && current.path_length_m - k.path_length_m < options_.cull_min_travel_m))
       continue;
     const Pose2 delta = Between(k.map_from_base, current.map_from_base);
     if (delta.TranslationNorm() <= options_.cull_distance_m &&
@@ -577,8 +595,12 @@ bool Mapper::OptimizeAllAndMaybeRebuild() {
   }
   // The gauge: the first keyframe of this run stays unless a loop ties the run to the saved map
   // it could not be localised in.
+  // Edges of a keyframe merged into a saved one tie the run to the saved map as well.
   bool tied_to_saved = false;
-  for (const PoseGraphEdge& e : loop_edges_) tied_to_saved |= keyframes_[e.from].from_saved_map;
+  for (const std::vector<PoseGraphEdge>* edges : {&refined_edges_, &loop_edges_}) {
+    for (const PoseGraphEdge& e : *edges)
+      tied_to_saved |= keyframes_[e.from].from_saved_map || keyframes_[e.to].from_saved_map;
+  }
   const bool localized = localization_ && localization_->success;
   if (FirstRunIndex() < n && (num_saved_ == 0 || localized || !tied_to_saved))
     fixed[FirstRunIndex()] = true;

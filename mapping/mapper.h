@@ -79,8 +79,9 @@ class Mapper {
     // join the same two keyframes are fused into one), its frames ride on the older keyframe,
     // and its local map, obstacle points and floor features are
     // dropped; what it fused into the grid and the OctoMap stays there until the next rebuild,
-    // which fuses the keyframes that remain. Saved keyframes carry no floor features and are no
-    // merge targets.
+    // which fuses the keyframes that remain. Keyframes of a saved map are merge targets too (when
+    // they were saved with their floor features; they count as an earlier visit whatever the
+    // path): a later run over mapped places adds keyframes only where it sees something new.
     bool cull_redundant_keyframes = true;
     // Below the keyframe spacing, so that a run's consecutive keyframes are not merged, but at
     // least half of it, so that a revisit along the same path always finds one.
@@ -134,7 +135,8 @@ class Mapper {
 
   // A fresh map. Aborts on invalid options or calibration (check IsValid first).
   Mapper(const Options& options, const CameraCalibration& calibration);
-  // Extends a saved map: its grid and keyframes (kept fixed). The first keyframe of this run is
+  // Extends a saved map: its grid and keyframes (kept fixed; with their floor features, when they
+  // have them, for loop closure and as merge targets). The first keyframe of this run is
   // localised against the saved grid around initial_map_from_base (the map pose of this run's first
   // frame); see localization().
   Mapper(const Options& options, const CameraCalibration& calibration, TiledGrid saved_grid,
@@ -142,6 +144,12 @@ class Mapper {
          const Pose2& initial_map_from_base = Pose2::Identity());
 
   FrameUpdate AddFrame(const FrameObservation& frame);
+  // Ends the run, after its last AddFrame (none may follow): the keyframes still in the sliding
+  // window, which no later window will hold now, are merged into older keyframes of the same place
+  // as those that left it were (Options::cull_redundant_keyframes); the run's first keyframe too,
+  // as no correction needs it to hold the run in place any more. Returns the ids of the keyframes
+  // merged (gone from keyframes(); their frames ride on the older ones).
+  std::vector<int> FinishRun();
 
   // Outputs.
   // In insertion order (culled ones removed). Saved keyframes and those of this run that no later
@@ -189,9 +197,10 @@ class Mapper {
   bool OptimizeAllAndMaybeRebuild();
   // Packs a keyframe that left the sliding window (see Keyframe).
   void Pack(Keyframe* keyframe) const;
-  // Merges keyframe `index` (of this run, out of every later window) into an older one showing the
-  // same place, if there is one (see Options::cull_redundant_keyframes); true when it did.
-  bool CullIfRedundant(int index, FrameUpdate* update);
+  // Merges keyframe `index` (of this run, out of every later window; the run's first one only when
+  // `may_be_first`) into an older one showing the same place, if there is one (see
+  // Options::cull_redundant_keyframes); true when it did.
+  bool CullIfRedundant(int index, FrameUpdate* update, bool may_be_first = false);
   // Removes keyframe `culled`: edges and frames move to `survivor` (< culled) through
   // survivor_from_culled (measured, for the edges) and the current estimates (for the frames).
   void MergeKeyframe(int culled, int survivor, const Pose2& survivor_from_culled);
@@ -216,6 +225,7 @@ class Mapper {
   double path_length_m_ = 0;
   double pending_var_xy_ = 0, pending_var_yaw_ = 0;
   int last_closure_id_ = -1;  // the keyframe of the last accepted closure
+  bool finished_ = false;     // FinishRun was called
 
   TiledGrid grid_;
   TiledGrid saved_grid_;

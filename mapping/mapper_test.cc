@@ -443,6 +443,105 @@ TEST(Mapper, RepeatedLapsMergeKeyframesOfPlacesAlreadyMapped) {
   EXPECT_GT(grid.OccupiedNearTruth(), 0.9);
 }
 
+// One lap of the square loop with floor descriptors on a floor of its own seed: step_m varies where
+// the frames fall, seed the odometry noise; the same floor_seed gives the same floor.
+testing::SyntheticRun FloorLap(double step_m, std::uint32_t seed) {
+  testing::RunOptions options;
+  options.features = false;
+  options.num_floor_descriptor_points = 1500;
+  options.floor_seed = 4242;
+  options.seed = seed;
+  return testing::MakeRun(
+      testing::SquareLoopWorld(),
+      testing::PathThrough(
+          {{0, 0, 0}, {4, 0, M_PI / 2}, {4, 4, M_PI}, {0, 4, -M_PI / 2}, {0, 0, 0}}, step_m, 0.1),
+      testing::TestCamera(), options);
+}
+
+struct SecondRun {
+  std::size_t keyframes_after = 0;  // saved + kept of the second run
+  MapperCounters counters;
+  int floor_closures_to_saved = 0;  // accepted
+  int false_closures = 0;           // accepted, more than 0.1 m off the truth
+  double ate_m = 0;
+  bool localised = false;
+};
+
+// Extends the map `first` made of run1 by run2 (both start at the map origin).
+SecondRun ExtendByASecondLap(const Mapper& first, const testing::SyntheticRun& run1,
+                             const std::vector<Keyframe>& saved,
+                             const testing::SyntheticRun& run2) {
+  Mapper::Options options;
+  options.loop_min_interval_keyframes = options.window_size;  // as `monoplane run` has it
+  Mapper mapper(options, testing::TestCamera(), first.grid(), saved, Pose2::Identity());
+  std::map<int, TimestampNs> stamp_of_id;  // this run's keyframes, merged ones too
+  mapper.SetKeyframeCallback([&](const Keyframe& k) { stamp_of_id[k.id] = k.stamp_ns; });
+  for (const FrameObservation& f : run2.frames) mapper.AddFrame(f);
+  mapper.FinishRun();
+  SecondRun out;
+  out.keyframes_after = mapper.keyframes().size();
+  out.counters = mapper.counters();
+  out.localised = mapper.localization() && mapper.localization()->success;
+  out.ate_m = Ate(Estimates(mapper), run2.truth);
+  std::map<int, Pose2> truth_of_id;
+  for (const Keyframe& k : first.keyframes())
+    truth_of_id[k.id] = run1.truth[FrameOfStamp(k.stamp_ns)];
+  for (const auto& [id, stamp_ns] : stamp_of_id)
+    truth_of_id[id] = run2.truth[FrameOfStamp(stamp_ns)];
+  for (const LoopClosureEvent& e : mapper.loop_closures()) {
+    if (!e.accepted) continue;
+    const Pose2 truth = truth_of_id.at(e.anchor_id).Inverse() * truth_of_id.at(e.keyframe_id);
+    out.false_closures +=
+        (truth.Translation() - e.anchor_from_current.Translation()).norm() > 0.1 ? 1 : 0;
+    out.floor_closures_to_saved +=
+        e.source == "floor" && e.anchor_id < static_cast<int>(saved.size()) ? 1 : 0;
+  }
+  std::printf(
+      "second lap: %d keyframes made, %d merged, map %zu -> %zu keyframes; closures %d (%d by "
+      "floor features against the saved map, %d false); ATE %.3f m\n",
+      out.counters.keyframes, out.counters.keyframes_culled, saved.size(), out.keyframes_after,
+      out.counters.loop_closures_accepted, out.floor_closures_to_saved, out.false_closures,
+      out.ate_m);
+  return out;
+}
+
+// A second run over a saved map: with the saved keyframes' floor features (as a map of schema 2
+// loads them) it closes loops on them and merges its keyframes into them, so the map hardly grows;
+// without them (a map of schema 1) every keyframe of the second run is kept.
+TEST(Mapper, ASecondRunMergesIntoTheSavedKeyframesByTheirFloorFeatures) {
+  const testing::SyntheticRun run1 = FloorLap(0.05, 7);
+  Mapper first(Mapper::Options(), testing::TestCamera());
+  for (const FrameObservation& f : run1.frames) first.AddFrame(f);
+  first.FinishRun();
+  const std::vector<Keyframe>& saved = first.keyframes();
+  for (const Keyframe& k : saved) ASSERT_FALSE(k.floor_features.empty());
+  // Another lap of the same floor: its frames fall elsewhere (7 cm steps), its odometry drifts
+  // differently.
+  const testing::SyntheticRun run2 = FloorLap(0.07, 12);
+
+  const SecondRun with = ExtendByASecondLap(first, run1, saved, run2);
+  std::vector<Keyframe> without_features = saved;
+  for (Keyframe& k : without_features) k.floor_features = FloorFeatures();
+  const SecondRun without = ExtendByASecondLap(first, run1, without_features, run2);
+
+  // The same places: at most a few kept (new angles); when measured all 77 made were merged, the
+  // last window's and the run's first at FinishRun (84 -> 84 keyframes).
+  ASSERT_GT(with.counters.keyframes, static_cast<int>(saved.size()) / 2);
+  EXPECT_TRUE(with.localised);
+  EXPECT_LE(with.counters.keyframes - with.counters.keyframes_culled, 4);
+  EXPECT_EQ(with.keyframes_after,
+            saved.size() + with.counters.keyframes - with.counters.keyframes_culled);
+  EXPECT_GE(with.floor_closures_to_saved, 1);  // 7 when measured
+  EXPECT_EQ(with.false_closures, 0);
+  EXPECT_LT(with.ate_m, 0.06);  // 0.043 m when measured
+  // Without the saved floor features: no floor closure against them, nothing merged into them (only
+  // the lap's end into its own start, 1 when measured): the map almost doubles (84 -> 160).
+  EXPECT_EQ(without.floor_closures_to_saved, 0);
+  EXPECT_LE(without.counters.keyframes_culled, 3);
+  EXPECT_EQ(without.keyframes_after,
+            saved.size() + without.counters.keyframes - without.counters.keyframes_culled);
+}
+
 TEST(Mapper, OptionsNameTheKey) {
   Mapper::Options o;
   std::string error;

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -48,6 +49,15 @@ bool DecodePng(const std::uint8_t* data, std::size_t size, cv::Mat* image, std::
     return false;
   }
   return true;
+}
+
+void PutU32(std::uint32_t v, std::uint8_t* out) {
+  for (int b = 0; b < 4; ++b) out[b] = static_cast<std::uint8_t>(v >> (8 * b));
+}
+
+std::uint32_t GetU32(const std::uint8_t* in) {
+  return static_cast<std::uint32_t>(in[0]) | (static_cast<std::uint32_t>(in[1]) << 8) |
+         (static_cast<std::uint32_t>(in[2]) << 16) | (static_cast<std::uint32_t>(in[3]) << 24);
 }
 
 }  // namespace
@@ -179,6 +189,76 @@ bool DecodeTile(const std::uint8_t* data, std::size_t size, TimestampNs base_ns,
     tile->last_seen_ns[k] =
         seen == 0 ? 0 : base_ns + static_cast<std::int64_t>(seen - 1) * kNsPerMs;
   }
+  return true;
+}
+
+bool EncodeFloorFeatures(const FloorFeatures& features, std::vector<std::uint8_t>* blob,
+                         std::string* error) {
+  const std::size_t n = features.points_in_base.size();
+  const cv::Mat& d = features.descriptors;
+  if (n == 0 && !d.empty()) {
+    *error = "floor features: descriptors without points";
+    return false;
+  }
+  if (n > 0 && (d.type() != CV_8UC1 || static_cast<std::size_t>(d.rows) != n || d.cols <= 0)) {
+    *error = "floor features: descriptors are not one CV_8UC1 row per point";
+    return false;
+  }
+  const std::size_t width = n == 0 ? 0 : static_cast<std::size_t>(d.cols);
+  blob->assign(8 + n * 8 + n * width, 0);
+  std::uint8_t* out = blob->data();
+  PutU32(static_cast<std::uint32_t>(n), out);
+  PutU32(static_cast<std::uint32_t>(width), out + 4);
+  out += 8;
+  for (const Eigen::Vector2f& p : features.points_in_base) {
+    if (!p.allFinite()) {
+      *error = "floor features: a point is not finite";
+      return false;
+    }
+    for (int k = 0; k < 2; ++k) {
+      std::uint32_t bits = 0;
+      std::memcpy(&bits, &p[k], 4);
+      PutU32(bits, out);
+      out += 4;
+    }
+  }
+  for (std::size_t i = 0; i < n; ++i, out += width)
+    std::memcpy(out, d.ptr(static_cast<int>(i)), width);
+  return true;
+}
+
+bool DecodeFloorFeatures(const std::uint8_t* data, std::size_t size, FloorFeatures* features,
+                         std::string* error) {
+  *features = FloorFeatures();
+  if (size < 8) {
+    *error = "floor features blob is shorter than its header";
+    return false;
+  }
+  const std::uint64_t n = GetU32(data), width = GetU32(data + 4);
+  // The width bound keeps the size arithmetic far from overflow (ORB's are 32 bytes).
+  if ((n == 0) != (width == 0) || width > 4096 || 8 + n * 8 + n * width != size) {
+    *error = "floor features blob does not hold " + std::to_string(n) +
+             " points and descriptors of " + std::to_string(width) + " bytes";
+    return false;
+  }
+  if (n == 0) return true;
+  const std::uint8_t* in = data + 8;
+  features->points_in_base.resize(n);
+  for (Eigen::Vector2f& p : features->points_in_base) {
+    for (int k = 0; k < 2; ++k) {
+      const std::uint32_t bits = GetU32(in);
+      std::memcpy(&p[k], &bits, 4);
+      in += 4;
+    }
+    if (!p.allFinite()) {
+      *features = FloorFeatures();
+      *error = "floor features blob holds a point that is not finite";
+      return false;
+    }
+  }
+  features->descriptors.create(static_cast<int>(n), static_cast<int>(width), CV_8UC1);
+  for (std::uint64_t i = 0; i < n; ++i, in += width)
+    std::memcpy(features->descriptors.ptr(static_cast<int>(i)), in, width);
   return true;
 }
 

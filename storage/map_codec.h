@@ -4,14 +4,16 @@
 #include <string>
 #include <vector>
 
+#include "perception/frame_types.h"
 #include "perception/geometry/occupancy_grid.h"
 #include "perception/geometry/tiled_grid.h"
 #include "perception/geometry/timestamp.h"
 
 namespace monoplane {
 
-// Compressed forms of the map records the database stores as blobs: local maps as PNG (any
-// image viewer shows them), grid tiles as zlib-deflated planes.
+// Compact forms of the map records the database stores as blobs: local maps as PNG (any image
+// viewer shows them), grid tiles as zlib-deflated planes, keyframes' floor features as raw
+// little-endian arrays.
 
 // A local map as an 8-bit grey PNG: cells 0..100 as is, unknown (-1) as 255.
 bool EncodeLocalMapCells(const OccupancyGrid& grid, int png_compression,
@@ -37,6 +39,18 @@ bool EncodeTile(const TiledGrid::Tile& tile, int compression_level, EncodedTile*
                 std::string* error);
 bool DecodeTile(const std::uint8_t* data, std::size_t size, TimestampNs base_ns,
                 TiledGrid::Tile* tile, std::string* error);
+
+// A keyframe's floor features (encoding "xyf32+desc8"), all little-endian: uint32 count N, uint32
+// descriptor length D in bytes (0 when N = 0), N float32 pairs (x, y) of the floor points in the
+// keyframe's base frame (metres), then the N descriptors' D raw bytes each, row after row.
+// Lossless; not compressed (binary descriptors hardly compress). Encoding fails on descriptors that
+// are not N rows of CV_8UC1 or on non-finite points; decoding fails on a blob of another size or
+// with non-finite points. Decoded descriptors are a fresh N x D CV_8UC1 matrix (empty when N = 0).
+inline constexpr const char* kFloorFeaturesEncoding = "xyf32+desc8";
+bool EncodeFloorFeatures(const FloorFeatures& features, std::vector<std::uint8_t>* blob,
+                         std::string* error);
+bool DecodeFloorFeatures(const std::uint8_t* data, std::size_t size, FloorFeatures* features,
+                         std::string* error);
 
 // True when a cell of a tile was ever observed.
 inline bool CellObserved(const TiledGrid::Tile& tile, int k) {

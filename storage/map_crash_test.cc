@@ -1,6 +1,7 @@
-// Crash safety: a child process writes keyframes and grid tiles in a loop and is killed with
-// SIGKILL at 20 different points; each time the map must open, pass PRAGMA integrity_check, hold
-// everything the child reported committed, and take a new run.
+// Crash safety: a child process writes keyframes (local maps and floor features) and grid tiles in
+// a loop and is killed with SIGKILL at 20 different points; each time the map must open, pass
+// PRAGMA integrity_check, hold everything the child reported committed (and no keyframe half
+// written), and take a new run.
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <sys/wait.h>
@@ -16,8 +17,10 @@ namespace monoplane {
 namespace {
 
 using testing::MarkCell;
+using testing::SameFloorFeatures;
 using testing::TempDir;
 using testing::TestCalibration;
+using testing::TestFloorFeatures;
 using testing::TestLocalMap;
 
 // Reports through the pipe: the run id first, then 2k for keyframe k committed and 2k + 1 for the
@@ -47,7 +50,9 @@ void WriteReport(int fd, std::int64_t value) {
     f.index = k;
     f.stamp_ns = 1000000000ll * attempt + 66000000ll * k;
     f.map_from_base_raw = {0.05 * k, 0.01 * attempt, 0.0};
-    if (!db->WriteKeyframe(run, f, TestLocalMap(160, static_cast<unsigned>(k))).ok()) {
+    if (!db->WriteKeyframe(run, f, TestLocalMap(160, static_cast<unsigned>(k)),
+                           TestFloorFeatures(200, static_cast<unsigned>(k)))
+             .ok()) {
       WriteReport(fd, -1);
       ::_exit(1);
     }
@@ -121,6 +126,16 @@ TEST(MapCrash, SigkillAtTwentyPointsLosesNothingCommitted) {
     ASSERT_TRUE(db->ReadTrajectory(run, PoseSource::kRaw, &trajectory).ok());
     std::set<std::int64_t> stored;
     for (const TrajectoryPoint& p : trajectory) stored.insert(p.index);
+    // Every stored keyframe is whole, the one in flight at the kill too: local map and floor
+    // features both or neither.
+    for (const TrajectoryPoint& p : trajectory) {
+      OccupancyGrid local;
+      FloorFeatures features;
+      const bool has_map = db->ReadLocalMap(run, p.index, &local).ok();
+      EXPECT_TRUE(has_map && p.is_keyframe) << "frame " << p.index;
+      EXPECT_EQ(db->ReadFloorFeatures(run, p.index, &features).ok(), has_map)
+          << "frame " << p.index;
+    }
     TiledGrid grid;
     ASSERT_TRUE(db->LoadTiledGrid(&grid).ok());
     for (const std::int64_t r : committed) {
@@ -130,6 +145,9 @@ TEST(MapCrash, SigkillAtTwentyPointsLosesNothingCommitted) {
         OccupancyGrid local;
         EXPECT_TRUE(db->ReadLocalMap(run, k, &local).ok());
         EXPECT_EQ(local.cells, TestLocalMap(160, static_cast<unsigned>(k)).cells);
+        FloorFeatures features;
+        EXPECT_TRUE(db->ReadFloorFeatures(run, k, &features).ok());
+        EXPECT_TRUE(SameFloorFeatures(features, TestFloorFeatures(200, static_cast<unsigned>(k))));
       } else {
         const Eigen::Vector2i cell(static_cast<int>(k) * 40, attempt);
         EXPECT_NEAR(grid.LogOdds(cell), 1.5f, 0.001f) << "tiles of keyframe " << k << " missing";

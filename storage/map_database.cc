@@ -91,7 +91,7 @@ struct Migration {
 };
 
 // The schema, one migration per version. Append; never edit a released migration.
-constexpr std::array<Migration, 1> kMigrations = {{
+constexpr std::array<Migration, 2> kMigrations = {{
     {1, "initial schema", R"sql(
 CREATE TABLE runs (
   id INTEGER PRIMARY KEY,
@@ -156,7 +156,21 @@ CREATE TABLE statistics (
   PRIMARY KEY (run_id, key)
 );
 )sql"},
+    {2, "floor features of keyframes", R"sql(
+CREATE TABLE floor_features (
+  run_id INTEGER NOT NULL,
+  frame_index INTEGER NOT NULL,
+  count INTEGER NOT NULL,
+  encoding TEXT NOT NULL,
+  data BLOB NOT NULL,
+  PRIMARY KEY (run_id, frame_index),
+  FOREIGN KEY (run_id, frame_index) REFERENCES frames(run_id, frame_index)
+);
+)sql"},
 }};
+
+// The first schema version that stores floor features.
+constexpr int kFloorFeaturesSchemaVersion = 2;
 
 static_assert(kMigrations.back().version == MapDatabase::kSchemaVersion);
 
@@ -345,6 +359,32 @@ struct MapDatabase::Impl {
       }
     }
     if (st.ok()) st = StepDone(s, context);
+    return st;
+  }
+
+  // Within a keyframe's transaction: replaces its floor features by `blob` (EncodeFloorFeatures of
+  // `features`), or deletes them when there are none.
+  StorageStatus WriteFloorFeatures(std::int64_t run_id, std::int64_t frame_index,
+                                   const FloorFeatures& features,
+                                   const std::vector<std::uint8_t>& blob) {
+    constexpr const char* kContext = "writing floor features";
+    Statement s;
+    StorageStatus st =
+        features.empty()
+            ? Prepare("DELETE FROM floor_features WHERE run_id = ? AND frame_index = ?", &s,
+                      kContext)
+            : Prepare(
+                  "INSERT OR REPLACE INTO floor_features (run_id, frame_index, "
+                  "count, encoding, data) VALUES (?, ?, ?, ?, ?)",
+                  &s, kContext);
+    if (st.ok()) st = BindInt(s, 1, run_id, kContext);
+    if (st.ok()) st = BindInt(s, 2, frame_index, kContext);
+    if (!features.empty()) {
+      if (st.ok()) st = BindInt(s, 3, features.size(), kContext);
+      if (st.ok()) st = BindText(s, 4, kFloorFeaturesEncoding, kContext);
+      if (st.ok()) st = BindBlob(s, 5, blob.data(), blob.size(), kContext);
+    }
+    if (st.ok()) st = StepDone(s, kContext);
     return st;
   }
 
@@ -595,12 +635,8 @@ StorageStatus MapDatabase::Open(const std::string& path, OpenMode mode,
     }
     st = impl->Exec("PRAGMA foreign_keys = ON", "enabling foreign keys");
     if (!st.ok()) return st;
-  } else if (version < kSchemaVersion) {
-    return impl->Error(StorageErrorKind::kNotAMap, "map schema version " + std::to_string(version) +
-                                                       " is older than this program's (" +
-                                                       std::to_string(kSchemaVersion) +
-                                                       "); open it for writing once to migrate it");
   }
+  // Read-only, an older map stays as it is: the reads of what its schema lacks find nothing.
   impl->schema_version = static_cast<int>(version);
   st = impl->ReadGridResolution();
   if (!st.ok()) return st;
@@ -650,12 +686,14 @@ StorageStatus MapDatabase::BeginRun(const CameraCalibration& calibration,
 }
 
 StorageStatus MapDatabase::WriteKeyframe(std::int64_t run_id, const FrameRecord& frame,
-                                         const OccupancyGrid& local_map_in_base) {
+                                         const OccupancyGrid& local_map_in_base,
+                                         const FloorFeatures& floor_features) {
   constexpr const char* kContext = "writing a keyframe";
   Impl& d = *impl_;
-  std::vector<std::uint8_t> png;
+  std::vector<std::uint8_t> png, features_blob;
   std::string error;
-  if (!EncodeLocalMapCells(local_map_in_base, d.options.compression_level, &png, &error)) {
+  if (!EncodeLocalMapCells(local_map_in_base, d.options.compression_level, &png, &error) ||
+      !EncodeFloorFeatures(floor_features, &features_blob, &error)) {
     return d.Error(StorageErrorKind::kInvalidArgument, std::string(kContext) + ": " + error);
   }
   FrameRecord keyframe = frame;
@@ -680,6 +718,7 @@ StorageStatus MapDatabase::WriteKeyframe(std::int64_t run_id, const FrameRecord&
     if (st.ok()) st = d.BindInt(map_stmt, 7, g.height, kContext);
     if (st.ok()) st = d.BindBlob(map_stmt, 8, png.data(), png.size(), kContext);
     if (st.ok()) st = d.StepDone(map_stmt, kContext);
+    if (st.ok()) st = d.WriteFloorFeatures(run_id, frame.index, floor_features, features_blob);
     return st;
   });
 }
@@ -689,7 +728,7 @@ StorageStatus MapDatabase::DeleteKeyframes(std::int64_t run_id,
   constexpr const char* kContext = "deleting keyframes";
   Impl& d = *impl_;
   return d.InTransaction(run_id, kContext, [&] {
-    Statement frame_stmt, map_stmt;
+    Statement frame_stmt, map_stmt, features_stmt;
     StorageStatus st =
         d.Prepare("UPDATE frames SET is_keyframe = 0 WHERE run_id = ? AND frame_index = ?",
                   &frame_stmt, kContext);
@@ -697,8 +736,12 @@ StorageStatus MapDatabase::DeleteKeyframes(std::int64_t run_id,
       st = d.Prepare("DELETE FROM local_maps WHERE run_id = ? AND frame_index = ?", &map_stmt,
                      kContext);
     }
+    if (st.ok()) {
+      st = d.Prepare("DELETE FROM floor_features WHERE run_id = ? AND frame_index = ?",
+                     &features_stmt, kContext);
+    }
     for (std::size_t i = 0; i < frame_indices.size() && st.ok(); ++i) {
-      for (const Statement* s : {&frame_stmt, &map_stmt}) {
+      for (const Statement* s : {&frame_stmt, &map_stmt, &features_stmt}) {
         sqlite3_reset(s->get());
         if (st.ok()) st = d.BindInt(*s, 1, run_id, kContext);
         if (st.ok()) st = d.BindInt(*s, 2, frame_indices[i], kContext);
@@ -953,6 +996,41 @@ StorageStatus MapDatabase::ReadLocalMap(std::int64_t run_id, std::int64_t frame_
   return {};
 }
 
+StorageStatus MapDatabase::ReadFloorFeatures(std::int64_t run_id, std::int64_t frame_index,
+                                             FloorFeatures* floor_features) {
+  constexpr const char* kContext = "reading floor features";
+  *floor_features = FloorFeatures();
+  const std::string which =
+      "run " + std::to_string(run_id) + " frame " + std::to_string(frame_index);
+  if (impl_->schema_version < kFloorFeaturesSchemaVersion) {
+    return impl_->Error(StorageErrorKind::kNotFound,
+                        "no floor features for " + which + " (schema version " +
+                            std::to_string(impl_->schema_version) + " stores none)");
+  }
+  Statement s;
+  StorageStatus st = impl_->Prepare(
+      "SELECT encoding, data FROM floor_features WHERE run_id = ? AND frame_index = ?", &s,
+      kContext);
+  if (st.ok()) st = impl_->BindInt(s, 1, run_id, kContext);
+  if (st.ok()) st = impl_->BindInt(s, 2, frame_index, kContext);
+  bool row = false;
+  if (st.ok()) st = impl_->Step(s, &row, kContext);
+  if (!st.ok()) return st;
+  if (!row) return impl_->Error(StorageErrorKind::kNotFound, "no floor features for " + which);
+  if (ColumnText(s.get(), 0) != kFloorFeaturesEncoding) {
+    return impl_->Error(StorageErrorKind::kCorrupt,
+                        "floor features of " + which + " have an unknown encoding");
+  }
+  const auto* data = static_cast<const std::uint8_t*>(sqlite3_column_blob(s.get(), 1));
+  const auto size = static_cast<std::size_t>(sqlite3_column_bytes(s.get(), 1));
+  std::string error;
+  if (data == nullptr || !DecodeFloorFeatures(data, size, floor_features, &error)) {
+    return impl_->Error(StorageErrorKind::kCorrupt,
+                        "floor features of " + which + " are damaged: " + error);
+  }
+  return {};
+}
+
 StorageStatus MapDatabase::LoadTiledGrid(TiledGrid* grid) {
   constexpr const char* kContext = "loading the grid";
   StorageStatus st = impl_->ReadGridResolution();
@@ -1087,6 +1165,14 @@ StorageStatus MapDatabase::Info(MapInfo* info) {
   StorageStatus st;
   for (const auto& [sql, value] : counts) {
     if (st.ok()) st = impl_->QueryInt(sql, value, kContext);
+  }
+  if (st.ok() && impl_->schema_version >= kFloorFeaturesSchemaVersion) {
+    st =
+        impl_->QueryInt("SELECT count(*) FROM floor_features", &info->floor_feature_sets, kContext);
+    if (st.ok()) {
+      st = impl_->QueryInt("SELECT coalesce(sum(count), 0) FROM floor_features",
+                           &info->floor_features, kContext);
+    }
   }
   if (st.ok()) st = impl_->ReadGridResolution();
   if (!st.ok()) return st;

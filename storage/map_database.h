@@ -9,6 +9,7 @@
 #include <utility>
 #include <vector>
 
+#include "perception/frame_types.h"
 #include "perception/geometry/camera_calibration.h"
 #include "perception/geometry/occupancy_grid.h"
 #include "perception/geometry/pose2.h"
@@ -19,7 +20,8 @@
 namespace monoplane {
 
 enum class OpenMode {
-  kReadOnly,   // the file must exist and be a monoplane map; never written (query, export, info)
+  kReadOnly,   // the file must exist and be a monoplane map; never written (query, export, info);
+               // a map of an older schema is read as it is (what it cannot hold reads as absent)
   kReadWrite,  // the file must exist and be a monoplane map; migrated to the current schema
   kCreate,     // like kReadWrite, but a missing or empty file becomes a new map
 };
@@ -83,6 +85,8 @@ struct MapInfo {
   std::int64_t frames = 0;
   std::int64_t keyframes = 0;
   std::int64_t local_maps = 0;
+  std::int64_t floor_feature_sets = 0;  // keyframes with stored floor features
+  std::int64_t floor_features = 0;      // floor features stored, over all keyframes
   std::int64_t tiles = 0;
   std::int64_t landmarks = 0;
   std::int64_t octomap_bytes = 0;  // 0 when no OctoMap is stored
@@ -94,7 +98,11 @@ struct MapInfo {
 };
 
 // The persistent map: one SQLite file (WAL mode, versioned schema) holding runs, frames, keyframe
-// local maps, landmarks, the global grid in tiles, the OctoMap and statistics.
+// local maps and floor features, landmarks, the global grid in tiles, the OctoMap and statistics.
+//
+// Schema versions: 1 the initial schema; 2 adds keyframes' floor features. Opening an older map
+// for writing migrates it (one transaction per version); its keyframes simply have no floor
+// features.
 //
 // Every write call is one transaction: after a crash (even SIGKILL) the file opens, passes
 // `PRAGMA integrity_check` and holds every call that returned ok. Readers in other processes (or
@@ -112,7 +120,7 @@ class MapDatabase {
     bool IsValid(std::string* error) const;
   };
 
-  static constexpr int kSchemaVersion = 1;
+  static constexpr int kSchemaVersion = 2;
 
   // Opens a map. On failure *db is reset and the status names the file and the cause (not a
   // database, not a monoplane map, corrupt or truncated, read-only, busy, disk full, newer schema).
@@ -137,12 +145,15 @@ class MapDatabase {
                          const std::string& program_version, TimestampNs started_ns,
                          std::int64_t* run_id);
   // Stores a keyframe (frame.is_keyframe is forced true) with its local map (an OccupancyGrid in
-  // the robot base frame at that frame) in one transaction. Rewriting a keyframe replaces it.
+  // the robot base frame at that frame) and its floor features (points in the same base frame;
+  // none stored when empty) in one transaction. Rewriting a keyframe replaces both.
   StorageStatus WriteKeyframe(std::int64_t run_id, const FrameRecord& frame,
-                              const OccupancyGrid& local_map_in_base);
+                              const OccupancyGrid& local_map_in_base,
+                              const FloorFeatures& floor_features = FloorFeatures());
   // Turns keyframes of a run back into plain frames (by input index) in one transaction: their
-  // local maps are deleted, the frames and their poses stay. Indices that are not keyframes of the
-  // run are ignored. The grid tiles are not touched (mapping keeps what a dropped keyframe fused).
+  // local maps and floor features are deleted, the frames and their poses stay. Indices that are
+  // not keyframes of the run are ignored. The grid tiles are not touched (mapping keeps what a
+  // dropped keyframe fused).
   StorageStatus DeleteKeyframes(std::int64_t run_id,
                                 const std::vector<std::int64_t>& frame_indices);
   // Stores (or updates, e.g. with optimised poses) frames of a run in one transaction. A frame
@@ -171,6 +182,10 @@ class MapDatabase {
   // The local map of a keyframe (kNotFound when absent).
   StorageStatus ReadLocalMap(std::int64_t run_id, std::int64_t frame_index,
                              OccupancyGrid* local_map_in_base);
+  // The floor features of a keyframe, points in its base frame (kNotFound when none are stored:
+  // a keyframe without floor texture, or written before schema version 2).
+  StorageStatus ReadFloorFeatures(std::int64_t run_id, std::int64_t frame_index,
+                                  FloorFeatures* floor_features);
   // The whole global grid.
   StorageStatus LoadTiledGrid(TiledGrid* grid);
   // Lazy loading for queries: adds to *cache the stored tiles that intersect the box

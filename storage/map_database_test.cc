@@ -15,8 +15,10 @@ namespace monoplane {
 namespace {
 
 using testing::MarkCell;
+using testing::SameFloorFeatures;
 using testing::TempDir;
 using testing::TestCalibration;
+using testing::TestFloorFeatures;
 using testing::TestLocalMap;
 
 // Runs SQL directly on a file, bypassing MapDatabase (to forge files the program must refuse).
@@ -46,7 +48,8 @@ std::int64_t MustBeginRun(MapDatabase* db, TimestampNs start = 1000) {
   return run;
 }
 
-// A map file with one finished run, three keyframes and two tiles, closed cleanly.
+// A map file with one finished run, three keyframes (keyframe k with 100 + k floor features) and
+// two tiles, closed cleanly.
 void MakeSmallMap(const std::string& path) {
   auto db = MustOpen(path, OpenMode::kCreate);
   ASSERT_TRUE(db);
@@ -56,7 +59,8 @@ void MakeSmallMap(const std::string& path) {
     f.index = k;
     f.stamp_ns = 1000000000ll * k;
     f.map_from_base_raw = {0.1 * k, 0.0, 0.0};
-    ASSERT_TRUE(db->WriteKeyframe(run, f, TestLocalMap(160, k)).ok());
+    ASSERT_TRUE(
+        db->WriteKeyframe(run, f, TestLocalMap(160, k), TestFloorFeatures(100 + k, k)).ok());
   }
   TiledGrid grid(0.05);
   MarkCell(&grid, {3, 4}, 2.0f, 0.3f, 5000000);
@@ -122,6 +126,24 @@ TEST_P(MapDatabaseRoundTrip, EveryRecordTypeComesBack) {
   EXPECT_DOUBLE_EQ(back.geometry.resolution_m, 0.02);
   EXPECT_EQ(back.cells, local.cells);
   EXPECT_EQ(db->ReadLocalMap(run, 8, &back).kind(), StorageErrorKind::kNotFound);
+
+  // Floor features come back with the keyframe, bit for bit; a keyframe without any stores none.
+  FloorFeatures features;
+  EXPECT_EQ(db->ReadFloorFeatures(run, 7, &features).kind(), StorageErrorKind::kNotFound);
+  const FloorFeatures written = TestFloorFeatures(700, 3);
+  ASSERT_TRUE(db->WriteKeyframe(run, key, local, written).ok());
+  ASSERT_TRUE(db->ReadFloorFeatures(run, 7, &features).ok());
+  EXPECT_EQ(features.size(), 700);
+  EXPECT_TRUE(SameFloorFeatures(features, written));
+  EXPECT_EQ(db->ReadFloorFeatures(run, 8, &features).kind(), StorageErrorKind::kNotFound);
+  EXPECT_TRUE(features.empty());
+  // Rewriting the keyframe replaces them (here: by none).
+  FrameRecord other_key = frames[2];
+  ASSERT_TRUE(db->WriteKeyframe(run, other_key, local, TestFloorFeatures(20, 4)).ok());
+  ASSERT_TRUE(db->WriteKeyframe(run, other_key, local).ok());
+  EXPECT_EQ(db->ReadFloorFeatures(run, other_key.index, &features).kind(),
+            StorageErrorKind::kNotFound);
+  ASSERT_TRUE(db->DeleteKeyframes(run, {other_key.index}).ok());
 
   // Tiles, including negative coordinates, heights and stamps.
   TiledGrid grid(0.05);
@@ -212,6 +234,8 @@ TEST_P(MapDatabaseRoundTrip, EveryRecordTypeComesBack) {
   EXPECT_EQ(info.frames, 4);
   EXPECT_EQ(info.keyframes, 1);
   EXPECT_EQ(info.local_maps, 1);
+  EXPECT_EQ(info.floor_feature_sets, 1);
+  EXPECT_EQ(info.floor_features, 700);
   EXPECT_EQ(info.tiles, 2);
   EXPECT_EQ(info.landmarks, 2);
   EXPECT_EQ(info.octomap_bytes, 33);
@@ -282,10 +306,17 @@ TEST(MapDatabase, DeletedKeyframesBecomePlainFramesWithoutLocalMaps) {
   EXPECT_EQ(info.frames, 3);
   EXPECT_EQ(info.keyframes, 2);
   EXPECT_EQ(info.local_maps, 2);
+  EXPECT_EQ(info.floor_feature_sets, 2);
+  EXPECT_EQ(info.floor_features, 100 + 102);
   OccupancyGrid back;
   EXPECT_EQ(db->ReadLocalMap(run, 1, &back).kind(), StorageErrorKind::kNotFound);
   ASSERT_TRUE(db->ReadLocalMap(run, 2, &back).ok());
   EXPECT_EQ(back.cells, TestLocalMap(160, 2).cells);
+  // The floor features go with the local map; the other keyframes keep theirs.
+  FloorFeatures features;
+  EXPECT_EQ(db->ReadFloorFeatures(run, 1, &features).kind(), StorageErrorKind::kNotFound);
+  ASSERT_TRUE(db->ReadFloorFeatures(run, 2, &features).ok());
+  EXPECT_TRUE(SameFloorFeatures(features, TestFloorFeatures(102, 2)));
   // Later pose updates of the frame keep it a plain frame.
   FrameRecord f;
   f.index = 1;
@@ -414,13 +445,150 @@ TEST(MapDatabase, RefusesANewerSchemaWithItsVersion) {
   const std::string path = dir.File("map.db");
   MakeSmallMap(path);
   RawExec(path,
-          "INSERT INTO schema_migrations (version, description) VALUES (2, 'from the future')");
+          "INSERT INTO schema_migrations (version, description) VALUES (3, 'from the future')");
   const std::string before = testing::ReadFileBytes(path);
   for (OpenMode mode : {OpenMode::kReadOnly, OpenMode::kReadWrite, OpenMode::kCreate}) {
     ExpectRefused(path, mode, StorageErrorKind::kNewerSchema,
-                  "map schema version 2 is newer than this program supports (1)");
+                  "map schema version 3 is newer than this program supports (2)");
   }
   EXPECT_EQ(testing::ReadFileBytes(path), before);
+}
+
+// A map written by schema version 1 (make_test_map at commit 785c9a0, before floor features were
+// stored, then VACUUMed by the sqlite3 shell to 1 KiB pages: one run, 20 frames, keyframes 0, 5,
+// 10, 15), copied into a temp dir.
+std::string CopyOfSchema1Map(const TempDir& dir) {
+  const std::string path = dir.File("v1.db");
+  testing::WriteFileBytes(path, testing::ReadFileBytes(std::string(MONOPLANE_SOURCE_DIR) +
+                                                       "/tests/data/storage/schema_v1.sqlite"));
+  return path;
+}
+
+TEST(MapDatabase, ReadsASchema1MapAsItIs) {
+  TempDir dir;
+  const std::string path = CopyOfSchema1Map(dir);
+  const std::string before = testing::ReadFileBytes(path);
+  ASSERT_GT(before.size(), 1000u);
+  {
+    auto db = MustOpen(path, OpenMode::kReadOnly);
+    ASSERT_TRUE(db);
+    EXPECT_EQ(db->schema_version(), 1);
+    std::vector<TrajectoryPoint> trajectory;
+    ASSERT_TRUE(db->ReadTrajectory(std::nullopt, PoseSource::kOptimised, &trajectory).ok());
+    EXPECT_EQ(trajectory.size(), 20u);
+    OccupancyGrid local;
+    EXPECT_TRUE(db->ReadLocalMap(1, 5, &local).ok());
+    FloorFeatures features;
+    const StorageStatus st = db->ReadFloorFeatures(1, 5, &features);
+    EXPECT_EQ(st.kind(), StorageErrorKind::kNotFound) << st.message();
+    EXPECT_NE(st.message().find("schema version 1 stores none"), std::string::npos) << st.message();
+    MapInfo info;
+    ASSERT_TRUE(db->Info(&info).ok());
+    EXPECT_EQ(info.schema_version, 1);
+    EXPECT_EQ(info.keyframes, 4);
+    EXPECT_EQ(info.floor_feature_sets, 0);
+    TiledGrid grid;
+    EXPECT_TRUE(db->LoadTiledGrid(&grid).ok());
+    EXPECT_FALSE(grid.empty());
+  }
+  EXPECT_EQ(testing::ReadFileBytes(path), before);  // not migrated, not touched
+}
+
+TEST(MapDatabase, MigratesASchema1MapWhenOpenedForWriting) {
+  TempDir dir;
+  const std::string path = CopyOfSchema1Map(dir);
+  FloorFeatures features;
+  {
+    auto db = MustOpen(path, OpenMode::kReadWrite);
+    ASSERT_TRUE(db);
+    EXPECT_EQ(db->schema_version(), MapDatabase::kSchemaVersion);
+    // The old keyframes stay, without floor features; deleting one still works.
+    OccupancyGrid local;
+    EXPECT_TRUE(db->ReadLocalMap(1, 10, &local).ok());
+    EXPECT_EQ(db->ReadFloorFeatures(1, 10, &features).kind(), StorageErrorKind::kNotFound);
+    ASSERT_TRUE(db->DeleteKeyframes(1, {15}).ok());
+    // A second run writes keyframes with floor features, and culls one of them.
+    const std::int64_t run = MustBeginRun(db.get(), 7000);
+    EXPECT_EQ(run, 2);
+    for (int k = 0; k < 2; ++k) {
+      FrameRecord f;
+      f.index = k;
+      f.map_from_base_raw = {0.3 * k, 0.55, 0.0};
+      ASSERT_TRUE(db->WriteKeyframe(run, f, TestLocalMap(64, k), TestFloorFeatures(300, k)).ok());
+    }
+    ASSERT_TRUE(db->DeleteKeyframes(run, {0}).ok());
+    ASSERT_TRUE(db->EndRun(run, 8000).ok());
+  }
+  // The migration is recorded as SQLite sees it.
+  sqlite3* raw = nullptr;
+  ASSERT_EQ(sqlite3_open_v2(path.c_str(), &raw, SQLITE_OPEN_READONLY, nullptr), SQLITE_OK);
+  sqlite3_stmt* s = nullptr;
+  ASSERT_EQ(sqlite3_prepare_v2(raw,
+                               "SELECT group_concat(version, ','), (SELECT user_version FROM "
+                               "pragma_user_version) FROM schema_migrations",
+                               -1, &s, nullptr),
+            SQLITE_OK);
+  ASSERT_EQ(sqlite3_step(s), SQLITE_ROW);
+  EXPECT_STREQ(reinterpret_cast<const char*>(sqlite3_column_text(s, 0)), "1,2");
+  EXPECT_EQ(sqlite3_column_int(s, 1), 2);
+  sqlite3_finalize(s);
+  sqlite3_close(raw);
+
+  auto db = MustOpen(path, OpenMode::kReadOnly);
+  ASSERT_TRUE(db);
+  EXPECT_EQ(db->schema_version(), 2);
+  ASSERT_TRUE(db->ReadFloorFeatures(2, 1, &features).ok());
+  EXPECT_TRUE(SameFloorFeatures(features, TestFloorFeatures(300, 1)));
+  EXPECT_EQ(db->ReadFloorFeatures(2, 0, &features).kind(), StorageErrorKind::kNotFound);
+  MapInfo info;
+  ASSERT_TRUE(db->Info(&info).ok());
+  EXPECT_EQ(info.runs, 2);
+  EXPECT_EQ(info.keyframes, 3 + 1);
+  EXPECT_EQ(info.local_maps, 3 + 1);
+  EXPECT_EQ(info.floor_feature_sets, 1);
+  EXPECT_EQ(info.floor_features, 300);
+  std::string integrity;
+  ASSERT_TRUE(db->CheckIntegrity(&integrity).ok());
+  EXPECT_EQ(integrity, "ok");
+}
+
+TEST(MapDatabase, KeyframeAndFloorFeaturesAreOneTransaction) {
+  // A page cap that leaves room for the keyframe's frame and local map but not for its floor
+  // features: the whole keyframe is refused, nothing of it is stored.
+  TempDir dir;
+  const std::string path = dir.File("map.db");
+  {
+    auto db = MustOpen(path, OpenMode::kCreate);
+    ASSERT_TRUE(db);
+    MustBeginRun(db.get());
+  }
+  MapDatabase::Options options;
+  std::int64_t pages = 0;
+  {
+    auto db = MustOpen(path, OpenMode::kReadWrite);
+    MapInfo info;
+    ASSERT_TRUE(db->Info(&info).ok());
+    pages = info.file_size_bytes / 4096 + 4;
+  }
+  options.max_page_count = pages;
+  auto db = MustOpen(path, OpenMode::kReadWrite, options);
+  ASSERT_TRUE(db);
+  FrameRecord f;
+  f.index = 3;
+  const StorageStatus st = db->WriteKeyframe(1, f, TestLocalMap(64, 1), TestFloorFeatures(2000, 1));
+  EXPECT_EQ(st.kind(), StorageErrorKind::kDiskFull) << st.message();
+  // It failed at the features, after the frame and the local map had gone in.
+  EXPECT_NE(st.message().find("writing floor features"), std::string::npos) << st.message();
+  std::vector<TrajectoryPoint> trajectory;
+  ASSERT_TRUE(db->ReadTrajectory(std::nullopt, PoseSource::kRaw, &trajectory).ok());
+  EXPECT_TRUE(trajectory.empty());
+  OccupancyGrid local;
+  EXPECT_EQ(db->ReadLocalMap(1, 3, &local).kind(), StorageErrorKind::kNotFound);
+  // The same keyframe with fewer features fits.
+  ASSERT_TRUE(db->WriteKeyframe(1, f, TestLocalMap(64, 1), TestFloorFeatures(20, 1)).ok());
+  FloorFeatures features;
+  ASSERT_TRUE(db->ReadFloorFeatures(1, 3, &features).ok());
+  EXPECT_EQ(features.size(), 20);
 }
 
 // Checks, as the user running it, that a read-only map is refused for writing and readable.

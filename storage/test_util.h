@@ -13,6 +13,7 @@
 #include <random>
 #include <string>
 
+#include "perception/frame_types.h"
 #include "perception/geometry/camera_calibration.h"
 #include "perception/geometry/occupancy_grid.h"
 #include "perception/geometry/tiled_grid.h"
@@ -84,6 +85,32 @@ inline OccupancyGrid TestLocalMap(int size, unsigned seed) {
     }
   }
   return map;
+}
+
+// Floor features as the detector would give a keyframe: n random 32-byte descriptors, each with a
+// floor point in the described region ahead of the robot; `seed` varies them.
+inline FloorFeatures TestFloorFeatures(int n, unsigned seed) {
+  FloorFeatures f;
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> x(0.45f, 3.0f), y(-1.8f, 1.8f);
+  std::uniform_int_distribution<int> byte(0, 255);
+  f.descriptors.create(n, 32, CV_8UC1);
+  for (int i = 0; i < n; ++i) {
+    f.points_in_base.emplace_back(x(rng), y(rng));
+    for (int b = 0; b < 32; ++b) f.descriptors.at<std::uint8_t>(i, b) = byte(rng);
+  }
+  if (n == 0) f.descriptors = cv::Mat();
+  return f;
+}
+
+// True when two sets of floor features hold the same points and descriptor bytes, in order.
+inline bool SameFloorFeatures(const FloorFeatures& a, const FloorFeatures& b) {
+  if (a.points_in_base != b.points_in_base) return false;
+  if (a.descriptors.empty() || b.descriptors.empty())
+    return a.descriptors.empty() && b.descriptors.empty();
+  return a.descriptors.type() == b.descriptors.type() &&
+         a.descriptors.size() == b.descriptors.size() &&
+         cv::countNonZero(a.descriptors != b.descriptors) == 0;
 }
 
 // Marks a cell of a tiled grid as observed with the given log-odds, height and stamp.

@@ -237,7 +237,7 @@ SyntheticRun MakeRun(const SyntheticWorld& world, const std::vector<Pose2>& trut
     }
   }
 
-  std::mt19937 floor_rng(options.seed + 1000);
+  std::mt19937 floor_rng(options.floor_seed != 0 ? options.floor_seed : options.seed + 1000);
   std::vector<Eigen::Vector2d> floor_points;
   std::normal_distribution<double> gauss_floor(0.0, 1.0);
   cv::Mat floor_descriptors(options.num_floor_descriptor_points, 32, CV_8U);

@@ -94,6 +94,9 @@ struct RunOptions {
   // change with it.
   int num_floor_descriptor_points = 0;
   double floor_point_noise_m = 0.003;
+  // The floor descriptors' own stream (points, descriptors, noise); 0: seed + 1000. Two runs with
+  // the same floor_seed see the same floor.
+  std::uint32_t floor_seed = 0;
   std::uint32_t seed = 7;
   RenderOptions render;
 };
