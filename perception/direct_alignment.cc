@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <opencv2/imgproc.hpp>
+#include <type_traits>
 #include <vector>
 
 namespace monoplane {
@@ -175,7 +176,6 @@ DirectAlignment AlignFloorDirect(const AlignmentImage& image1, const AlignmentIm
 
   // Parameters 0-2: x, y, yaw; 3: pitch (only when estimated); last: the offset.
   const int geometric = options.estimate_pitch ? 4 : 3;
-  const int n = geometric + 1;
   const auto perturbed = [](State x, int p, double d) {
     (p == 0 ? x.t.x : p == 1 ? x.t.y : p == 2 ? x.t.yaw : x.pitch) += d;
     return x;
@@ -190,26 +190,32 @@ DirectAlignment AlignFloorDirect(const AlignmentImage& image1, const AlignmentIm
       h_minus[p] = inverse_homography(perturbed(x, p, -kEps));
     }
     const Eigen::Matrix3d h_inv = inverse_homography(x);
-    Eigen::Matrix<double, 5, 5> a = Eigen::Matrix<double, 5, 5>::Zero();
-    Eigen::Matrix<double, 5, 1> b = Eigen::Matrix<double, 5, 1>::Zero();
-    for (std::size_t k = 0; k < samples.size(); ++k) {
-      if (std::isnan(r[k])) continue;
-      const Eigen::Vector2d p1 = ApplyHomography(h_inv, samples[k].q);
-      double gx, gy;
-      if (!Bilinear(gx1, p1, &gx) || !Bilinear(gy1, p1, &gy)) continue;
-      Eigen::Matrix<double, 5, 1> j = Eigen::Matrix<double, 5, 1>::Zero();
-      for (int p = 0; p < geometric; ++p) {
-        const Eigen::Vector2d dp =
-            (ApplyHomography(h_plus[p], samples[k].q) - ApplyHomography(h_minus[p], samples[k].q)) /
-            (2 * kEps);
-        j[p] = -(gx * dp.x() + gy * dp.y());
+    // The normal equations at compile-time size (3 or 4 geometric parameters and the offset).
+    const auto solve = [&](auto geometric_count) -> Eigen::VectorXd {
+      constexpr int kG = decltype(geometric_count)::value;
+      Eigen::Matrix<double, kG + 1, kG + 1> a = Eigen::Matrix<double, kG + 1, kG + 1>::Zero();
+      Eigen::Matrix<double, kG + 1, 1> b = Eigen::Matrix<double, kG + 1, 1>::Zero();
+      for (std::size_t k = 0; k < samples.size(); ++k) {
+        if (std::isnan(r[k])) continue;
+        const Eigen::Vector2d p1 = ApplyHomography(h_inv, samples[k].q);
+        double gx, gy;
+        if (!Bilinear(gx1, p1, &gx) || !Bilinear(gy1, p1, &gy)) continue;
+        Eigen::Matrix<double, kG + 1, 1> j;
+        for (int p = 0; p < kG; ++p) {
+          const Eigen::Vector2d dp = (ApplyHomography(h_plus[p], samples[k].q) -
+                                      ApplyHomography(h_minus[p], samples[k].q)) /
+                                     (2 * kEps);
+          j[p] = -(gx * dp.x() + gy * dp.y());
+        }
+        j[kG] = -1.0;
+        const double w = std::abs(r[k]) <= k_huber ? 1.0 : k_huber / std::abs(r[k]);
+        a.noalias() += (w * j) * j.transpose();
+        b.noalias() += (w * r[k]) * j;
       }
-      j[geometric] = -1.0;
-      const double w = std::abs(r[k]) <= k_huber ? 1.0 : k_huber / std::abs(r[k]);
-      a += w * j * j.transpose();
-      b += w * j * r[k];
-    }
-    const Eigen::VectorXd delta = a.topLeftCorner(n, n).ldlt().solve(-b.head(n));
+      return a.ldlt().solve(-b);
+    };
+    const Eigen::VectorXd delta = options.estimate_pitch ? solve(std::integral_constant<int, 4>{})
+                                                         : solve(std::integral_constant<int, 3>{});
     if (!delta.allFinite()) break;
     State candidate = x;
     for (int p = 0; p < geometric; ++p) candidate = perturbed(candidate, p, delta[p]);
