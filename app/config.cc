@@ -64,6 +64,12 @@ OptionTable::OptionTable(AppConfig* config) : config_(config) {
             "score a motion loses per strip point it puts below the floor, inliers (>= 0)");
   AddDouble("ground_motion", "below_floor_px", &gm.below_floor_px,
             "how far below the floor counts, px along the epipolar line (> 0)");
+  AddDouble("ground_motion", "max_acceleration_mps2", &gm.max_acceleration_mps2,
+            "steps changing the velocity faster than this are outliers, m/s^2 (0: off)");
+  AddDouble("ground_motion", "velocity_noise_mps", &gm.velocity_noise_mps,
+            "plus this allowance for the estimates' noise, m/s (>= 0)");
+  AddInt("ground_motion", "max_rejected_steps", &gm.max_rejected_steps,
+         "at most this many steps rejected in a row (>= 0)");
   AddInt("ground_motion", "min_inliers", &gm.min_inliers, "inliers needed to trust the fit (>= 2)");
   AddDouble("ground_motion", "min_inlier_ratio", &gm.min_inlier_ratio,
             "inlier share needed (0, 1]");

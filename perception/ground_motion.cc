@@ -78,6 +78,9 @@ bool GroundMotionOptions::IsValid(std::string* error) const {
   if (!(inlier_threshold_px > 0)) return fail("inlier_threshold_px: must be > 0");
   if (!(below_floor_weight >= 0)) return fail("below_floor_weight: must be >= 0");
   if (!(below_floor_px > 0)) return fail("below_floor_px: must be > 0");
+  if (!(max_acceleration_mps2 >= 0)) return fail("max_acceleration_mps2: must be >= 0");
+  if (!(velocity_noise_mps >= 0)) return fail("velocity_noise_mps: must be >= 0");
+  if (max_rejected_steps < 0) return fail("max_rejected_steps: must be >= 0");
   if (min_inliers < 2) return fail("min_inliers: must be >= 2");
   if (!(min_inlier_ratio > 0 && min_inlier_ratio <= 1)) {
     return fail("min_inlier_ratio: must be in (0, 1]");

@@ -38,6 +38,14 @@ struct GroundMotionOptions {
   // noise and the unevenness of real roads from counting (weight >= 0, 0 = off; margin > 0).
   double below_floor_weight = 2.0;
   double below_floor_px = 3.0;
+  // Frame-to-frame steps (SequenceDetector): a fitted step whose velocity differs from the last
+  // step's by more than max_acceleration_mps2 * dt + velocity_noise_mps cannot have been driven (a
+  // car at 13 m/s does not reverse within 0.1 s); it is an outlier fit (a moving thing, repeated
+  // texture) and the last step is kept instead, at most max_rejected_steps times in a row
+  // (acceleration > 0, 0 = off; noise >= 0; rejections >= 0).
+  double max_acceleration_mps2 = 10.0;
+  double velocity_noise_mps = 0.1;
+  int max_rejected_steps = 3;
   // The fit is trusted with at least this many inliers (>= 2) and this inlier share (0, 1].
   int min_inliers = 12;
   double min_inlier_ratio = 0.25;

@@ -646,19 +646,38 @@ SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, Timesta
   std::vector<FeatureObservation> tracked =
       TrackFeatures(previous, pyramid, prepared, &before, &after);
   std::vector<char> inlier;
-  out.step = FitGroundMotion(before, after, camera, options.ground_motion, last_step_, &inlier);
-  for (std::size_t i = 0; i < tracked.size(); ++i) {
-    tracked[i].floor_inlier = out.step.status == GroundMotion::Status::kOk && inlier[i];
-  }
+  const GroundMotionOptions& gm = options.ground_motion;
+  out.step = FitGroundMotion(before, after, camera, gm, last_step_, &inlier);
   if (out.step.status == GroundMotion::Status::kOk && options.direct_alignment.refine_steps) {
     out.step.base2_from_base1 =
         AlignFloorDirect(previous_alignment_, alignment, camera, detector_.strip_mask(),
                          out.step.base2_from_base1, options.direct_alignment)
             .base2_from_base1;
   }
+  // A step that cannot have been driven is an outlier fit: the last step is kept instead.
+  const double dt_s = static_cast<double>(stamp_ns - previous.stamp_ns) * 1e-9;
+  if (out.step.status == GroundMotion::Status::kOk && last_step_ && gm.max_acceleration_mps2 > 0 &&
+      dt_s > 0 && last_step_dt_s_ > 0) {
+    const Eigen::Vector2d change = out.step.base2_from_base1.Translation() / dt_s -
+                                   last_step_->Translation() / last_step_dt_s_;
+    if (change.norm() > gm.max_acceleration_mps2 * dt_s + gm.velocity_noise_mps &&
+        rejected_steps_ < gm.max_rejected_steps) {
+      out.step.status = GroundMotion::Status::kFallback;
+      out.step.base2_from_base1 = *last_step_;
+      ++rejected_steps_;
+    } else {
+      rejected_steps_ = 0;
+    }
+  }
+  for (std::size_t i = 0; i < tracked.size(); ++i) {
+    tracked[i].floor_inlier = out.step.status == GroundMotion::Status::kOk && inlier[i];
+  }
   if (out.step.status != GroundMotion::Status::kFailed) {
     odom_from_base_ = previous.odom_from_base * out.step.base2_from_base1.Inverse();
-    if (out.step.status == GroundMotion::Status::kOk) last_step_ = out.step.base2_from_base1;
+    if (out.step.status == GroundMotion::Status::kOk) {
+      last_step_ = out.step.base2_from_base1;
+      last_step_dt_s_ = dt_s > 0 ? dt_s : 0.0;
+    }
   }
   out.odom_from_base = odom_from_base_;
   out.features = AddNewCorners(prepared, std::move(tracked));

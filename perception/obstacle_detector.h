@@ -209,6 +209,8 @@ class SequenceDetector {
   ObstacleDetector detector_;
   std::deque<Frame> history_;
   std::optional<Pose2> last_step_;
+  double last_step_dt_s_ = 0.0;  // time the last step took (0: unknown)
+  int rejected_steps_ = 0;       // steps rejected in a row as undrivable
   Pose2 odom_from_base_;
   std::int64_t next_track_id_ = 0;
   int frames_since_detection_ = 0;
