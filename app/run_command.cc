@@ -191,10 +191,18 @@ int Run(const RunRequest& request, RunSummary* summary) {
     }
     ++summary->frames_processed;
     const GroundMotion& step = p->output.step;
-    spdlog::debug("{}: motion {} ({} tracked, {} in the floor strip, {} inliers, rms {:.2f} px){}",
-                  p->frame.name, ToString(step.status), step.num_tracked, step.num_floor_candidates,
-                  step.num_inliers, step.rms_residual_px,
-                  p->output.result ? std::string(", ") + p->output.result->message : "");
+    std::string pair;
+    if (p->output.result && p->output.result->status == PairStatus::kOk) {
+      const GroundMotion& m = p->output.result->motion;
+      pair = fmt::format(", pair motion x {:.3f} m y {:.3f} m yaw {:.4f} rad, pitch {:.2f} mrad",
+                         m.base2_from_base1.x, m.base2_from_base1.y, m.base2_from_base1.yaw,
+                         1e3 * m.pitch2_rad);
+    }
+    spdlog::debug(
+        "{}: motion {} ({} tracked, {} in the floor strip, {} inliers, rms {:.2f} px){}{}",
+        p->frame.name, ToString(step.status), step.num_tracked, step.num_floor_candidates,
+        step.num_inliers, step.rms_residual_px, pair,
+        p->output.result ? std::string(", ") + p->output.result->message : "");
     if (p->output.result) {
       const FrameResult& r = *p->output.result;
       ++summary->status_counts[static_cast<int>(r.status)];

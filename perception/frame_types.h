@@ -35,6 +35,9 @@ struct GroundMotion {
   int num_floor_candidates = 0;  // tracked corners in the floor strip
   int num_inliers = 0;
   double rms_residual_px = 0.0;  // over the inliers, in image 2
+  // Camera 2's pitch relative to camera 1 (rad), when the direct alignment estimated it
+  // (DirectAlignmentOptions::estimate_pitch); 0 otherwise.
+  double pitch2_rad = 0.0;
 };
 const char* ToString(GroundMotion::Status status);
 

@@ -88,6 +88,14 @@ bool GroundMotionOptions::IsValid(std::string* error) const {
   return true;
 }
 
+bool IsDrivableStep(const Pose2& step, double dt_s, const Pose2& previous_step,
+                    double previous_dt_s, const GroundMotionOptions& options) {
+  if (!(options.max_acceleration_mps2 > 0) || !(dt_s > 0) || !(previous_dt_s > 0)) return true;
+  const Eigen::Vector2d change =
+      step.Translation() / dt_s - previous_step.Translation() / previous_dt_s;
+  return change.norm() <= options.max_acceleration_mps2 * dt_s + options.velocity_noise_mps;
+}
+
 cv::Mat FloorStripMask(const CameraModel& camera, const GroundMotionOptions& options) {
   const CameraIntrinsics& in = camera.calibration().intrinsics;
   cv::Mat mask = cv::Mat::zeros(in.height, in.width, CV_8U);

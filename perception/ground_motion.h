@@ -69,6 +69,12 @@ GroundMotion FitGroundMotion(const std::vector<Eigen::Vector2d>& pixels1,
                              const std::optional<Pose2>& prior = std::nullopt,
                              std::vector<char>* inlier_mask = nullptr);
 
+// Whether a frame-to-frame step (base2_from_base1, taking dt_s) can follow the previous one
+// (taking previous_dt_s): its velocity differs by at most max_acceleration_mps2 * dt_s +
+// velocity_noise_mps. True when the test is off or a duration is unknown (<= 0).
+bool IsDrivableStep(const Pose2& step, double dt_s, const Pose2& previous_step,
+                    double previous_dt_s, const GroundMotionOptions& options);
+
 // The image region (CV_8U mask, 255 inside) whose floor points lie in the options' strip.
 cv::Mat FloorStripMask(const CameraModel& camera, const GroundMotionOptions& options);
 

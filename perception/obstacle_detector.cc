@@ -357,24 +357,8 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
       current_alignment.empty() ? PrepareAlignmentImage(current, da) : current_alignment, camera_,
       strip_mask_, motion.base2_from_base1, da);
   refined.base2_from_base1 = aligned.base2_from_base1;
+  refined.pitch2_rad = aligned.pitch2_rad;
   const Pose2& t = refined.base2_from_base1;
-  // A camera pitched relative to the reference (a car on its suspension): the chain below works
-  // on the current image as a camera at the reference's pitch would have taken it, and the
-  // per-pixel results are mapped back to the current image at the end.
-  const cv::Mat* current_level = &current;
-  cv::Mat unpitched;
-  std::vector<Eigen::Vector2d> moving_level = moving_pixels;
-  const Eigen::Matrix3d pitch_h = PitchHomography(camera_, aligned.pitch2_rad);  // level -> actual
-  const bool pitched = aligned.pitch2_rad != 0.0;
-  cv::Mat pitch_cv;
-  if (pitched) {
-    cv::eigen2cv(pitch_h, pitch_cv);
-    cv::warpPerspective(current, unpitched, pitch_cv, size, cv::INTER_LINEAR | cv::WARP_INVERSE_MAP,
-                        cv::BORDER_REPLICATE);
-    current_level = &unpitched;
-    const Eigen::Matrix3d inverse = pitch_h.inverse();
-    for (Eigen::Vector2d& p : moving_level) p = ApplyHomography(inverse, p);
-  }
   // Camera baseline: without it there is no parallax and nothing is known.
   const Eigen::Vector2d c1 = camera_.CameraCentreInBase().head<2>();
   const double baseline_m = (t * c1 - c1).norm();
@@ -385,6 +369,23 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
     return r;
   }
 
+  // A camera pitched relative to the reference (a car on its suspension): the chain below works
+  // on the current image as a camera at the reference's pitch would have taken it, and the
+  // per-pixel results are mapped back to the current image at the end.
+  const cv::Mat* current_level = &current;
+  cv::Mat unpitched;
+  std::vector<Eigen::Vector2d> moving_level = moving_pixels;
+  const bool pitched = aligned.pitch2_rad != 0.0;
+  const Eigen::Matrix3d pitch_h = PitchHomography(camera_, aligned.pitch2_rad);  // level -> actual
+  const Eigen::Matrix3d pitch_inverse = pitch_h.inverse();
+  if (pitched) {
+    cv::Mat pitch_cv;
+    cv::eigen2cv(pitch_h, pitch_cv);
+    cv::warpPerspective(current, unpitched, pitch_cv, size, cv::INTER_LINEAR | cv::WARP_INVERSE_MAP,
+                        cv::BORDER_REPLICATE);
+    current_level = &unpitched;
+    for (Eigen::Vector2d& p : moving_level) p = ApplyHomography(pitch_inverse, p);
+  }
   FrameResult r = UnknownResult(size, options_.local_map, PairStatus::kOk, "");
   r.motion = refined;
   const ZeroDisparityField field =
@@ -559,7 +560,7 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
   if (pitched) {
     // Back to the current image: pixel x there shows what pixel pitch_h^-1 x showed here.
     cv::Mat inverse_cv;
-    cv::eigen2cv(Eigen::Matrix3d(pitch_h.inverse()), inverse_cv);
+    cv::eigen2cv(pitch_inverse, inverse_cv);
     cv::Mat labels_level = r.labels, height_level = r.height_mm;
     cv::warpPerspective(labels_level, r.labels, inverse_cv, size,
                         cv::INTER_NEAREST | cv::WARP_INVERSE_MAP, cv::BORDER_CONSTANT,
@@ -656,11 +657,8 @@ SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, Timesta
   }
   // A step that cannot have been driven is an outlier fit: the last step is kept instead.
   const double dt_s = static_cast<double>(stamp_ns - previous.stamp_ns) * 1e-9;
-  if (out.step.status == GroundMotion::Status::kOk && last_step_ && gm.max_acceleration_mps2 > 0 &&
-      dt_s > 0 && last_step_dt_s_ > 0) {
-    const Eigen::Vector2d change = out.step.base2_from_base1.Translation() / dt_s -
-                                   last_step_->Translation() / last_step_dt_s_;
-    if (change.norm() > gm.max_acceleration_mps2 * dt_s + gm.velocity_noise_mps &&
+  if (out.step.status == GroundMotion::Status::kOk && last_step_) {
+    if (!IsDrivableStep(out.step.base2_from_base1, dt_s, *last_step_, last_step_dt_s_, gm) &&
         rejected_steps_ < gm.max_rejected_steps) {
       out.step.status = GroundMotion::Status::kFallback;
       out.step.base2_from_base1 = *last_step_;
@@ -722,6 +720,13 @@ SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, Timesta
         }
       }
       GroundMotion motion = FitGroundMotion(p_ref, p_cur, camera, options.ground_motion, prior);
+      // A pair fit that the chained (checked) steps could not have driven is an outlier fit.
+      const double pair_dt_s = static_cast<double>(stamp_ns - reference->stamp_ns) * 1e-9;
+      if (motion.status == GroundMotion::Status::kOk &&
+          !IsDrivableStep(motion.base2_from_base1, pair_dt_s, prior, pair_dt_s,
+                          options.ground_motion)) {
+        motion.status = GroundMotion::Status::kFailed;
+      }
       if (motion.status == GroundMotion::Status::kFailed &&
           out.step.status != GroundMotion::Status::kOk) {
         // Neither the pair nor the last step has a fitted floor motion: a guessed motion would

@@ -139,6 +139,8 @@ void MaybeDump(const std::string& name, const cv::Mat& image, const FrameResult&
   }
 }
 
+constexpr TimestampNs kFrameNs = 66'666'667;  // frames of a 15 fps camera
+
 GroundMotion KnownMotion(const Pose2& world_from_base1, const Pose2& world_from_base2) {
   GroundMotion m;
   m.status = GroundMotion::Status::kOk;
@@ -202,6 +204,23 @@ TEST(GroundMotion, PrefersTheLowestSurfaceOverMoreCornersOnABoxTop) {
   EXPECT_NEAR(lowest.base2_from_base1.x, truth.x, 1e-4);
   EXPECT_NEAR(lowest.base2_from_base1.y, truth.y, 1e-4);
   EXPECT_NEAR(lowest.base2_from_base1.yaw, truth.yaw, 1e-5);
+}
+
+// A car at 13 m/s (1.34 m per 0.103 s step) cannot reverse within one step; a robot at 0.4 m/s
+// can start and stop. The KITTI drive's frame-5 corner fit went 0.17 m backwards.
+TEST(GroundMotion, UndrivableStepsAreRecognised) {
+  GroundMotionOptions options;       // 10 m/s^2 + 0.1 m/s
+  const Pose2 car{-1.34, 0.0, 0.0};  // base2_from_base1 of forward motion
+  EXPECT_TRUE(IsDrivableStep({-1.40, 0.01, 0.0}, 0.103, car, 0.103, options));
+  EXPECT_FALSE(IsDrivableStep({0.17, 0.0, 0.0}, 0.103, car, 0.103, options));
+  EXPECT_FALSE(IsDrivableStep({-1.60, 0.0, 0.0}, 0.103, car, 0.103, options));  // +2.5 m/s
+  const Pose2 robot{-0.027, 0.0, 0.0}, still{0.0, 0.0, 0.0};
+  EXPECT_TRUE(IsDrivableStep(robot, 1.0 / 15, still, 1.0 / 15, options));
+  EXPECT_TRUE(IsDrivableStep(still, 1.0 / 15, robot, 1.0 / 15, options));
+  // Off, or durations unknown: every step passes.
+  EXPECT_TRUE(IsDrivableStep({0.17, 0.0, 0.0}, 0.0, car, 0.103, options));
+  options.max_acceleration_mps2 = 0;
+  EXPECT_TRUE(IsDrivableStep({0.17, 0.0, 0.0}, 0.103, car, 0.103, options));
 }
 
 TEST(ZeroDisparity, DirectionMatchesGeometry) {
@@ -532,7 +551,7 @@ TEST_F(DetectorOnSyntheticScene, StandstillAndTurningInPlaceGiveUnknown) {
   EXPECT_FALSE(first.result);
   ASSERT_GT(first.features.size(), 100u);
   for (int i = 1; i < 4; ++i) {
-    const auto out = sequence.Process(a.image, i);
+    const auto out = sequence.Process(a.image, i * kFrameNs);
     // The same corners keep their track ids.
     ASSERT_EQ(out.features.size(), first.features.size());
     EXPECT_EQ(out.features[17].track_id, first.features[17].track_id);
@@ -552,7 +571,8 @@ TEST_F(DetectorOnSyntheticScene, DetectEveryNthFrameTracksTheOthers) {
   std::vector<bool> has_result;
   for (int i = 0; i < 10; ++i) {
     const Pose2 pose{0.05 * i, 0.0, 0.0};
-    const auto out = sequence.Process(Render(scene, sequence.detector().camera(), pose).image, i);
+    const auto out =
+        sequence.Process(Render(scene, sequence.detector().camera(), pose).image, i * kFrameNs);
     ASSERT_TRUE(out.image_ok);
     EXPECT_NEAR(out.odom_from_base.x, pose.x, 0.01) << "frame " << i;  // every frame is tracked
     has_result.push_back(out.result.has_value());
@@ -580,7 +600,7 @@ TEST_F(DetectorOnSyntheticScene, BadImagesAreRejectedWithReasons) {
     SequenceDetector s2(calib_, options_);
     const cv::Mat flat(480, 640, CV_8U, cv::Scalar(value));
     s2.Process(flat, 0);
-    const auto r = s2.Process(flat, 1).result;
+    const auto r = s2.Process(flat, kFrameNs).result;
     ASSERT_TRUE(r);
     EXPECT_EQ(r->num_floor + r->num_obstacle + r->num_drop_off + r->num_moving, 0);
   }
