@@ -132,6 +132,12 @@ OptionTable::OptionTable(AppConfig* config) : config_(config) {
   AddDouble("classification", "max_range_m", &c.max_range_m, "farther points are unknown, m (> 0)");
   AddDouble("classification", "max_footprint_sigma_ratio", &c.max_footprint_sigma_ratio,
             "obstacle points enter the top view when placed within 0.05 m + this x range (>= 0)");
+  AddDouble("classification", "min_surface_angle_deg", &c.min_surface_angle_deg,
+            "top view: obstacle points on a surface seen at >= this angle to the ray, deg [0, 90)");
+  AddInt("classification", "min_surface_neighbours", &c.min_surface_neighbours,
+         "top view: neighbours an obstacle point needs on its surface [0, 8]");
+  AddBool("classification", "floor_edge_not_free", &c.floor_edge_not_free,
+          "top view: the floor sample below a non-floor one leaves its cell not free");
   aggregation_ = static_cast<int>(c.aggregation);
   AddChoice("classification", "aggregation", &aggregation_, {"none", "median", "segments"},
             "how samples are combined: none, median (neighbours) or segments (superpixels)");

@@ -188,6 +188,12 @@ bool ClassificationOptions::IsValid(std::string* error) const {
   if (!(max_residual > 0)) return fail("max_residual: must be > 0");
   if (!(min_floor_misfit >= 0)) return fail("min_floor_misfit: must be >= 0");
   if (!(moving_min_perpendicular_px >= 0)) return fail("moving_min_perpendicular_px: must be >= 0");
+  if (!(min_surface_angle_deg >= 0 && min_surface_angle_deg < 90)) {
+    return fail("min_surface_angle_deg: must be in [0, 90)");
+  }
+  if (min_surface_neighbours < 0 || min_surface_neighbours > 8) {
+    return fail("min_surface_neighbours: must be in [0, 8]");
+  }
   if (!(moving_track_min_px > 0)) return fail("moving_track_min_px: must be > 0");
   if (!(moving_track_radius_px >= 0)) return fail("moving_track_radius_px: must be >= 0");
   if (!(max_range_m > 0)) return fail("max_range_m: must be > 0");
@@ -503,11 +509,51 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
     }
   }
 
+  // Obstacle points on a surface (not mixed "veil" points at a depth edge) go into the top view.
+  std::vector<std::uint8_t> on_surface(samples.size(), 1);
+  if (co.min_surface_angle_deg > 0) {
+    const Eigen::Vector3d centre = camera_.CameraCentreInBase();
+    const double pixel_rad = stride * field.scale / camera_.K()(0, 0);
+    const double depth_per_lateral = 1.0 / std::tan(co.min_surface_angle_deg * M_PI / 180.0);
+    std::vector<float> range(samples.size(), NAN);
+    for (std::size_t k = 0; k < samples.size(); ++k) {
+      const Sample& s = samples[k];
+      if (s.measured) {
+        range[k] = static_cast<float>(
+            (Eigen::Vector3d(s.point_in_base2.x(), s.point_in_base2.y(), s.height_m) - centre)
+                .norm());
+      }
+    }
+    for (int i = 0; i < sample_rows; ++i) {
+      for (int j = 0; j < sample_cols; ++j) {
+        const std::size_t k = static_cast<std::size_t>(i) * sample_cols + j;
+        const PixelLabel label = labels[k];
+        if (!samples[k].measured ||
+            (label != PixelLabel::kObstacle && label != PixelLabel::kDropOff))
+          continue;
+        int smooth = 0;
+        for (int di = -1; di <= 1; ++di) {
+          for (int dj = -1; dj <= 1; ++dj) {
+            const int ii = i + di, jj = j + dj;
+            if ((di == 0 && dj == 0) || ii < 0 || jj < 0 || ii >= sample_rows || jj >= sample_cols)
+              continue;
+            const float r = range[static_cast<std::size_t>(ii) * sample_cols + jj];
+            if (std::isnan(r)) continue;
+            const double lateral = range[k] * pixel_rad * (di != 0 && dj != 0 ? M_SQRT2 : 1.0);
+            smooth += std::abs(r - range[k]) <= depth_per_lateral * lateral ? 1 : 0;
+          }
+        }
+        on_surface[k] = smooth >= co.min_surface_neighbours ? 1 : 0;
+      }
+    }
+  }
+
   cv::Mat sample_labels(sample_rows, sample_cols, CV_8U, cv::Scalar(0));
   cv::Mat sample_height(sample_rows, sample_cols, CV_16U, cv::Scalar(0));
   r.zero_disparity_px = cv::Mat(sample_rows, sample_cols, CV_32F, cv::Scalar(NAN));
   const GridGeometry& g = r.local_map.geometry;
   std::vector<std::uint16_t> free_votes(g.NumCells(), 0), occupied_votes(g.NumCells(), 0);
+  std::vector<std::uint8_t> veiled(g.NumCells(), 0);  // cells that must not read free
   for (int i = 0; i < sample_rows; ++i) {
     for (int j = 0; j < sample_cols; ++j) {
       const Sample& sample = samples[i * sample_cols + j];
@@ -517,13 +563,29 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
       if (label == PixelLabel::kFloor) {
         sample_height.at<std::uint16_t>(i, j) = EncodeHeightMm(0.0);
         // Top view: floor at its floor point...
-        if (auto cell = g.CellOf(sample.floor_in_base2))
-          ++free_votes[g.Index(cell->x(), cell->y())];
+        // ...except where the floor ends in the image: that sample's window straddles the edge
+        // and its cell holds the base of whatever stands there, seen or not. Not free.
+        const bool floor_edge = co.floor_edge_not_free && i > 0 &&
+                                labels[(i - 1) * sample_cols + j] != PixelLabel::kFloor;
+        if (auto cell = g.CellOf(sample.floor_in_base2)) {
+          const std::size_t c = g.Index(cell->x(), cell->y());
+          if (floor_edge) {
+            veiled[c] = 1;
+          } else {
+            ++free_votes[c];
+          }
+        }
       } else if ((label == PixelLabel::kObstacle || label == PixelLabel::kDropOff) &&
                  sample.measured) {
         sample_height.at<std::uint16_t>(i, j) = EncodeHeightMm(sample.height_m);
         const double range_m = sample.point_in_base2.norm();
         if (!(sample.footprint_sigma_m <= 0.05 + co.max_footprint_sigma_ratio * range_m)) continue;
+        if (!on_surface[static_cast<std::size_t>(i) * sample_cols + j]) {
+          // Somewhere on its ray between the two surfaces: not placed, but its cell is not free.
+          if (auto cell = g.CellOf(sample.point_in_base2))
+            veiled[g.Index(cell->x(), cell->y())] = 1;
+          continue;
+        }
         r.obstacle_points_in_base.emplace_back(static_cast<float>(sample.point_in_base2.x()),
                                                static_cast<float>(sample.point_in_base2.y()),
                                                static_cast<float>(sample.height_m));
@@ -539,7 +601,7 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
     // A cell with any obstacle point is occupied: calling it free would be the dangerous error.
     if (occ >= 1) {
       r.local_map.cells[k] = kCellOccupied;
-    } else if (fr >= 1) {
+    } else if (fr >= 1 && !veiled[k]) {
       r.local_map.cells[k] = kCellFree;
     }
   }

@@ -239,6 +239,22 @@ TEST(ZeroDisparity, DirectionMatchesGeometry) {
 
 class DetectorOnSyntheticScene : public ::testing::Test {
  protected:
+  // The scene seen from p1 and p2 (world_from_base), detected with options_ (r) and with `other`
+  // (r0); current is the image at p2 with its true heights.
+  struct Comparison {
+    Rendered current;
+    FrameResult r, r0;
+  };
+  Comparison DetectBoth(const Scene& scene, const Pose2& p1, const Pose2& p2,
+                        const DetectorOptions& other) const {
+    const ObstacleDetector detector(calib_, options_), other_detector(calib_, other);
+    const Rendered a = Render(scene, detector.camera(), p1);
+    Comparison c{Render(scene, detector.camera(), p2), {}, {}};
+    c.r = detector.Detect(a.image, c.current.image, KnownMotion(p1, p2));
+    c.r0 = other_detector.Detect(a.image, c.current.image, KnownMotion(p1, p2));
+    return c;
+  }
+
   CameraCalibration calib_ = DefaultCalibration();
   DetectorOptions options_;
 };
@@ -410,11 +426,7 @@ TEST_F(DetectorOnSyntheticScene, FloorBesideATallBoxIsNotObstacle) {
   const Pose2 p1{0, 0, 0}, p2{0.15, 0.0, 0.0};
   DetectorOptions without = options_;
   without.classification.check_floor_hypothesis = false;
-  const ObstacleDetector with_check(calib_, options_), without_check(calib_, without);
-  const Rendered a = Render(scene, with_check.camera(), p1);
-  const Rendered b = Render(scene, with_check.camera(), p2);
-  const FrameResult r = with_check.Detect(a.image, b.image, KnownMotion(p1, p2));
-  const FrameResult r0 = without_check.Detect(a.image, b.image, KnownMotion(p1, p2));
+  const auto [b, r, r0] = DetectBoth(scene, p1, p2, without);
   ASSERT_EQ(r.status, PairStatus::kOk) << r.message;
   MaybeDump("tall_box", b.image, r);
   const BoundaryCounts c = CountAtBoundary(b, r, 16), c0 = CountAtBoundary(b, r0, 16);
@@ -430,6 +442,98 @@ TEST_F(DetectorOnSyntheticScene, FloorBesideATallBoxIsNotObstacle) {
   EXPECT_GT(c.box_obstacle, 0.7 * c.box);
 }
 
+// Occupied cells of the local map farther than margin_m from every box's footprint (the boxes'
+// world frame is the first pose's base frame; the local map is in the second's).
+int StrayOccupiedCells(const Scene& scene, const FrameResult& r, const Pose2& world_from_base2,
+                       double margin_m) {
+  const GridGeometry& g = r.local_map.geometry;
+  int stray = 0;
+  for (int row = 0; row < g.height; ++row) {
+    for (int col = 0; col < g.width; ++col) {
+      if (r.local_map.At(col, row) != kCellOccupied) continue;
+      const Eigen::Vector2d w = world_from_base2 * g.CellCenter(col, row);
+      bool near = false;
+      for (const Box& b : scene.boxes) {
+        near = near || (w.x() >= b.min.x() - margin_m && w.x() <= b.max.x() + margin_m &&
+                        w.y() >= b.min.y() - margin_m && w.y() <= b.max.y() + margin_m);
+      }
+      stray += near ? 0 : 1;
+    }
+  }
+  return stray;
+}
+
+// A sample whose matching window straddles a box's edge and the wall behind it measures a mix of
+// the two depths; placed in the top view it would smear the edge along its ray. Only samples
+// on a surface (neighbours at consistent ranges) are placed.
+TEST_F(DetectorOnSyntheticScene, DepthEdgesAreNotSmearedAlongTheRays) {
+  Scene scene;
+  scene.boxes.push_back({{1.2, -0.15, 0.0}, {1.4, 0.15, 0.3}});
+  scene.boxes.push_back({{2.6, -1.2, 0.0}, {2.7, 1.2, 0.8}});
+  const Pose2 p1{0, 0, 0}, p2{0.12, 0.0, 0.0};
+  DetectorOptions without = options_;
+  without.classification.min_surface_angle_deg = 0.0;
+  const auto [b, r, r0] = DetectBoth(scene, p1, p2, without);
+  ASSERT_EQ(r.status, PairStatus::kOk) << r.message;
+  MaybeDump("depth_edges", b.image, r);
+  const int stray = StrayOccupiedCells(scene, r, p2, 0.10);
+  const int stray0 = StrayOccupiedCells(scene, r0, p2, 0.10);
+  int occupied = 0, occupied0 = 0;
+  for (std::size_t k = 0; k < r.local_map.cells.size(); ++k) {
+    occupied += r.local_map.cells[k] == kCellOccupied;
+    occupied0 += r0.local_map.cells[k] == kCellOccupied;
+  }
+  std::printf(
+      "occupied cells farther than 0.1 m from the boxes: %d of %d with the filter, %d of %d "
+      "without\n",
+      stray, occupied, stray0, occupied0);
+  EXPECT_LT(stray, stray0 / 2);
+  EXPECT_GT(occupied - stray, (occupied0 - stray0) * 3 / 4);  // the boxes stay
+}
+
+// Local-map cells under a box: the front row holds the box's base, and the floor sample just below
+// the box's (textureless, undetected) face must not make it free.
+int FreeCellsUnder(const Box& box, const FrameResult& r, const Pose2& world_from_base2) {
+  const GridGeometry& g = r.local_map.geometry;
+  int free = 0;
+  for (int row = 0; row < g.height; ++row) {
+    for (int col = 0; col < g.width; ++col) {
+      const Eigen::Vector2d w = world_from_base2 * g.CellCenter(col, row);
+      const bool under = w.x() >= box.min.x() && w.x() <= box.max.x() && w.y() >= box.min.y() &&
+                         w.y() <= box.max.y();
+      free += under && r.local_map.At(col, row) == kCellFree ? 1 : 0;
+    }
+  }
+  return free;
+}
+
+TEST_F(DetectorOnSyntheticScene, WhereTheFloorEndsTheCellIsNotFree) {
+  Scene scene;
+  scene.box_texture = Texture(2, 0.0);
+  scene.boxes.push_back({{1.52, -0.4, 0.0}, {1.9, 0.4, 0.5}});
+  const Pose2 p1{0, 0, 0}, p2{0.12, 0.0, 0.0};
+  DetectorOptions off = options_;
+  off.classification.floor_edge_not_free = false;
+  const auto [b, r, r0] = DetectBoth(scene, p1, p2, off);
+  ASSERT_EQ(r.status, PairStatus::kOk) << r.message;
+  const int free = FreeCellsUnder(scene.boxes[0], r, p2);
+  const int free0 = FreeCellsUnder(scene.boxes[0], r0, p2);
+  std::printf("cells under the box read free: %d with the floor edge rule, %d without\n", free,
+              free0);
+  EXPECT_GT(free0, 3);
+  EXPECT_LE(free, free0 / 3);
+  // The floor in front of the box stays free.
+  int free_in_front = 0;
+  const GridGeometry& g = r.local_map.geometry;
+  for (double x = 0.7; x < 1.2; x += 0.05) {
+    for (double y = -0.3; y <= 0.3; y += 0.05) {
+      const auto c = g.CellOf(p2.Inverse() * Eigen::Vector2d(x, y));
+      free_in_front += r.local_map.At(c->x(), c->y()) == kCellFree;
+    }
+  }
+  EXPECT_GT(free_in_front, 100);
+}
+
 // Superpixels: the textureless face of a box takes its segment's obstacle label (the paper's
 // aggregation); a textureless patch of floor does not become floor.
 TEST_F(DetectorOnSyntheticScene, TexturelessObstacleFaceFilledBySegments) {
@@ -439,10 +543,7 @@ TEST_F(DetectorOnSyntheticScene, TexturelessObstacleFaceFilledBySegments) {
   const Pose2 p1{0, 0, 0}, p2{0.15, 0.0, 0.0};
   DetectorOptions no_fill = options_;
   no_fill.classification.segment_fill_fraction = 1.0;
-  const ObstacleDetector fill(calib_, options_), without_fill(calib_, no_fill);
-  const Rendered a = Render(scene, fill.camera(), p1), b = Render(scene, fill.camera(), p2);
-  const FrameResult r = fill.Detect(a.image, b.image, KnownMotion(p1, p2));
-  const FrameResult r0 = without_fill.Detect(a.image, b.image, KnownMotion(p1, p2));
+  const auto [b, r, r0] = DetectBoth(scene, p1, p2, no_fill);
   ASSERT_EQ(r.status, PairStatus::kOk) << r.message;
   MaybeDump("textureless_box", b.image, r);
   const BoundaryCounts c = CountAtBoundary(b, r, 8), c0 = CountAtBoundary(b, r0, 8);
