@@ -136,8 +136,9 @@ OptionTable::OptionTable(AppConfig* config) : config_(config) {
             "top view: obstacle points on a surface seen at >= this angle to the ray, deg [0, 90)");
   AddInt("classification", "min_surface_neighbours", &c.min_surface_neighbours,
          "top view: neighbours an obstacle point needs on its surface [0, 8]");
-  AddBool("classification", "floor_edge_not_free", &c.floor_edge_not_free,
-          "top view: the floor sample below a non-floor one leaves its cell not free");
+  AddInt("classification", "floor_edge_samples", &c.floor_edge_samples,
+         "top view: non-floor samples above the floor's last one that keep its cell not free "
+         "(>= 0; 0 = off)");
   aggregation_ = static_cast<int>(c.aggregation);
   AddChoice("classification", "aggregation", &aggregation_, {"none", "median", "segments"},
             "how samples are combined: none, median (neighbours) or segments (superpixels)");

@@ -194,6 +194,7 @@ bool ClassificationOptions::IsValid(std::string* error) const {
   if (min_surface_neighbours < 0 || min_surface_neighbours > 8) {
     return fail("min_surface_neighbours: must be in [0, 8]");
   }
+  if (floor_edge_samples < 0) return fail("floor_edge_samples: must be >= 0");
   if (!(moving_track_min_px > 0)) return fail("moving_track_min_px: must be > 0");
   if (!(moving_track_radius_px >= 0)) return fail("moving_track_radius_px: must be >= 0");
   if (!(max_range_m > 0)) return fail("max_range_m: must be > 0");
@@ -563,16 +564,22 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
       if (label == PixelLabel::kFloor) {
         sample_height.at<std::uint16_t>(i, j) = EncodeHeightMm(0.0);
         // Top view: floor at its floor point...
-        // ...except where the floor ends in the image: that sample's window straddles the edge
-        // and its cell holds the base of whatever stands there, seen or not. Not free.
-        const bool floor_edge = co.floor_edge_not_free && i > 0 &&
-                                labels[(i - 1) * sample_cols + j] != PixelLabel::kFloor;
+        // ...except where the floor ends in the image column: that sample's window straddles the
+        // edge, and its cell holds the base of whatever stands there, detected or not. Below a
+        // short run of other samples (a seam, a textureless spot) it gives no free vote; below
+        // floor_edge_samples of them its cell is not free.
+        int not_floor_above = 0;
+        while (co.floor_edge_samples > 0 && not_floor_above < co.floor_edge_samples &&
+               i - not_floor_above - 1 >= 0 &&
+               labels[(i - not_floor_above - 1) * sample_cols + j] != PixelLabel::kFloor) {
+          ++not_floor_above;
+        }
         if (auto cell = g.CellOf(sample.floor_in_base2)) {
           const std::size_t c = g.Index(cell->x(), cell->y());
-          if (floor_edge) {
-            veiled[c] = 1;
-          } else {
+          if (not_floor_above == 0) {
             ++free_votes[c];
+          } else if (not_floor_above >= co.floor_edge_samples) {
+            veiled[c] = 1;
           }
         }
       } else if ((label == PixelLabel::kObstacle || label == PixelLabel::kDropOff) &&

@@ -513,7 +513,7 @@ TEST_F(DetectorOnSyntheticScene, WhereTheFloorEndsTheCellIsNotFree) {
   scene.boxes.push_back({{1.52, -0.4, 0.0}, {1.9, 0.4, 0.5}});
   const Pose2 p1{0, 0, 0}, p2{0.12, 0.0, 0.0};
   DetectorOptions off = options_;
-  off.classification.floor_edge_not_free = false;
+  off.classification.floor_edge_samples = 0;
   const auto [b, r, r0] = DetectBoth(scene, p1, p2, off);
   ASSERT_EQ(r.status, PairStatus::kOk) << r.message;
   const int free = FreeCellsUnder(scene.boxes[0], r, p2);
