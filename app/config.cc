@@ -165,6 +165,10 @@ OptionTable::OptionTable(AppConfig* config) : config_(config) {
          "frames kept to choose a reference from (>= 2)");
   AddDouble("pair_selection", "max_rotation_rad", &ps.max_rotation_rad,
             "largest yaw between the frames of a pair, rad (> 0)");
+  AddDouble("pair_selection", "turn_min_baseline_m", &ps.turn_min_baseline_m,
+            "turning: narrower pairs allowed down to this camera travel, m (> 0)");
+  AddDouble("pair_selection", "turn_max_rotation_rad", &ps.turn_max_rotation_rad,
+            "turning: largest yaw of such a pair, rad (>= 0; 0 = off)");
   AddInt("pair_selection", "detect_every", &ps.detect_every,
          "dense detection on every N-th frame, others tracked only (>= 1)");
   FloorFeatureOptions& ff = d.floor_features;
@@ -176,6 +180,8 @@ OptionTable::OptionTable(AppConfig* config) : config_(config) {
             "travel that makes a keyframe, m (> 0)");
   AddDouble("mapping", "keyframe_rotation_rad", &m.keyframe_rotation_rad,
             "rotation that makes a keyframe, rad (> 0)");
+  AddBool("mapping", "turn_pair_keyframes", &m.turn_pair_keyframes,
+          "frames detected with a turning pair may become keyframes");
   AddDouble("mapping", "keyframe_min_shared_tracks", &m.keyframe_min_shared_tracks,
             "early keyframe below this share of tracks [0, 1]");
   AddDouble("mapping", "odom_sigma_per_m", &m.odom_sigma_per_m,

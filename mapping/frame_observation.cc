@@ -11,6 +11,7 @@ FrameObservation MakeFrameObservation(const SequenceDetector::Output& output,
   frame.features = output.features;
   if (output.result && output.result->status == PairStatus::kOk) {
     frame.has_result = true;
+    frame.turn_pair = output.result->turn_pair;
     frame.local_map = output.result->local_map;
     frame.obstacle_points_in_base = output.result->obstacle_points_in_base;
     frame.floor_features = output.result->floor_features;

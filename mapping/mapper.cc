@@ -199,6 +199,7 @@ double Mapper::StepSigmaFactor(const GroundMotion& step) const {
 
 bool Mapper::WantsKeyframe(const FrameObservation& frame) const {
   if (!frame.has_result || frame.local_map.cells.empty()) return false;
+  if (frame.turn_pair && !options_.turn_pair_keyframes) return false;
   if (static_cast<int>(keyframes_.size()) == num_saved_) return true;
   const Keyframe& last = keyframes_.back();
   const Pose2 delta = Between(last.odom_from_base, frame.odom_from_base);

@@ -25,7 +25,8 @@ struct FrameObservation {
   // The detector's result for this frame; false for the first frame or an unusable image, in which
   // case local_map and obstacle_points_in_base are empty and the frame cannot be a keyframe.
   bool has_result = false;
-  OccupancyGrid local_map;                               // current base frame, cells -1 / 0 / 100
+  bool turn_pair = false;   // the result's pair was a turning one (FrameResult::turn_pair)
+  OccupancyGrid local_map;  // current base frame, cells -1 / 0 / 100
   std::vector<Eigen::Vector3f> obstacle_points_in_base;  // z = height above the floor, metres
   FloorFeatures
       floor_features;  // floor descriptors and points (base frame); empty without a result

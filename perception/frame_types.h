@@ -75,6 +75,9 @@ struct FrameResult {
   PairStatus status = PairStatus::kBadImage;
   std::string message;  // human-readable reason when status != kOk
   GroundMotion motion;  // reference -> current
+  // The pair was chosen by the turning rule (PairSelectionOptions::turn_max_rotation_rad): a
+  // narrow baseline and a large rotation, for the labels and the local map of this frame.
+  bool turn_pair = false;
   // Full input resolution:
   cv::Mat labels;     // CV_8U, PixelLabel values
   cv::Mat height_mm;  // CV_16U, height above the floor in mm + 32768; 0 = unknown

@@ -226,6 +226,14 @@ bool PairSelectionOptions::IsValid(std::string* error) const {
     *error = "pair_selection.min_baseline_m: must be > 0";
     return false;
   }
+  if (!(turn_min_baseline_m > 0)) {
+    *error = "pair_selection.turn_min_baseline_m: must be > 0";
+    return false;
+  }
+  if (!(turn_max_rotation_rad >= 0)) {
+    *error = "pair_selection.turn_max_rotation_rad: must be >= 0";
+    return false;
+  }
   if (!(max_rotation_rad > 0)) {
     *error = "pair_selection.max_rotation_rad: must be > 0";
     return false;
@@ -678,6 +686,7 @@ void SequenceDetector::Finish(Output* output) const {
   const Output::PendingDetection& p = *output->pending;
   output->result =
       detector_.Detect(p.reference, p.current, p.motion, p.moving_pixels, p.current_alignment);
+  output->result->turn_pair = p.turn_pair;
   output->pending.reset();
 }
 
@@ -759,18 +768,29 @@ SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, Timesta
                                "no floor motion from the previous frame");
     out.result->motion = out.step;
   } else {
-    // 2. The newest earlier frame far enough away for parallax.
+    // 2. The newest earlier frame far enough away for parallax; when turning, a narrower pair.
     const Eigen::Vector2d c_now = CameraCentreXyInOdom(camera, odom_from_base_);
-    const Frame* reference = nullptr;
-    for (auto it = history_.rbegin(); it != history_.rend(); ++it) {
-      const double yaw = (odom_from_base_.Inverse() * it->odom_from_base).yaw;
-      if (std::abs(yaw) > options.pair_selection.max_rotation_rad) break;
-      const Eigen::Vector2d c = CameraCentreXyInOdom(camera, it->odom_from_base);
-      if ((c_now - c).norm() >= options.pair_selection.min_baseline_m) {
-        reference = &*it;
-        break;
+    const PairSelectionOptions& ps = options.pair_selection;
+    bool rotated = false;  // the search stopped at a frame turned too far
+    auto newest_with = [&](double min_baseline_m, double max_rotation_rad) -> const Frame* {
+      for (auto it = history_.rbegin(); it != history_.rend(); ++it) {
+        const double yaw = (odom_from_base_.Inverse() * it->odom_from_base).yaw;
+        if (std::abs(yaw) > max_rotation_rad) {
+          rotated = true;
+          return nullptr;
+        }
+        const Eigen::Vector2d c = CameraCentreXyInOdom(camera, it->odom_from_base);
+        if ((c_now - c).norm() >= min_baseline_m) return &*it;
       }
-    }
+      return nullptr;
+    };
+    const Frame* reference = newest_with(ps.min_baseline_m, ps.max_rotation_rad);
+    // Only a turn: starting to drive (or standing still) keeps its frames unknown.
+    // Turning pairs keep the detect_every schedule of the frames around them (they do not restart
+    // it): the first frame after the turn is detected as it would be without them.
+    const bool turn_pair = !reference && rotated && ps.turn_max_rotation_rad > 0 &&
+                           frames_since_detection_ % ps.detect_every == 0;
+    if (turn_pair) reference = newest_with(ps.turn_min_baseline_m, ps.turn_max_rotation_rad);
     if (!reference) {
       out.result = UnknownResult(size, options.local_map, PairStatus::kNoParallax,
                                  "the camera has not moved enough for parallax");
@@ -813,10 +833,10 @@ SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, Timesta
           moving = OffEpipolarCorners(camera, motion.base2_from_base1, p_ref, p_cur,
                                       options.classification.moving_track_min_px);
         }
-        out.pending = Output::PendingDetection{reference->image, prepared, motion,
-                                               std::move(moving), alignment};
+        out.pending = Output::PendingDetection{reference->image,  prepared,  motion,
+                                               std::move(moving), alignment, turn_pair};
         if (!defer_detection) Finish(&out);
-        frames_since_detection_ = 0;
+        if (!turn_pair) frames_since_detection_ = 0;
       }
     }
   }

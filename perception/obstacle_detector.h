@@ -113,6 +113,12 @@ struct PairSelectionOptions {
   // motion and match badly; when no frame within this yaw has the baseline, the frame is
   // "no parallax" (unknown), as when standing still.
   double max_rotation_rad = 0.12;
+  // Turning on the spot still moves the camera (it sits ahead of the axle, mount x): when no
+  // reference qualifies above, the newest frame within turn_max_rotation_rad (rad, >= 0) whose
+  // camera centre lies at least turn_min_baseline_m away (m, > 0) is used: a narrow-baseline pair
+  // that sees near obstacles (FrameResult::turn_pair tells). turn_max_rotation_rad 0 = off.
+  double turn_min_baseline_m = 0.04;
+  double turn_max_rotation_rad = 0.5;
   // Dense detection on every N-th usable frame (>= 1); the others are only tracked for odometry
   // and have no result. 2 halves the cost with obstacle updates at half the camera rate.
   int detect_every = 2;
@@ -192,6 +198,7 @@ class SequenceDetector {
       GroundMotion motion;
       std::vector<Eigen::Vector2d> moving_pixels;
       AlignmentImage current_alignment;
+      bool turn_pair = false;
     };
     std::optional<PendingDetection> pending;
   };
