@@ -34,8 +34,8 @@ class Mapper {
     double keyframe_min_shared_tracks = 0.5;
     double keyframe_min_distance_m = 0.05;  // >= 0
     // A frame whose result comes from a turning pair (FrameResult::turn_pair) becomes a keyframe
-    // only when this is set: such local maps are noisier, and keyframes made from them made the
-    // window adjustment worse (office ATE 0.007 -> 0.036 m, loop 0.020 -> 0.051 m).
+    // only when this is set: such local maps are noisier. Measured with it set: office ATE 0.007 ->
+    // 0.035 m and grid precision 33.5 -> 29.6 %, loop ATE 0.020 -> 0.012 m.
     bool turn_pair_keyframes = false;
 
     // Odometry factor noise per frame step, summed (as variances) between keyframes.

@@ -562,7 +562,7 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
   r.zero_disparity_px = cv::Mat(sample_rows, sample_cols, CV_32F, cv::Scalar(NAN));
   const GridGeometry& g = r.local_map.geometry;
   std::vector<std::uint16_t> free_votes(g.NumCells(), 0), occupied_votes(g.NumCells(), 0);
-  std::vector<std::uint8_t> veiled(g.NumCells(), 0);  // cells that must not read free
+  std::vector<std::uint8_t> not_free(g.NumCells(), 0);  // cells that must not read free
   for (int i = 0; i < sample_rows; ++i) {
     for (int j = 0; j < sample_cols; ++j) {
       const Sample& sample = samples[i * sample_cols + j];
@@ -587,7 +587,7 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
           if (not_floor_above == 0) {
             ++free_votes[c];
           } else if (not_floor_above >= co.floor_edge_samples) {
-            veiled[c] = 1;
+            not_free[c] = 1;
           }
         }
       } else if ((label == PixelLabel::kObstacle || label == PixelLabel::kDropOff) &&
@@ -598,7 +598,7 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
         if (!on_surface[static_cast<std::size_t>(i) * sample_cols + j]) {
           // Somewhere on its ray between the two surfaces: not placed, but its cell is not free.
           if (auto cell = g.CellOf(sample.point_in_base2))
-            veiled[g.Index(cell->x(), cell->y())] = 1;
+            not_free[g.Index(cell->x(), cell->y())] = 1;
           continue;
         }
         r.obstacle_points_in_base.emplace_back(static_cast<float>(sample.point_in_base2.x()),
@@ -616,7 +616,7 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
     // A cell with any obstacle point is occupied: calling it free would be the dangerous error.
     if (occ >= 1) {
       r.local_map.cells[k] = kCellOccupied;
-    } else if (fr >= 1 && !veiled[k]) {
+    } else if (fr >= 1 && !not_free[k]) {
       r.local_map.cells[k] = kCellFree;
     }
   }
