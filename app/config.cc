@@ -87,6 +87,8 @@ OptionTable::OptionTable(AppConfig* config) : config_(config) {
          "Gauss-Newton iterations (>= 1)");
   AddInt("direct_alignment", "min_samples", &da.min_samples,
          "fewer textured samples: no refinement (>= 10)");
+  AddInt("direct_alignment", "max_samples", &da.max_samples,
+         "at most this many samples, an even subset (0 = all; else >= min_samples)");
   AddDouble("direct_alignment", "max_correction_m", &da.max_correction_m,
             "larger corrections are not trusted, m (> 0)");
   AddDouble("direct_alignment", "max_correction_rad", &da.max_correction_rad,

@@ -45,6 +45,9 @@ bool DirectAlignmentOptions::IsValid(std::string* error) const {
   if (max_iterations < 1) return fail("max_iterations: must be >= 1");
   if (level < 0 || level > 1) return fail("level: must be 0 or 1");
   if (min_samples < 10) return fail("min_samples: must be >= 10");
+  if (max_samples != 0 && max_samples < min_samples) {
+    return fail("max_samples: must be 0 or >= min_samples");
+  }
   if (!(max_correction_m > 0)) return fail("max_correction_m: must be > 0");
   if (!(max_correction_rad > 0)) return fail("max_correction_rad: must be > 0");
   if (!(max_pitch_rad > 0)) return fail("max_pitch_rad: must be > 0");
@@ -120,6 +123,16 @@ DirectAlignment AlignFloorDirect(const AlignmentImage& image1, const AlignmentIm
       }
       samples.push_back({Eigen::Vector2d(x, y), i2.at<float>(y, x)});
     }
+  }
+  if (options.max_samples > 0 && static_cast<int>(samples.size()) > options.max_samples) {
+    // An even subset, in scan order: every n-th sample, from all over the strip.
+    const double step_k = static_cast<double>(samples.size()) / options.max_samples;
+    std::vector<Sample> subset;
+    subset.reserve(options.max_samples);
+    for (int k = 0; k < options.max_samples; ++k) {
+      subset.push_back(samples[static_cast<std::size_t>(k * step_k)]);
+    }
+    samples.swap(subset);
   }
   out.samples = static_cast<int>(samples.size());
   if (out.samples < options.min_samples) return out;

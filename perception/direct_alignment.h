@@ -18,11 +18,15 @@ struct DirectAlignmentOptions {
   // Also refine each frame-to-frame step of the odometry (not only the pairs of the detection):
   // a few milliseconds on the tracking thread; ATE 0.060 -> 0.007 m on the office scene.
   bool refine_steps = true;
-  int level = 0;                     // 0: full resolution, 1: half (faster, less accurate)
-  int sample_stride_px = 3;          // sample spacing in image 2, input pixels (>= 1)
-  double min_gradient = 6.0;         // samples need this gradient magnitude, grey levels/px (> 0)
-  int max_iterations = 10;           // Gauss-Newton iterations (>= 1)
-  int min_samples = 200;             // fewer textured samples: no refinement (>= 10)
+  int level = 0;              // 0: full resolution, 1: half (faster, less accurate)
+  int sample_stride_px = 3;   // sample spacing in image 2, input pixels (>= 1)
+  double min_gradient = 6.0;  // samples need this gradient magnitude, grey levels/px (> 0)
+  int max_iterations = 10;    // Gauss-Newton iterations (>= 1)
+  int min_samples = 200;      // fewer textured samples: no refinement (>= 10)
+  // At most this many samples (>= min_samples; 0 = all): a textured floor gives ten thousand or
+  // more; an even subset of them is as accurate and costs a fraction, a weakly textured floor
+  // keeps every sample it has.
+  int max_samples = 1500;
   double max_correction_m = 0.03;    // larger corrections are not trusted (> 0)
   double max_correction_rad = 0.02;  // (> 0)
   // Also estimate the pitch of camera 2 relative to camera 1: a car pitches on its suspension by

@@ -579,10 +579,24 @@ TEST_F(DetectorOnSyntheticScene, DirectAlignmentRefinesAPerturbedFloorMotion) {
       AlignFloorDirect(a.image, b.image, camera, FloorStripMask(camera, options_.ground_motion),
                        perturbed, options_.direct_alignment);
   ASSERT_TRUE(d.refined);
-  EXPECT_GT(d.samples, 1000);
+  EXPECT_EQ(d.samples, options_.direct_alignment.max_samples);  // an even subset of them
   EXPECT_LT(d.cost_after, 0.5 * d.cost_before);
   EXPECT_LT(std::hypot(d.base2_from_base1.x - truth.x, d.base2_from_base1.y - truth.y), 0.001);
   EXPECT_LT(std::abs(d.base2_from_base1.yaw - truth.yaw), 0.0005);
+  // Every textured sample: several times the work for the same motion.
+  DirectAlignmentOptions every_sample = options_.direct_alignment;
+  every_sample.max_samples = 0;
+  const DirectAlignment all =
+      AlignFloorDirect(a.image, b.image, camera, FloorStripMask(camera, options_.ground_motion),
+                       perturbed, every_sample);
+  ASSERT_TRUE(all.refined);
+  std::printf("direct alignment: %d of %d samples, motions %.2f mm apart\n", d.samples, all.samples,
+              1e3 * std::hypot(d.base2_from_base1.x - all.base2_from_base1.x,
+                               d.base2_from_base1.y - all.base2_from_base1.y));
+  EXPECT_GT(all.samples, 2 * d.samples);
+  EXPECT_LT(std::hypot(d.base2_from_base1.x - all.base2_from_base1.x,
+                       d.base2_from_base1.y - all.base2_from_base1.y),
+            0.0005);
   // Nothing to align on a blank floor: the motion comes back unchanged.
   const cv::Mat blank(a.image.size(), CV_8U, cv::Scalar(128));
   const DirectAlignment none =
