@@ -18,6 +18,7 @@
 #include "interfaces/map_publisher.h"
 #include "mapping/frame_observation.h"
 #include "mapping/mapper.h"
+#include "perception/floor_features.h"
 #include "storage/map_database.h"
 
 namespace monoplane::app {
@@ -87,11 +88,16 @@ struct MapSink::Impl {
   using Job = std::function<bool(std::string* error)>;
 
   Impl(const CameraCalibration& c, const RunRequest& r, RunSummary* s)
-      : calibration(c), request(r), summary(s) {}
+      : calibration(c),
+        request(r),
+        summary(s),
+        floor_features(CameraModel(c), r.config.detector.floor_features) {}
 
   CameraCalibration calibration;
   const RunRequest& request;
   RunSummary* summary;
+  // The floor features of keyframes, which the detector leaves to us (defer_floor_features).
+  FloorFeatureExtractor floor_features;
 
   std::unique_ptr<Mapper> mapper;
   std::unique_ptr<MapDatabase> db;
@@ -294,7 +300,12 @@ bool MapSink::Add(const InputFrame& frame, const SequenceDetector::Output& outpu
     return false;
   }
   const auto t0 = Clock::now();
-  const FrameObservation observation = MakeFrameObservation(output, frame.stamp_ns);
+  FrameObservation observation = MakeFrameObservation(output, frame.stamp_ns);
+  if (observation.floor_features.empty() && !observation.floor_feature_source.empty() &&
+      m.mapper->WantsKeyframe(observation)) {
+    observation.floor_features = m.floor_features.Compute(observation.floor_feature_source.image,
+                                                          observation.floor_feature_source.labels);
+  }
   const Mapper::FrameUpdate update = m.mapper->AddFrame(observation);
   m.summary->mapping_ms += MsSince(t0);
   const auto& events = m.mapper->loop_closures();

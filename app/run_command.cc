@@ -157,7 +157,10 @@ int Run(const RunRequest& request, RunSummary* summary) {
   // chose (pure, one frame behind), so both cores work on it.
   // The detector lives here, so it outlives both threads; Finish only reads its (unchanging)
   // ObstacleDetector.
-  SequenceDetector detector(calibration, request.config.detector);
+  // Floor features are for the mapper's keyframes only: the map sink computes them for those.
+  DetectorOptions detector_options = request.config.detector;
+  detector_options.defer_floor_features = true;
+  SequenceDetector detector(calibration, detector_options);
   BoundedQueue<PerceivedFrame> tracked(4);
   std::thread tracking([&] {
     while (auto d = decoded.Pop()) {

@@ -15,6 +15,7 @@ FrameObservation MakeFrameObservation(const SequenceDetector::Output& output,
     frame.local_map = output.result->local_map;
     frame.obstacle_points_in_base = output.result->obstacle_points_in_base;
     frame.floor_features = output.result->floor_features;
+    frame.floor_feature_source = output.result->floor_feature_source;
   }
   return frame;
 }

@@ -148,6 +148,9 @@ class Mapper {
          const Pose2& initial_map_from_base = Pose2::Identity());
 
   FrameUpdate AddFrame(const FrameObservation& frame);
+  // Whether AddFrame(frame) would make the frame a keyframe (travel, rotation, shared tracks): a
+  // caller that deferred the floor features computes them for these frames only.
+  bool WantsKeyframe(const FrameObservation& frame) const;
   // Ends the run, after its last AddFrame (none may follow): the keyframes still in the sliding
   // window, which no later window will hold now, are merged into older keyframes of the same place
   // as those that left it were (Options::cull_redundant_keyframes); the run's first keyframe too,
@@ -194,7 +197,6 @@ class Mapper {
   };
 
   double StepSigmaFactor(const GroundMotion& step) const;
-  bool WantsKeyframe(const FrameObservation& frame) const;
   void AddKeyframe(const FrameObservation& frame, FrameUpdate* update);
   void OptimizeWindow();
   bool TryLoopClosure(int index);

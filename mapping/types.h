@@ -30,6 +30,10 @@ struct FrameObservation {
   std::vector<Eigen::Vector3f> obstacle_points_in_base;  // z = height above the floor, metres
   FloorFeatures
       floor_features;  // floor descriptors and points (base frame); empty without a result
+  // When the detector deferred the floor features (DetectorOptions::defer_floor_features): what
+  // they come from. The caller computes them (ObstacleDetector::ComputeFloorFeatures) for the
+  // frames the mapper will keep (Mapper::WantsKeyframe) before AddFrame.
+  FloorFeatureSource floor_feature_source;
 };
 
 // A keyframe as the mapper keeps it; everything needed to rebuild the maps after a correction and

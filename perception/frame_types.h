@@ -61,6 +61,15 @@ struct FloorFeatures {
   FloorFeatures Clone() const { return {descriptors.clone(), points_in_base}; }
 };
 
+// The image and labels a frame's floor features come from (the undistorted grey image the labels
+// describe, both at the calibration's size; shared, not copied), kept when the detector leaves the
+// features to its caller (DetectorOptions::defer_floor_features). Empty otherwise.
+struct FloorFeatureSource {
+  cv::Mat image;   // CV_8U grey
+  cv::Mat labels;  // CV_8U PixelLabel values
+  bool empty() const { return image.empty(); }
+};
+
 // Why a frame pair did or did not give heights.
 enum class PairStatus {
   kOk,
@@ -92,6 +101,9 @@ struct FrameResult {
   // Binary descriptors of the floor in front of the robot with their floor points (for loop
   // closure); empty when DetectorOptions::floor_features is disabled or status != kOk.
   FloorFeatures floor_features;
+  // With DetectorOptions::defer_floor_features (and status kOk): what floor_features would have
+  // been computed from; ObstacleDetector::ComputeFloorFeatures turns it into them.
+  FloorFeatureSource floor_feature_source;
   // Counts of labelled pixels (full resolution).
   int num_floor = 0, num_obstacle = 0, num_drop_off = 0, num_moving = 0, num_unknown = 0;
 };

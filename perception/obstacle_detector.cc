@@ -633,7 +633,12 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
   labels_full(roi).copyTo(r.labels(roi));
   height_full(roi).copyTo(r.height_mm(roi));
   // Floor features from the image and labels the chain worked on (camera 1's pitch).
-  r.floor_features = floor_features_.Compute(*current_level, r.labels);
+  if (options_.defer_floor_features) {
+    // Mapping the labels back below writes into r.labels' buffer: a pitched frame keeps a copy.
+    r.floor_feature_source = {*current_level, pitched ? r.labels.clone() : r.labels};
+  } else {
+    r.floor_features = floor_features_.Compute(*current_level, r.labels);
+  }
   if (pitched) {
     // Back to the current image: pixel x there shows what pixel pitch_h^-1 x showed here.
     cv::Mat inverse_cv;
@@ -675,6 +680,11 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
     }
   }
   return r;
+}
+
+FloorFeatures ObstacleDetector::ComputeFloorFeatures(const FloorFeatureSource& source) const {
+  if (source.empty()) return {};
+  return floor_features_.Compute(source.image, source.labels);
 }
 
 SequenceDetector::SequenceDetector(const CameraCalibration& calibration,

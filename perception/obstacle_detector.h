@@ -134,6 +134,10 @@ struct DetectorOptions {
   LocalMapOptions local_map;
   PairSelectionOptions pair_selection;
   FloorFeatureOptions floor_features;  // computed on every kOk result (FrameResult::floor_features)
+  // Leave the floor features to the caller: Detect keeps what they come from in
+  // FrameResult::floor_feature_source and ComputeFloorFeatures computes them, for the frames that
+  // need them (a mapper's keyframes, about one frame in ten). Set by the program, not a config key.
+  bool defer_floor_features = false;
 
   bool IsValid(std::string* error) const;
 };
@@ -161,6 +165,10 @@ class ObstacleDetector {
   FrameResult Detect(const cv::Mat& reference, const cv::Mat& current, const GroundMotion& motion,
                      const std::vector<Eigen::Vector2d>& moving_pixels = {},
                      const AlignmentImage& current_alignment = {}) const;
+
+  // The floor features of a result whose computation was deferred (see defer_floor_features);
+  // the same as Detect would have given. Empty for an empty source.
+  FloorFeatures ComputeFloorFeatures(const FloorFeatureSource& source) const;
 
  private:
   CameraModel camera_;

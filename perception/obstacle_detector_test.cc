@@ -339,6 +339,28 @@ TEST_F(DetectorOnSyntheticScene, FloorOnlyIsFloorNotObstacle) {
   }
 }
 
+// A program that needs floor features only for some frames (the app: keyframes) defers them; they
+// come out the same, computed from what the result keeps, and the labels stay the same too.
+TEST_F(DetectorOnSyntheticScene, DeferredFloorFeaturesAreTheSame) {
+  Scene scene;
+  scene.boxes.push_back({{1.5, -0.25, 0.0}, {1.8, 0.25, 0.20}});
+  const Pose2 p1{0, 0, 0}, p2{0.15, 0.0, 0.0};
+  DetectorOptions deferred = options_;
+  deferred.defer_floor_features = true;
+  const Comparison c = DetectBoth(scene, p1, p2, deferred);  // r: eager, r0: deferred
+  ASSERT_EQ(c.r.status, PairStatus::kOk) << c.r.message;
+  ASSERT_GT(c.r.floor_features.size(), 100);
+  EXPECT_TRUE(c.r.floor_feature_source.empty());
+  EXPECT_TRUE(c.r0.floor_features.empty());
+  ASSERT_FALSE(c.r0.floor_feature_source.empty());
+  EXPECT_EQ(cv::countNonZero(c.r.labels != c.r0.labels), 0);
+  const FloorFeatures later =
+      ObstacleDetector(calib_, deferred).ComputeFloorFeatures(c.r0.floor_feature_source);
+  ASSERT_EQ(later.size(), c.r.floor_features.size());
+  EXPECT_EQ(later.points_in_base, c.r.floor_features.points_in_base);
+  EXPECT_EQ(cv::norm(later.descriptors, c.r.floor_features.descriptors, cv::NORM_HAMMING), 0);
+}
+
 TEST_F(DetectorOnSyntheticScene, BoxIsObstacleWithItsHeight) {
   const ObstacleDetector detector(calib_, options_);
   Scene scene;
