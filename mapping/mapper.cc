@@ -594,17 +594,16 @@ bool Mapper::OptimizeAllAndMaybeRebuild() {
     poses[i] = keyframes_[i].map_from_base;
     fixed[i] = keyframes_[i].from_saved_map;
   }
-  // The gauge: the first keyframe of this run stays unless a loop ties the run to the saved map
-  // it could not be localised in.
-  // Edges of a keyframe merged into a saved one tie the run to the saved map as well.
+  // The gauge: the first keyframe of this run stays unless an edge ties the run to the saved map,
+  // whose keyframes are fixed: a loop closure (or the edges of a keyframe merged into a saved one)
+  // places the run more precisely than the grid localisation that started it, which in a corridor
+  // can be off by 0.15 m along it and still score well.
   bool tied_to_saved = false;
   for (const std::vector<PoseGraphEdge>* edges : {&refined_edges_, &loop_edges_}) {
     for (const PoseGraphEdge& e : *edges)
       tied_to_saved |= keyframes_[e.from].from_saved_map || keyframes_[e.to].from_saved_map;
   }
-  const bool localized = localization_ && localization_->success;
-  if (FirstRunIndex() < n && (num_saved_ == 0 || localized || !tied_to_saved))
-    fixed[FirstRunIndex()] = true;
+  if (FirstRunIndex() < n && (num_saved_ == 0 || !tied_to_saved)) fixed[FirstRunIndex()] = true;
 
   std::vector<PoseGraphEdge> edges = refined_edges_;
   edges.insert(edges.end(), loop_edges_.begin(), loop_edges_.end());
