@@ -118,6 +118,8 @@ OptionTable::OptionTable(AppConfig* config) : config_(config) {
             "smallest zero-disparity error assumed, px (> 0)");
   AddDouble("classification", "min_disparity_sigmas", &c.min_disparity_sigmas,
             "significance of an obstacle, sigmas (>= 0)");
+  AddDouble("classification", "floor_max_height_sigmas", &c.floor_max_height_sigmas,
+            "floor needs |height| + this many sigmas below obstacle_min_height_m (>= 0)");
   AddDouble("classification", "min_texture", &c.min_texture,
             "texture along the epipolar line, grey^2/px^2 (> 0)");
   AddDouble("classification", "max_residual", &c.max_residual,

@@ -56,7 +56,8 @@ PixelLabel Classify(const Sample& s, const ClassificationOptions& co, double cam
   if (s.below_horizon_px > 2.0 && s.height_m > 1.2 * camera_height_m) return PixelLabel::kMoving;
   if (s.height_m >= co.obstacle_min_height_m && s.significant) return PixelLabel::kObstacle;
   if (s.height_m <= -co.drop_off_min_depth_m && s.significant) return PixelLabel::kDropOff;
-  if (std::abs(s.height_m) < co.obstacle_min_height_m &&
+  if (std::abs(s.height_m) + co.floor_max_height_sigmas * s.height_sigma_m <
+          co.obstacle_min_height_m &&
       s.height_sigma_m < co.obstacle_min_height_m && s.below_horizon_px > 0) {
     return PixelLabel::kFloor;
   }
@@ -181,6 +182,7 @@ bool ClassificationOptions::IsValid(std::string* error) const {
   if (sample_stride < 1) return fail("sample_stride: must be >= 1");
   if (!(max_footprint_sigma_ratio >= 0)) return fail("max_footprint_sigma_ratio: must be >= 0");
   if (!(obstacle_min_height_m > 0)) return fail("obstacle_min_height_m: must be > 0");
+  if (!(floor_max_height_sigmas >= 0)) return fail("floor_max_height_sigmas: must be >= 0");
   if (!(drop_off_min_depth_m > 0)) return fail("drop_off_min_depth_m: must be > 0");
   if (!(disparity_sigma_px > 0)) return fail("disparity_sigma_px: must be > 0");
   if (!(min_disparity_sigmas >= 0)) return fail("min_disparity_sigmas: must be >= 0");

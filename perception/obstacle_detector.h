@@ -30,6 +30,9 @@ struct ClassificationOptions {
   double disparity_sigma_px = 0.05;
   // An obstacle or drop-off needs a zero disparity of at least this many sigmas (>= 0).
   double min_disparity_sigmas = 3.0;
+  // Floor needs |height| + this many height sigmas below obstacle_min_height_m (>= 0): a point that
+  // could be an obstacle within its error is unknown, not floor.
+  double floor_max_height_sigmas = 3.0;
   // An obstacle or drop-off needs the floor hypothesis (zero disparity) to misfit the sample's own
   // 3x3 neighbourhood by at least this many grey levels (mean |difference|) more than its zero
   // disparity does (>= 0). Otherwise the neighbourhood cannot tell them apart (the matching window

@@ -361,6 +361,48 @@ TEST_F(DetectorOnSyntheticScene, DeferredFloorFeaturesAreTheSame) {
   EXPECT_EQ(cv::norm(later.descriptors, c.r.floor_features.descriptors, cv::NORM_HAMMING), 0);
 }
 
+// A low box far away: its height is within a few sigmas of the floor's. Such pixels are unknown,
+// not floor (ClassificationOptions::floor_max_height_sigmas); calling them floor is the dangerous
+// error.
+TEST_F(DetectorOnSyntheticScene, ALowBoxWithinItsErrorIsNotFloor) {
+  Scene scene;
+  for (int i = 0; i < 4; ++i) {
+    const double x = 1.5 + 0.8 * i;
+    scene.boxes.push_back({{x, -0.8 + 0.45 * i, 0.0}, {x + 0.3, -0.5 + 0.45 * i, 0.07}});
+  }
+  const Pose2 p1{0, 0, 0}, p2{0.12, 0.0, 0.0};
+  DetectorOptions floor_within_one_sigma = options_;
+  floor_within_one_sigma.classification.floor_max_height_sigmas = 0.0;
+  const Comparison c = DetectBoth(scene, p1, p2, floor_within_one_sigma);
+  ASSERT_EQ(c.r.status, PairStatus::kOk) << c.r.message;
+  int box = 0, box_floor = 0, box_floor0 = 0, floor = 0, floor_labelled = 0, floor_labelled0 = 0;
+  for (int y = 0; y < 480; ++y) {
+    for (int x = 0; x < 640; ++x) {
+      const float h = c.current.height_m.at<float>(y, x);
+      const auto label = static_cast<PixelLabel>(c.r.labels.at<std::uint8_t>(y, x));
+      const auto label0 = static_cast<PixelLabel>(c.r0.labels.at<std::uint8_t>(y, x));
+      if (h >= 0.05f) {
+        ++box;
+        box_floor += label == PixelLabel::kFloor;
+        box_floor0 += label0 == PixelLabel::kFloor;
+      } else if (h <= 0.001f) {
+        ++floor;
+        floor_labelled += label == PixelLabel::kFloor;
+        floor_labelled0 += label0 == PixelLabel::kFloor;
+      }
+    }
+  }
+  std::printf(
+      "low boxes labelled floor: %d of %d (%d with 1 sigma); floor labelled floor %d (%d)\n",
+      box_floor, box, box_floor0, floor_labelled, floor_labelled0);
+  ASSERT_GT(box, 2000);
+  // Half of them go: the rest are where a segment's median or a window straddling the box's foot
+  // decides.
+  EXPECT_LT(box_floor, box / 25);
+  EXPECT_GT(box_floor0, 3 * box_floor / 2);
+  EXPECT_GT(floor_labelled, floor / 2);  // most of the floor is still floor
+}
+
 TEST_F(DetectorOnSyntheticScene, BoxIsObstacleWithItsHeight) {
   const ObstacleDetector detector(calib_, options_);
   Scene scene;
