@@ -18,7 +18,6 @@
 #include "interfaces/map_publisher.h"
 #include "mapping/frame_observation.h"
 #include "mapping/mapper.h"
-#include "perception/floor_features.h"
 #include "storage/map_database.h"
 
 namespace monoplane::app {
@@ -88,16 +87,11 @@ struct MapSink::Impl {
   using Job = std::function<bool(std::string* error)>;
 
   Impl(const CameraCalibration& c, const RunRequest& r, RunSummary* s)
-      : calibration(c),
-        request(r),
-        summary(s),
-        floor_features(CameraModel(c), r.config.detector.floor_features) {}
+      : calibration(c), request(r), summary(s) {}
 
   CameraCalibration calibration;
   const RunRequest& request;
   RunSummary* summary;
-  // The floor features of keyframes, which the detector leaves to us (defer_floor_features).
-  FloorFeatureExtractor floor_features;
 
   std::unique_ptr<Mapper> mapper;
   std::unique_ptr<MapDatabase> db;
@@ -292,7 +286,7 @@ bool MapSink::Open(std::string* error) {
 }
 
 bool MapSink::Add(const InputFrame& frame, const SequenceDetector::Output& output,
-                  std::string* error) {
+                  const ObstacleDetector& detector, std::string* error) {
   Impl& m = *impl_;
   if (m.writer_failed) {
     std::lock_guard<std::mutex> lock(m.mutex);
@@ -303,8 +297,7 @@ bool MapSink::Add(const InputFrame& frame, const SequenceDetector::Output& outpu
   FrameObservation observation = MakeFrameObservation(output, frame.stamp_ns);
   if (observation.floor_features.empty() && !observation.floor_feature_source.empty() &&
       m.mapper->WantsKeyframe(observation)) {
-    observation.floor_features = m.floor_features.Compute(observation.floor_feature_source.image,
-                                                          observation.floor_feature_source.labels);
+    observation.floor_features = detector.ComputeFloorFeatures(observation.floor_feature_source);
   }
   const Mapper::FrameUpdate update = m.mapper->AddFrame(observation);
   m.summary->mapping_ms += MsSince(t0);

@@ -226,7 +226,7 @@ int Run(const RunRequest& request, RunSummary* summary) {
         summary->frame_outputs_ms += MsSince(t0);
       }
     }
-    if (!sink_failed && !sink.Add(p->frame, p->output, &error)) {
+    if (!sink_failed && !sink.Add(p->frame, p->output, detector.detector(), &error)) {
       std::cerr << "\nmonoplane run: " << error << "\n";
       sink_failed = true;
       g_interrupted = true;

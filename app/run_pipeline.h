@@ -58,7 +58,10 @@ class MapSink {
   MapSink(const CameraCalibration& calibration, const RunRequest& request, RunSummary* summary);
   ~MapSink();
   bool Open(std::string* error);
-  bool Add(const InputFrame& frame, const SequenceDetector::Output& output, std::string* error);
+  // `detector` computes the floor features the output left to the caller (defer_floor_features),
+  // for the frames that become keyframes.
+  bool Add(const InputFrame& frame, const SequenceDetector::Output& output,
+           const ObstacleDetector& detector, std::string* error);
   bool Close(std::string* error);
 
  private:
