@@ -139,7 +139,8 @@ struct DetectorOptions {
   FloorFeatureOptions floor_features;  // computed on every kOk result (FrameResult::floor_features)
   // Leave the floor features to the caller: Detect keeps what they come from in
   // FrameResult::floor_feature_source and ComputeFloorFeatures computes them, for the frames that
-  // need them (a mapper's keyframes, about one frame in ten). Set by the program, not a config key.
+  // need them (a mapper's keyframes, one frame in 7-14 in the simulated scenes). Set by the
+  // program, not a config key.
   bool defer_floor_features = false;
 
   bool IsValid(std::string* error) const;

@@ -235,7 +235,6 @@ void BM_SequenceStages(benchmark::State& state) {
   std::string error;
   const DetectorOptions options = OptionsFor(0);
   const ObstacleDetector detector(calibration, options);
-  const FloorFeatureExtractor floor_features(detector.camera(), options.floor_features);
   std::unique_ptr<SequenceDetector> sequence;
   std::size_t next = frames.size();
   double prepare = 0, tracking = 0, zero_disparity = 0, floor = 0, detection = 0;
@@ -265,8 +264,7 @@ void BM_SequenceStages(benchmark::State& state) {
                                                     options.zero_disparity));
       zero_disparity += ms_since(t0);
       t0 = Clock::now();
-      benchmark::DoNotOptimize(floor_features.Compute(out.result->floor_feature_source.image,
-                                                      out.result->floor_feature_source.labels));
+      benchmark::DoNotOptimize(detector.ComputeFloorFeatures(out.result->floor_feature_source));
       floor += ms_since(t0);
       ++detections;
     }
