@@ -236,6 +236,8 @@ OptionTable::OptionTable(AppConfig* config) : config_(config) {
             "merge only into keyframes at least this much path back, m (>= 0)");
   AddDouble("mapping", "grid_resolution_m", &m.grid_resolution_m,
             "global grid cell side, m (> 0; a saved map keeps its own)");
+  AddDouble("mapping", "footprint_radius_m", &m.footprint_radius_m,
+            "the robot's footprint: cells it drove over are free, m (>= 0; 0 = off)");
   AddFloat("mapping", "log_odds_hit", &m.log_odds.hit,
            "log-odds added for an occupied observation (> 0)");
   AddFloat("mapping", "log_odds_miss", &m.log_odds.miss,

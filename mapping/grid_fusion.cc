@@ -82,6 +82,22 @@ void FuseLocalMap(const OccupancyGrid& local_map,
   }
 }
 
+OccupancyGrid FootprintGrid(double radius_m, double resolution_m) {
+  if (!(radius_m > 0)) return {};
+  GridGeometry g;
+  g.resolution_m = resolution_m;
+  const int half = static_cast<int>(std::ceil(radius_m / resolution_m));
+  g.width = g.height = 2 * half;
+  g.origin_x_m = g.origin_y_m = -half * resolution_m;
+  OccupancyGrid footprint(g);
+  for (int row = 0; row < g.height; ++row) {
+    for (int col = 0; col < g.width; ++col) {
+      if (g.CellCenter(col, row).norm() <= radius_m) footprint.At(col, row) = kCellFree;
+    }
+  }
+  return footprint;
+}
+
 void ClearGrid(TiledGrid* grid, std::set<TiledGrid::TileKey>* changed_tiles) {
   for (auto& [key, tile] : grid->mutable_tiles()) {
     std::fill(tile.log_odds.begin(), tile.log_odds.end(), 0.0f);

@@ -43,6 +43,10 @@ void FuseLocalMap(const OccupancyGrid& local_map,
                   const Pose2& map_from_base, TimestampNs stamp_ns, const LogOddsOptions& options,
                   TiledGrid* grid, std::set<TiledGrid::TileKey>* changed_tiles = nullptr);
 
+// A robot's footprint as a local map: a disc of radius_m around the base origin free, the rest of
+// its bounding square unknown. Empty (no cells) for radius_m <= 0.
+OccupancyGrid FootprintGrid(double radius_m, double resolution_m);
+
 // Resets every cell of every tile to unknown (keeping the tiles, so that their keys can be
 // reported as changed) and records their keys in changed_tiles when given.
 void ClearGrid(TiledGrid* grid, std::set<TiledGrid::TileKey>* changed_tiles = nullptr);

@@ -113,5 +113,18 @@ TEST(GridFusion, RotatedPoseAndClear) {
   EXPECT_EQ(ToOccupancyGrid(grid).geometry.width, 0);
 }
 
+TEST(FootprintGrid, IsADiscOfFreeCells) {
+  const OccupancyGrid f = FootprintGrid(0.15, 0.05);
+  EXPECT_EQ(f.geometry.width, 6);
+  EXPECT_EQ(f.geometry.height, 6);
+  EXPECT_DOUBLE_EQ(f.geometry.origin_x_m, -0.15);
+  int free = 0;
+  for (const std::int8_t v : f.cells) free += v == kCellFree ? 1 : 0;
+  EXPECT_EQ(free, 32);  // the 6 x 6 cells less the 4 corner cells (centre 0.177 m away)
+  EXPECT_EQ(f.At(0, 0), kCellUnknown);
+  EXPECT_EQ(f.At(2, 2), kCellFree);
+  EXPECT_TRUE(FootprintGrid(0.0, 0.05).cells.empty());
+}
+
 }  // namespace
 }  // namespace monoplane

@@ -86,6 +86,7 @@ bool Mapper::Options::IsValid(std::string* error) const {
   if (!(keyframe_distance_m > 0)) return fail("keyframe_distance_m", keyframe_distance_m, "> 0");
   if (!(keyframe_rotation_rad > 0))
     return fail("keyframe_rotation_rad", keyframe_rotation_rad, "> 0");
+  if (!(footprint_radius_m >= 0)) return fail("footprint_radius_m", footprint_radius_m, ">= 0");
   if (!(keyframe_min_shared_tracks >= 0 && keyframe_min_shared_tracks <= 1)) {
     return fail("keyframe_min_shared_tracks", keyframe_min_shared_tracks, "in [0, 1]");
   }
@@ -165,6 +166,7 @@ Mapper::Mapper(const Options& options, const CameraCalibration& calibration)
   std::string error;
   CheckOrDie(options.IsValid(&error), error);
   CheckOrDie(calibration.IsValid(&error), error);
+  footprint_ = FootprintGrid(options_.footprint_radius_m, options_.grid_resolution_m);
 }
 
 Mapper::Mapper(const Options& options, const CameraCalibration& calibration, TiledGrid saved_grid,
@@ -250,6 +252,8 @@ Mapper::FrameUpdate Mapper::AddFrame(const FrameObservation& frame) {
     frames_.back().keyframe_from_base = Pose2::Identity();
   }
   update.map_from_base = CurrentPose();
+  // Before this run's first keyframe the pose is a guess (a saved map localises that keyframe).
+  if (frames_.back().keyframe_index >= 0) SweepFootprint(update.map_from_base, frame.stamp_ns);
   return update;
 }
 
@@ -633,6 +637,11 @@ void Mapper::FuseKeyframe(const Keyframe& keyframe) {
   }
 }
 
+void Mapper::SweepFootprint(const Pose2& map_from_base, TimestampNs stamp_ns) {
+  if (footprint_.cells.empty()) return;
+  FuseLocalMap(footprint_, {}, map_from_base, stamp_ns, options_.log_odds, &grid_, &changed_tiles_);
+}
+
 void Mapper::Rebuild() {
   ++counters_.map_rebuilds;
   ClearGrid(&grid_, &changed_tiles_);
@@ -649,6 +658,10 @@ void Mapper::Rebuild() {
     } else {
       FuseKeyframe(k);
     }
+  }
+  for (const FrameRecord& f : frames_) {
+    if (f.keyframe_index >= 0)
+      SweepFootprint(keyframes_[f.keyframe_index].map_from_base * f.keyframe_from_base, f.stamp_ns);
   }
 }
 

@@ -105,6 +105,12 @@ class Mapper {
 
     // Maps.
     double grid_resolution_m = 0.05;  // global grid cell side, > 0
+    // The robot's footprint, a disc around base_link: the cells it drove over are free (one miss
+    // per frame of this run at the frame's corrected pose, swept again after a correction), as a
+    // costmap clears its footprint. The floor right under and around the robot is out of the
+    // camera's view, and the detector's floor rule leaves much of the floor it drove over unknown.
+    // m, >= 0; 0 = off.
+    double footprint_radius_m = 0.15;
     LogOddsOptions log_odds;
     bool build_octree = true;
     ObstacleOctree::Options octree;
@@ -211,6 +217,8 @@ class Mapper {
   // survivor_from_culled (measured, for the edges) and the current estimates (for the frames).
   void MergeKeyframe(int culled, int survivor, const Pose2& survivor_from_culled);
   void FuseKeyframe(const Keyframe& keyframe);
+  // Clears the robot's footprint at a frame's map pose (Options::footprint_radius_m).
+  void SweepFootprint(const Pose2& map_from_base, TimestampNs stamp_ns);
   void Rebuild();
   int FirstRunIndex() const { return num_saved_; }
 
@@ -235,6 +243,7 @@ class Mapper {
 
   TiledGrid grid_;
   TiledGrid saved_grid_;
+  OccupancyGrid footprint_;  // base frame: free inside Options::footprint_radius_m, else unknown
   std::set<TiledGrid::TileKey> changed_tiles_;
   ObstacleOctree octree_;
 

@@ -116,6 +116,13 @@ struct LoopFixture {
         FuseLocalMap(f.local_map, f.obstacle_points_in_base, k.map_from_base, k.stamp_ns,
                      options.log_odds, &full);
       }
+      // ...and the robot's footprint swept at every frame of the run (Options::footprint_radius_m).
+      const OccupancyGrid footprint =
+          FootprintGrid(options.footprint_radius_m, options.grid_resolution_m);
+      for (const FramePose& p : mapper.Trajectory()) {
+        if (p.keyframe_id >= 0)
+          FuseLocalMap(footprint, {}, p.map_from_base, p.stamp_ns, options.log_odds, &full);
+      }
       if (!any_packed) return;
       ++rebuilds_with_packed;
       rebuild_differences += DifferentLogOdds(mapper.grid(), full);
@@ -540,6 +547,31 @@ TEST(Mapper, ASecondRunMergesIntoTheSavedKeyframesByTheirFloorFeatures) {
   EXPECT_LE(without.counters.keyframes_culled, 3);
   EXPECT_EQ(without.keyframes_after,
             saved.size() + without.counters.keyframes - without.counters.keyframes_culled);
+}
+
+// The floor under the robot is never in the camera's view; the footprint makes it free.
+TEST(Mapper, TheFootprintClearsTheCellsTheRobotDroveOver) {
+  const std::vector<Pose2> path = testing::PathThrough({{0, 0, 0}, {2, 0, 0}}, 0.05, 0.1);
+  const testing::SyntheticRun run =
+      testing::MakeRun(testing::SquareLoopWorld(), path, testing::TestCamera(), {});
+  const auto log_odds_at = [](const Mapper& m, double x, double y) {
+    return m.grid().LogOdds(m.grid().CellOf({x, y}));
+  };
+  Mapper::Options off;
+  off.footprint_radius_m = 0;
+  Mapper with(Mapper::Options(), testing::TestCamera()), without(off, testing::TestCamera());
+  for (const FrameObservation& f : run.frames) {
+    with.AddFrame(f);
+    without.AddFrame(f);
+  }
+  // Under the start: nothing sees it without the footprint; one miss per frame that covered it.
+  EXPECT_EQ(log_odds_at(without, 0.02, 0.02), 0.0f);
+  EXPECT_LT(log_odds_at(with, 0.02, 0.02), 0.0f);
+  EXPECT_LT(log_odds_at(with, 0.02, 0.12), 0.0f);  // inside the 0.15 m disc
+  EXPECT_EQ(log_odds_at(with, 0.02, 0.22), 0.0f);  // outside it
+  // Along the path every cell under the robot reads free.
+  for (double x = 0.0; x <= 2.0; x += 0.05)
+    EXPECT_LT(log_odds_at(with, x + 0.01, 0.01), LogOddsOptions().miss * 2) << x;
 }
 
 TEST(Mapper, OptionsNameTheKey) {
