@@ -21,7 +21,8 @@ bool LogOddsOptions::IsValid(std::string* error) const {
 void FuseLocalMap(const OccupancyGrid& local_map,
                   const std::vector<Eigen::Vector3f>& obstacle_points_in_base,
                   const Pose2& map_from_base, TimestampNs stamp_ns, const LogOddsOptions& options,
-                  TiledGrid* grid, std::set<TiledGrid::TileKey>* changed_tiles) {
+                  TiledGrid* grid, std::set<TiledGrid::TileKey>* changed_tiles,
+                  bool keep_occupied) {
   const GridGeometry& g = local_map.geometry;
   if (g.width <= 0 || g.height <= 0 || local_map.cells.size() != g.NumCells()) return;
   const TimestampNs seen = std::max<TimestampNs>(stamp_ns, 1);
@@ -65,6 +66,7 @@ void FuseLocalMap(const OccupancyGrid& local_map,
       }
       const int k = TiledGrid::IndexInTile(cell);
       const bool occupied = v >= 50;
+      if (keep_occupied && !occupied && tile->log_odds[k] > 0.0f) continue;
       tile->log_odds[k] = UpdateLogOdds(tile->log_odds[k], occupied, options);
       tile->last_seen_ns[k] = seen;
       if (tile->log_odds[k] <= 0.0f) tile->height_m[k] = std::numeric_limits<float>::quiet_NaN();

@@ -37,11 +37,13 @@ inline float UpdateLogOdds(float log_odds, bool occupied, const LogOddsOptions& 
 // last_seen_ns = max(stamp_ns, 1) (so an observed cell is never mistaken for unknown). Obstacle
 // points (base frame, z = height) raise the cell's height_m to their maximum; a cell whose
 // log-odds drops to <= 0 forgets its height (NaN). Keys of every touched tile go into
-// changed_tiles when given. The grids must share the resolution.
+// changed_tiles when given. The grids must share the resolution. With keep_occupied, free cells
+// of the local map give no miss to grid cells that read occupied (log-odds > 0).
 void FuseLocalMap(const OccupancyGrid& local_map,
                   const std::vector<Eigen::Vector3f>& obstacle_points_in_base,
                   const Pose2& map_from_base, TimestampNs stamp_ns, const LogOddsOptions& options,
-                  TiledGrid* grid, std::set<TiledGrid::TileKey>* changed_tiles = nullptr);
+                  TiledGrid* grid, std::set<TiledGrid::TileKey>* changed_tiles = nullptr,
+                  bool keep_occupied = false);
 
 // A robot's footprint as a local map: a disc of radius_m around the base origin free, the rest of
 // its bounding square unknown. Empty (no cells) for radius_m <= 0.

@@ -96,6 +96,20 @@ TEST(GridFusion, FusesHitsMissesHeightsAndStamps) {
   EXPECT_EQ(tile->last_seen_ns[TiledGrid::IndexInTile({21, 40})], 9000);
 }
 
+TEST(GridFusion, KeepOccupiedGivesOccupiedCellsNoMiss) {
+  TiledGrid grid(0.05);
+  OccupancyGrid one(GridGeometry{0.05, 0.0, 0.0, 2, 1});
+  one.At(0, 0) = kCellOccupied;
+  FuseLocalMap(one, {}, Pose2::Identity(), 1, LogOddsOptions(), &grid);
+  OccupancyGrid free(one.geometry, kCellFree);
+  FuseLocalMap(free, {}, Pose2::Identity(), 2, LogOddsOptions(), &grid, nullptr,
+               /*keep_occupied=*/true);
+  EXPECT_FLOAT_EQ(grid.LogOdds({0, 0}), 0.85f);  // occupied: kept
+  EXPECT_FLOAT_EQ(grid.LogOdds({1, 0}), -0.4f);  // unknown: now free-leaning
+  FuseLocalMap(free, {}, Pose2::Identity(), 3, LogOddsOptions(), &grid);
+  EXPECT_FLOAT_EQ(grid.LogOdds({0, 0}), 0.45f);  // without: a miss
+}
+
 TEST(GridFusion, RotatedPoseAndClear) {
   TiledGrid grid(0.05);
   const OccupancyGrid local = SmallLocalMap();

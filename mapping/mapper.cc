@@ -639,7 +639,10 @@ void Mapper::FuseKeyframe(const Keyframe& keyframe) {
 
 void Mapper::SweepFootprint(const Pose2& map_from_base, TimestampNs stamp_ns) {
   if (footprint_.cells.empty()) return;
-  FuseLocalMap(footprint_, {}, map_from_base, stamp_ns, options_.log_odds, &grid_, &changed_tiles_);
+  // What the camera saw occupied stays so (the path may graze a detected obstacle's cell, or
+  // cross something low the robot drove over).
+  FuseLocalMap(footprint_, {}, map_from_base, stamp_ns, options_.log_odds, &grid_, &changed_tiles_,
+               /*keep_occupied=*/true);
 }
 
 void Mapper::Rebuild() {

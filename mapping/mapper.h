@@ -107,9 +107,9 @@ class Mapper {
     double grid_resolution_m = 0.05;  // global grid cell side, > 0
     // The robot's footprint, a disc around base_link: the cells it drove over are free (one miss
     // per frame of this run at the frame's corrected pose, swept again after a correction), as a
-    // costmap clears its footprint. The floor right under and around the robot is out of the
-    // camera's view, and the detector's floor rule leaves much of the floor it drove over unknown.
-    // m, >= 0; 0 = off.
+    // costmap clears its footprint; cells that read occupied are left as they are. The floor right
+    // under and around the robot is out of the camera's view, and the detector's floor rule leaves
+    // much of the floor it drove over unknown. m, >= 0; 0 = off.
     double footprint_radius_m = 0.15;
     LogOddsOptions log_odds;
     bool build_octree = true;

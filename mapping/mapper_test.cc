@@ -121,7 +121,8 @@ struct LoopFixture {
           FootprintGrid(options.footprint_radius_m, options.grid_resolution_m);
       for (const FramePose& p : mapper.Trajectory()) {
         if (p.keyframe_id >= 0)
-          FuseLocalMap(footprint, {}, p.map_from_base, p.stamp_ns, options.log_odds, &full);
+          FuseLocalMap(footprint, {}, p.map_from_base, p.stamp_ns, options.log_odds, &full, nullptr,
+                       /*keep_occupied=*/true);
       }
       if (!any_packed) return;
       ++rebuilds_with_packed;
