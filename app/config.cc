@@ -143,6 +143,11 @@ OptionTable::OptionTable(AppConfig* config) : config_(config) {
   AddInt("classification", "floor_edge_samples", &c.floor_edge_samples,
          "top view: non-floor samples above the floor's last one that keep its cell not free "
          "(>= 0; 0 = off)");
+  AddInt("classification", "column_min_samples", &c.column_min_samples,
+         "top view: obstacle samples are placed on the surface their image column shows when "
+         "it has this many (>= 0; 0 = off: each at its own footprint)");
+  AddDouble("classification", "column_max_sigmas", &c.column_max_sigmas,
+            "top view: ... and they lie within this many sigmas of it (>= 0)");
   aggregation_ = static_cast<int>(c.aggregation);
   AddChoice("classification", "aggregation", &aggregation_, {"none", "median", "segments"},
             "how samples are combined: none, median (neighbours) or segments (superpixels)");

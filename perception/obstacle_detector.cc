@@ -154,6 +154,88 @@ void AggregateBySegment(const cv::Mat& segments, const std::vector<Sample>& samp
   }
 }
 
+// Top-view positions of obstacle and drop-off samples from the surfaces their image columns show
+// (ClassificationOptions::column_min_samples): per run of one label in a column, a sample within
+// column_max_sigmas of the run's median range (a vertical surface) goes to that range along its
+// ray, else one within column_max_sigmas of the median height (a horizontal one) to where its ray
+// meets that height. Samples of shorter runs: obstacles at their own footprints, drop-offs NaN, as
+// the others. `usable` marks the samples that may be placed at all (measured, on a surface,
+// footprint known well enough).
+std::vector<Eigen::Vector2d> PlaceOnColumnSurfaces(const std::vector<Sample>& samples,
+                                                   const std::vector<PixelLabel>& labels,
+                                                   const std::vector<std::uint8_t>& usable,
+                                                   int rows, int cols,
+                                                   const Eigen::Vector3d& camera_centre,
+                                                   const ClassificationOptions& co) {
+  std::vector<Eigen::Vector2d> placed(samples.size(), Eigen::Vector2d(NAN, NAN));
+  const Eigen::Vector2d c = camera_centre.head<2>();
+  std::vector<std::size_t> run;
+  std::vector<float> ranges, heights;
+  const auto place_run = [&] {
+    ranges.clear();
+    heights.clear();
+    for (std::size_t k : run) {
+      if (!usable[k]) continue;
+      ranges.push_back(static_cast<float>((samples[k].point_in_base2 - c).norm()));
+      heights.push_back(static_cast<float>(samples[k].height_m));
+    }
+    if (static_cast<int>(ranges.size()) < co.column_min_samples) {
+      // Too short to show a surface: a small obstacle keeps its own footprint (leaving it out
+      // would let the floor around it clear its cell); a lone drop-off sample is noise.
+      for (std::size_t k : run) {
+        if (usable[k] && labels[k] == PixelLabel::kObstacle) placed[k] = samples[k].point_in_base2;
+      }
+    } else {
+      const double range = Median(&ranges), height = Median(&heights);  // (reorders them)
+      const auto on_vertical = [&](const Sample& s) {
+        return std::abs((s.point_in_base2 - c).norm() - range) <=
+               0.05 + co.column_max_sigmas * s.footprint_sigma_m;
+      };
+      // (On the same side of the camera's height, so that the ray reaches that height.)
+      const auto on_horizontal = [&](const Sample& s) {
+        return std::abs(s.height_m - height) <= 0.02 + co.column_max_sigmas * s.height_sigma_m &&
+               (s.height_m - camera_centre.z()) * (height - camera_centre.z()) > 1e-4;
+      };
+      // The surface that explains more of the run's samples; its samples go onto it.
+      int vertical = 0, horizontal = 0;
+      for (std::size_t k : run) {
+        if (!usable[k]) continue;
+        vertical += on_vertical(samples[k]) ? 1 : 0;
+        horizontal += on_horizontal(samples[k]) ? 1 : 0;
+      }
+      for (std::size_t k : run) {
+        if (!usable[k]) continue;
+        const Sample& s = samples[k];
+        const Eigen::Vector2d d = s.point_in_base2 - c;
+        if (!(d.norm() > 1e-6)) continue;
+        if (vertical >= horizontal && on_vertical(s)) {
+          placed[k] = c + d * (range / d.norm());
+        } else if (vertical < horizontal && on_horizontal(s)) {
+          // Along the ray from the camera through the sample, to the run's height.
+          placed[k] = c + d * ((height - camera_centre.z()) / (s.height_m - camera_centre.z()));
+        }
+      }
+    }
+    run.clear();
+  };
+  for (int j = 0; j < cols; ++j) {
+    PixelLabel run_label = PixelLabel::kUnknown;
+    int holes = 0;
+    for (int i = rows - 1; i >= 0; --i) {
+      const std::size_t k = static_cast<std::size_t>(i) * cols + j;
+      const PixelLabel label = labels[k];
+      // Up to two unmeasured samples (a texture gap) inside a run keep it going.
+      if (label == PixelLabel::kUnknown && !run.empty() && ++holes <= 2) continue;
+      if (label != run_label) place_run();
+      holes = 0;
+      run_label = label;
+      if (label == PixelLabel::kObstacle || label == PixelLabel::kDropOff) run.push_back(k);
+    }
+    place_run();
+  }
+  return placed;
+}
+
 Eigen::Vector2d CameraCentreXyInOdom(const CameraModel& camera, const Pose2& odom_from_base) {
   return odom_from_base * camera.CameraCentreInBase().head<2>();
 }
@@ -197,6 +279,8 @@ bool ClassificationOptions::IsValid(std::string* error) const {
     return fail("min_surface_neighbours: must be in [0, 8]");
   }
   if (floor_edge_samples < 0) return fail("floor_edge_samples: must be >= 0");
+  if (column_min_samples < 0) return fail("column_min_samples: must be >= 0");
+  if (!(column_max_sigmas >= 0)) return fail("column_max_sigmas: must be >= 0");
   if (!(moving_track_min_px > 0)) return fail("moving_track_min_px: must be > 0");
   if (!(moving_track_radius_px >= 0)) return fail("moving_track_radius_px: must be >= 0");
   if (!(max_range_m > 0)) return fail("max_range_m: must be > 0");
@@ -559,6 +643,19 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
     }
   }
 
+  std::vector<Eigen::Vector2d> column_placed;
+  if (co.column_min_samples > 0) {
+    std::vector<std::uint8_t> usable(samples.size(), 0);
+    for (std::size_t k = 0; k < samples.size(); ++k) {
+      const Sample& s = samples[k];
+      usable[k] =
+          s.measured && on_surface[k] &&
+          s.footprint_sigma_m <= 0.05 + co.max_footprint_sigma_ratio * s.point_in_base2.norm();
+    }
+    column_placed = PlaceOnColumnSurfaces(samples, labels, usable, sample_rows, sample_cols,
+                                          camera_.CameraCentreInBase(), co);
+  }
+
   cv::Mat sample_labels(sample_rows, sample_cols, CV_8U, cv::Scalar(0));
   cv::Mat sample_height(sample_rows, sample_cols, CV_16U, cv::Scalar(0));
   r.zero_disparity_px = cv::Mat(sample_rows, sample_cols, CV_32F, cv::Scalar(NAN));
@@ -603,11 +700,21 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
             not_free[g.Index(cell->x(), cell->y())] = 1;
           continue;
         }
-        r.obstacle_points_in_base.emplace_back(static_cast<float>(sample.point_in_base2.x()),
-                                               static_cast<float>(sample.point_in_base2.y()),
+        // ...obstacles and drop-offs at their true footprint, not their stretched shadow: that of
+        // the surface their column shows when there is one.
+        Eigen::Vector2d footprint = sample.point_in_base2;
+        if (!column_placed.empty()) {
+          footprint = column_placed[static_cast<std::size_t>(i) * sample_cols + j];
+          if (!footprint.allFinite()) {
+            if (auto cell = g.CellOf(sample.point_in_base2))
+              not_free[g.Index(cell->x(), cell->y())] = 1;
+            continue;
+          }
+        }
+        r.obstacle_points_in_base.emplace_back(static_cast<float>(footprint.x()),
+                                               static_cast<float>(footprint.y()),
                                                static_cast<float>(sample.height_m));
-        // ...obstacles and drop-offs at their true footprint, not their stretched shadow.
-        if (auto cell = g.CellOf(sample.point_in_base2)) {
+        if (auto cell = g.CellOf(footprint)) {
           ++occupied_votes[g.Index(cell->x(), cell->y())];
         }
       }
