@@ -148,6 +148,8 @@ OptionTable::OptionTable(AppConfig* config) : config_(config) {
          "it has this many (>= 0; 0 = off: each at its own footprint)");
   AddDouble("classification", "column_max_sigmas", &c.column_max_sigmas,
             "top view: ... and they lie within this many sigmas of it (>= 0)");
+  AddInt("classification", "free_margin_cells", &c.free_margin_cells,
+         "top view: cells this near an obstacle point are not free, cells (>= 0)");
   aggregation_ = static_cast<int>(c.aggregation);
   AddChoice("classification", "aggregation", &aggregation_, {"none", "median", "segments"},
             "how samples are combined: none, median (neighbours) or segments (superpixels)");

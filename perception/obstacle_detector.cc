@@ -280,6 +280,7 @@ bool ClassificationOptions::IsValid(std::string* error) const {
   }
   if (floor_edge_samples < 0) return fail("floor_edge_samples: must be >= 0");
   if (column_min_samples < 0) return fail("column_min_samples: must be >= 0");
+  if (free_margin_cells < 0) return fail("free_margin_cells: must be >= 0");
   if (!(column_max_sigmas >= 0)) return fail("column_max_sigmas: must be >= 0");
   if (!(moving_track_min_px > 0)) return fail("moving_track_min_px: must be > 0");
   if (!(moving_track_radius_px >= 0)) return fail("moving_track_radius_px: must be >= 0");
@@ -719,6 +720,23 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
         }
       }
     }
+  }
+  // A margin: the cells around a placed obstacle point are not free either (a wall's base cell
+  // otherwise reads free from the floor samples just in front of it when the wall's points sit a
+  // few cm behind the cell boundary).
+  if (co.free_margin_cells > 0) {
+    const int m = co.free_margin_cells;
+    std::vector<std::uint8_t> margin = not_free;
+    for (int row = 0; row < g.height; ++row) {
+      for (int col = 0; col < g.width; ++col) {
+        if (occupied_votes[g.Index(col, row)] == 0) continue;
+        for (int r2 = std::max(row - m, 0); r2 <= std::min(row + m, g.height - 1); ++r2) {
+          for (int c2 = std::max(col - m, 0); c2 <= std::min(col + m, g.width - 1); ++c2)
+            margin[g.Index(c2, r2)] = 1;
+        }
+      }
+    }
+    not_free.swap(margin);
   }
   for (std::size_t k = 0; k < g.NumCells(); ++k) {
     const int occ = occupied_votes[k], fr = free_votes[k];

@@ -611,6 +611,7 @@ TEST_F(DetectorOnSyntheticScene, WhereTheFloorEndsTheCellIsNotFree) {
   scene.box_texture = Texture(2, 0.0);
   scene.boxes.push_back({{1.52, -0.4, 0.0}, {1.9, 0.4, 0.5}});
   const Pose2 p1{0, 0, 0}, p2{0.12, 0.0, 0.0};
+  options_.classification.free_margin_cells = 0;  // the rule alone
   DetectorOptions off = options_;
   off.classification.floor_edge_samples = 0;
   const auto [b, r, r0] = DetectBoth(scene, p1, p2, off);
@@ -619,6 +620,13 @@ TEST_F(DetectorOnSyntheticScene, WhereTheFloorEndsTheCellIsNotFree) {
   const int free0 = FreeCellsUnder(scene.boxes[0], r0, p2);
   std::printf("cells under the box read free: %d with the floor edge rule, %d without\n", free,
               free0);
+  // The margin around detected obstacle points alone (ClassificationOptions::free_margin_cells).
+  DetectorOptions margin_only = off;
+  margin_only.classification.free_margin_cells = 1;
+  const int free_margin =
+      FreeCellsUnder(scene.boxes[0], DetectBoth(scene, p1, p2, margin_only).r0, p2);
+  std::printf("... %d with the 1-cell margin around obstacle points alone\n", free_margin);
+  EXPECT_LT(free_margin, free0 / 3);
   EXPECT_GT(free0, 3);
   EXPECT_LE(free, free0 / 3);
   // The floor in front of the box stays free.
