@@ -644,15 +644,19 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
     }
   }
 
+  // Measured samples whose footprint is known well enough to be placed at all (far, tall points
+  // whose rays graze their height are not).
+  std::vector<std::uint8_t> footprint_known(samples.size(), 0);
+  for (std::size_t k = 0; k < samples.size(); ++k) {
+    const Sample& s = samples[k];
+    footprint_known[k] = s.measured && s.footprint_sigma_m <= 0.05 + co.max_footprint_sigma_ratio *
+                                                                         s.point_in_base2.norm();
+  }
   std::vector<Eigen::Vector2d> column_placed;
   if (co.column_min_samples > 0) {
     std::vector<std::uint8_t> usable(samples.size(), 0);
-    for (std::size_t k = 0; k < samples.size(); ++k) {
-      const Sample& s = samples[k];
-      usable[k] =
-          s.measured && on_surface[k] &&
-          s.footprint_sigma_m <= 0.05 + co.max_footprint_sigma_ratio * s.point_in_base2.norm();
-    }
+    for (std::size_t k = 0; k < samples.size(); ++k)
+      usable[k] = footprint_known[k] && on_surface[k];
     column_placed = PlaceOnColumnSurfaces(samples, labels, usable, sample_rows, sample_cols,
                                           camera_.CameraCentreInBase(), co);
   }
@@ -693,24 +697,19 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
       } else if ((label == PixelLabel::kObstacle || label == PixelLabel::kDropOff) &&
                  sample.measured) {
         sample_height.at<std::uint16_t>(i, j) = EncodeHeightMm(sample.height_m);
-        const double range_m = sample.point_in_base2.norm();
-        if (!(sample.footprint_sigma_m <= 0.05 + co.max_footprint_sigma_ratio * range_m)) continue;
-        if (!on_surface[static_cast<std::size_t>(i) * sample_cols + j]) {
-          // Somewhere on its ray between the two surfaces: not placed, but its cell is not free.
+        const std::size_t k = static_cast<std::size_t>(i) * sample_cols + j;
+        if (!footprint_known[k]) continue;
+        // ...obstacles and drop-offs at their true footprint, not their stretched shadow: that of
+        // the surface their column shows when there is one. A point between two surfaces (a "veil"
+        // point at a depth edge) or off its column's surface is not placed, but its cell is not
+        // free.
+        const Eigen::Vector2d footprint = !on_surface[k]          ? Eigen::Vector2d(NAN, NAN)
+                                          : column_placed.empty() ? sample.point_in_base2
+                                                                  : column_placed[k];
+        if (!footprint.allFinite()) {
           if (auto cell = g.CellOf(sample.point_in_base2))
             not_free[g.Index(cell->x(), cell->y())] = 1;
           continue;
-        }
-        // ...obstacles and drop-offs at their true footprint, not their stretched shadow: that of
-        // the surface their column shows when there is one.
-        Eigen::Vector2d footprint = sample.point_in_base2;
-        if (!column_placed.empty()) {
-          footprint = column_placed[static_cast<std::size_t>(i) * sample_cols + j];
-          if (!footprint.allFinite()) {
-            if (auto cell = g.CellOf(sample.point_in_base2))
-              not_free[g.Index(cell->x(), cell->y())] = 1;
-            continue;
-          }
         }
         r.obstacle_points_in_base.emplace_back(static_cast<float>(footprint.x()),
                                                static_cast<float>(footprint.y()),

@@ -237,6 +237,36 @@ TEST(ZeroDisparity, DirectionMatchesGeometry) {
   }
 }
 
+// Occupied cells of the local map farther than margin_m from every box's footprint (the boxes'
+// world frame is the first pose's base frame; the local map is in the second's).
+int StrayOccupiedCells(const Scene& scene, const FrameResult& r, const Pose2& world_from_base2,
+                       double margin_m) {
+  const GridGeometry& g = r.local_map.geometry;
+  int stray = 0;
+  for (int row = 0; row < g.height; ++row) {
+    for (int col = 0; col < g.width; ++col) {
+      if (r.local_map.At(col, row) != kCellOccupied) continue;
+      const Eigen::Vector2d w = world_from_base2 * g.CellCenter(col, row);
+      bool near = false;
+      for (const Box& b : scene.boxes) {
+        near = near || (w.x() >= b.min.x() - margin_m && w.x() <= b.max.x() + margin_m &&
+                        w.y() >= b.min.y() - margin_m && w.y() <= b.max.y() + margin_m);
+      }
+      stray += near ? 0 : 1;
+    }
+  }
+  return stray;
+}
+
+// Occupied local-map cells of a result and of the same pair detected with other options, and how
+// many of each lie farther than a margin from every box.
+struct StrayComparison {
+  PairStatus status = PairStatus::kOk, status0 = PairStatus::kOk;
+  int occupied = 0, stray = 0, occupied0 = 0, stray0 = 0;
+  int Near() const { return occupied - stray; }
+  int Near0() const { return occupied0 - stray0; }
+};
+
 class DetectorOnSyntheticScene : public ::testing::Test {
  protected:
   // The scene seen from p1 and p2 (world_from_base), detected with options_ (r) and with `other`
@@ -252,6 +282,28 @@ class DetectorOnSyntheticScene : public ::testing::Test {
     Comparison c{Render(scene, detector.camera(), p2), {}, {}};
     c.r = detector.Detect(a.image, c.current.image, KnownMotion(p1, p2));
     c.r0 = other_detector.Detect(a.image, c.current.image, KnownMotion(p1, p2));
+    return c;
+  }
+
+  // The scene seen from the origin and from 0.12 m straight ahead, detected as DetectBoth does;
+  // the occupied local-map cells of both results, and those farther than margin_m from every box.
+  StrayComparison DetectAndCompareStray(const Scene& scene, const DetectorOptions& other,
+                                        double margin_m, const std::string& dump_name) const {
+    const Pose2 p1{0, 0, 0}, p2{0.12, 0.0, 0.0};
+    const auto [b, r, r0] = DetectBoth(scene, p1, p2, other);
+    MaybeDump(dump_name, b.image, r);
+    StrayComparison c;
+    c.status = r.status;
+    c.status0 = r0.status;
+    c.stray = StrayOccupiedCells(scene, r, p2, margin_m);
+    c.stray0 = StrayOccupiedCells(scene, r0, p2, margin_m);
+    for (std::size_t k = 0; k < r.local_map.cells.size(); ++k) {
+      c.occupied += r.local_map.cells[k] == kCellOccupied;
+      c.occupied0 += r0.local_map.cells[k] == kCellOccupied;
+    }
+    std::printf(
+        "%s: occupied cells farther than %.2f m from the boxes: %d of %d, %d of %d without\n",
+        dump_name.c_str(), margin_m, c.stray, c.occupied, c.stray0, c.occupied0);
     return c;
   }
 
@@ -506,47 +558,6 @@ TEST_F(DetectorOnSyntheticScene, FloorBesideATallBoxIsNotObstacle) {
   EXPECT_GT(c.box_obstacle, 0.7 * c.box);
 }
 
-// Occupied cells of the local map farther than margin_m from every box's footprint (the boxes'
-// world frame is the first pose's base frame; the local map is in the second's).
-int StrayOccupiedCells(const Scene& scene, const FrameResult& r, const Pose2& world_from_base2,
-                       double margin_m) {
-  const GridGeometry& g = r.local_map.geometry;
-  int stray = 0;
-  for (int row = 0; row < g.height; ++row) {
-    for (int col = 0; col < g.width; ++col) {
-      if (r.local_map.At(col, row) != kCellOccupied) continue;
-      const Eigen::Vector2d w = world_from_base2 * g.CellCenter(col, row);
-      bool near = false;
-      for (const Box& b : scene.boxes) {
-        near = near || (w.x() >= b.min.x() - margin_m && w.x() <= b.max.x() + margin_m &&
-                        w.y() >= b.min.y() - margin_m && w.y() <= b.max.y() + margin_m);
-      }
-      stray += near ? 0 : 1;
-    }
-  }
-  return stray;
-}
-
-// Occupied local-map cells of a result and of the same pair detected with other options, and how
-// many of each lie farther than margin_m from every box.
-struct StrayComparison {
-  int occupied = 0, stray = 0, occupied0 = 0, stray0 = 0;
-  int Near() const { return occupied - stray; }
-  int Near0() const { return occupied0 - stray0; }
-};
-
-StrayComparison CompareStray(const Scene& scene, const FrameResult& r, const FrameResult& r0,
-                             const Pose2& world_from_base2, double margin_m) {
-  StrayComparison c;
-  c.stray = StrayOccupiedCells(scene, r, world_from_base2, margin_m);
-  c.stray0 = StrayOccupiedCells(scene, r0, world_from_base2, margin_m);
-  for (std::size_t k = 0; k < r.local_map.cells.size(); ++k) {
-    c.occupied += r.local_map.cells[k] == kCellOccupied;
-    c.occupied0 += r0.local_map.cells[k] == kCellOccupied;
-  }
-  return c;
-}
-
 // A sample whose matching window straddles a box's edge and the wall behind it measures a mix of
 // the two depths; placed in the top view it would smear the edge along its ray. Only samples
 // on a surface (neighbours at consistent ranges) are placed.
@@ -554,17 +565,10 @@ TEST_F(DetectorOnSyntheticScene, DepthEdgesAreNotSmearedAlongTheRays) {
   Scene scene;
   scene.boxes.push_back({{1.2, -0.15, 0.0}, {1.4, 0.15, 0.3}});
   scene.boxes.push_back({{2.6, -1.2, 0.0}, {2.7, 1.2, 0.8}});
-  const Pose2 p1{0, 0, 0}, p2{0.12, 0.0, 0.0};
   DetectorOptions without = options_;
   without.classification.min_surface_angle_deg = 0.0;
-  const auto [b, r, r0] = DetectBoth(scene, p1, p2, without);
-  ASSERT_EQ(r.status, PairStatus::kOk) << r.message;
-  MaybeDump("depth_edges", b.image, r);
-  const StrayComparison c = CompareStray(scene, r, r0, p2, 0.10);
-  std::printf(
-      "occupied cells farther than 0.1 m from the boxes: %d of %d with the filter, %d of %d "
-      "without\n",
-      c.stray, c.occupied, c.stray0, c.occupied0);
+  const StrayComparison c = DetectAndCompareStray(scene, without, 0.10, "depth_edges");
+  ASSERT_EQ(c.status, PairStatus::kOk);
   EXPECT_LT(c.stray, c.stray0 / 2);
   EXPECT_GT(c.Near(), c.Near0() * 3 / 4);  // the boxes stay
 }
@@ -575,17 +579,10 @@ TEST_F(DetectorOnSyntheticScene, ObstaclesArePlacedOnTheSurfacesTheirColumnsShow
   Scene scene;
   scene.boxes.push_back({{1.6, -0.9, 0.0}, {1.9, -0.3, 0.4}});
   scene.boxes.push_back({{2.8, -0.2, 0.0}, {2.9, 1.2, 0.8}});
-  const Pose2 p1{0, 0, 0}, p2{0.12, 0.0, 0.0};
   DetectorOptions without = options_;
   without.classification.column_min_samples = 0;
-  const auto [b, r, r0] = DetectBoth(scene, p1, p2, without);
-  ASSERT_EQ(r.status, PairStatus::kOk) << r.message;
-  MaybeDump("column_surfaces", b.image, r);
-  const StrayComparison c = CompareStray(scene, r, r0, p2, 0.05);
-  std::printf(
-      "occupied cells farther than 0.05 m from the boxes: %d of %d on column surfaces, %d of %d "
-      "each at its own footprint\n",
-      c.stray, c.occupied, c.stray0, c.occupied0);
+  const StrayComparison c = DetectAndCompareStray(scene, without, 0.05, "column_surfaces");
+  ASSERT_EQ(c.status, PairStatus::kOk);
   EXPECT_LT(c.stray, c.stray0 / 2);
   EXPECT_GT(c.Near(), c.Near0() * 2 / 5);  // the boxes stay (88 of 155)
 }
