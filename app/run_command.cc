@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
+#include <opencv2/core/utility.hpp>
 #include <thread>
 
 #include "app/bounded_queue.h"
@@ -122,6 +123,9 @@ int Run(const RunRequest& request, RunSummary* summary) {
     calibration.intrinsics = in.Scaled(first->image.cols, first->image.rows);
   }
 
+  // The pipeline's own threads keep both cores busy; OpenCV's worker threads inside them only add
+  // scheduling (and its per-task overhead: SLIC runs one task per superpixel).
+  cv::setNumThreads(1);
   MapSink sink(calibration, request, summary);
   if (!sink.Open(&error)) {
     std::cerr << "monoplane run: " << error << "\n";
