@@ -189,9 +189,9 @@ DirectAlignment AlignFloorDirect(const AlignmentImage& image1, const AlignmentIm
 
   // Parameters 0-2: x, y, yaw; 3: pitch (only when estimated); last: the offset.
   const int geometric = options.estimate_pitch ? 4 : 3;
-  const auto perturbed = [](State x, int p, double d) {
-    (p == 0 ? x.t.x : p == 1 ? x.t.y : p == 2 ? x.t.yaw : x.pitch) += d;
-    return x;
+  const auto perturbed = [](State s, int p, double d) {
+    (p == 0 ? s.t.x : p == 1 ? s.t.y : p == 2 ? s.t.yaw : s.pitch) += d;
+    return s;
   };
   constexpr double kEps = 1e-4;  // m and rad, for the derivatives of the point mapping
   std::vector<double> r_new;

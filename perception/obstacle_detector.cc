@@ -504,6 +504,9 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
   const double camera_height = camera_.CameraCentreInBase().z();
 
   // Phase 1: measure every sample on its own.
+  const MotionTriangulator triangulate(camera_, t);
+  const Eigen::Matrix2d t_rotation = t.Rotation();  // t * p, without a sine and cosine per sample
+  const Eigen::Vector2d t_translation = t.Translation();
   std::vector<Sample> samples(static_cast<std::size_t>(sample_rows) * sample_cols);
   for (int i = 0; i < sample_rows; ++i) {
     for (int j = 0; j < sample_cols; ++j) {
@@ -524,9 +527,8 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
       const double sigma_px =
           std::max<double>(co.disparity_sigma_px, field.sigma_px.at<float>(y, x));
       const Eigen::Vector2d u(field.ux.at<float>(y, x), field.uy.at<float>(y, x));
-      const auto tri = TriangulateWithMotion(camera_, t, ApplyHomography(h_inv, q - s * u), q);
-      const auto tri_sigma =
-          TriangulateWithMotion(camera_, t, ApplyHomography(h_inv, q - (s + sigma_px) * u), q);
+      const auto tri = triangulate(ApplyHomography(h_inv, q - s * u), q);
+      const auto tri_sigma = triangulate(ApplyHomography(h_inv, q - (s + sigma_px) * u), q);
       if (!tri || !tri_sigma || tri->depth_m <= 0) continue;
       sample.measured = true;
       sample.s_px = s;
@@ -540,7 +542,7 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
       sample.height_sigma_m = std::abs(tri_sigma->point_in_base1.z() - sample.height_m);
       sample.footprint_sigma_m =
           (tri_sigma->point_in_base1.head<2>() - tri->point_in_base1.head<2>()).norm();
-      sample.point_in_base2 = t * tri->point_in_base1.head<2>();
+      sample.point_in_base2 = t_rotation * tri->point_in_base1.head<2>() + t_translation;
       sample.raw = Classify(sample, co, camera_height);
     }
   }
@@ -633,10 +635,10 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
             const int ii = i + di, jj = j + dj;
             if ((di == 0 && dj == 0) || ii < 0 || jj < 0 || ii >= sample_rows || jj >= sample_cols)
               continue;
-            const float r = range[static_cast<std::size_t>(ii) * sample_cols + jj];
-            if (std::isnan(r)) continue;
+            const float neighbour = range[static_cast<std::size_t>(ii) * sample_cols + jj];
+            if (std::isnan(neighbour)) continue;
             const double lateral = range[k] * pixel_rad * (di != 0 && dj != 0 ? M_SQRT2 : 1.0);
-            smooth += std::abs(r - range[k]) <= depth_per_lateral * lateral ? 1 : 0;
+            smooth += std::abs(neighbour - range[k]) <= depth_per_lateral * lateral ? 1 : 0;
           }
         }
         on_surface[k] = smooth >= co.min_surface_neighbours ? 1 : 0;
@@ -1016,7 +1018,7 @@ std::vector<FeatureObservation> SequenceDetector::TrackFeatures(
   // The check starts where a consistent track must end, so the two finest levels tell whether it
   // returns there; the coarser ones cost as much again and matter only for tracks that do not.
   cv::calcOpticalFlowPyrLK(current_pyramid, previous_pyramid_, p1, back, st2, cv::noArray(), window,
-                           std::min(1, gm.lk_levels), criteria, cv::OPTFLOW_USE_INITIAL_FLOW);
+                           0, criteria, cv::OPTFLOW_USE_INITIAL_FLOW);
   for (std::size_t i = 0; i < p0.size(); ++i) {
     if (!st1[i] || !st2[i]) continue;
     if (std::hypot(back[i].x - p0[i].x, back[i].y - p0[i].y) > gm.forward_backward_max_px) continue;

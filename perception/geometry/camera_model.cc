@@ -134,25 +134,34 @@ std::optional<ParallaxPoint> TriangulateWithMotion(const CameraModel& camera,
                                                    const Pose2& base2_from_base1,
                                                    const Eigen::Vector2d& pixel1,
                                                    const Eigen::Vector2d& pixel2) {
+  return MotionTriangulator(camera, base2_from_base1)(pixel1, pixel2);
+}
+
+MotionTriangulator::MotionTriangulator(const CameraModel& camera, const Pose2& base2_from_base1)
+    : camera_(camera),
+      camera2_from_base1_(camera.camera_from_base() * Lift(base2_from_base1)),
+      c1_(camera.CameraCentreInBase()),
+      a_(camera2_from_base1_ * c1_),
+      k_a_(camera.K() * a_) {}
+
+std::optional<ParallaxPoint> MotionTriangulator::operator()(const Eigen::Vector2d& pixel1,
+                                                            const Eigen::Vector2d& pixel2) const {
   // Point on ray 1: X(s) = C1 + s d1 (base 1). In camera 2: Y(s) = A + s B. The measured pixel2's
   // normalised ray m satisfies m x Y(s) = 0: two independent linear equations in s.
-  const Eigen::Isometry3d camera2_from_base1 = camera.camera_from_base() * Lift(base2_from_base1);
-  const Eigen::Vector3d c1 = camera.CameraCentreInBase();
-  const Eigen::Vector3d d1 = camera.RayInBase(pixel1);
-  const Eigen::Vector3d a = camera2_from_base1 * c1;
-  const Eigen::Vector3d b = camera2_from_base1.linear() * d1;
-  const Eigen::Vector3d m = camera.K_inverse() * pixel2.homogeneous();
-  const Eigen::Vector3d mb = m.cross(b), ma = m.cross(a);
+  const Eigen::Vector3d d1 = camera_.RayInBase(pixel1);
+  const Eigen::Vector3d b = camera2_from_base1_.linear() * d1;
+  const Eigen::Vector3d m = camera_.K_inverse() * pixel2.homogeneous();
+  const Eigen::Vector3d mb = m.cross(b), ma = m.cross(a_);
   const double denom = mb.squaredNorm();
   // No parallax: the baseline is (nearly) along the ray, or there is no baseline.
-  if (denom < 1e-18 || (a - (a.dot(b) / b.squaredNorm()) * b).norm() < 1e-9) return std::nullopt;
+  if (denom < 1e-18 || (a_ - (a_.dot(b) / b.squaredNorm()) * b).norm() < 1e-9) return std::nullopt;
   const double s = -mb.dot(ma) / denom;
   ParallaxPoint out;
-  out.point_in_base1 = c1 + s * d1;
-  out.depth_m = (camera.camera_from_base() * out.point_in_base1).z();
+  out.point_in_base1 = c1_ + s * d1;
+  out.depth_m = (camera_.camera_from_base() * out.point_in_base1).z();
   // Epipolar residual: distance of pixel2 to the image of ray 1 in camera 2.
-  const Eigen::Vector3d p_near = camera.K() * a, p_far = camera.K() * b;  // image of ray 1
-  Eigen::Vector3d line = p_near.cross(p_far);
+  const Eigen::Vector3d p_far = camera_.K() * b;  // image of ray 1, with k_a_ (its near end)
+  Eigen::Vector3d line = k_a_.cross(p_far);
   const double ln = line.head<2>().norm();
   out.epipolar_residual_px = ln > 0 ? std::abs(line.dot(pixel2.homogeneous())) / ln : 0.0;
   return out;

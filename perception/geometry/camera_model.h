@@ -88,6 +88,22 @@ std::optional<ParallaxPoint> TriangulateWithMotion(const CameraModel& camera,
                                                    const Eigen::Vector2d& pixel1,
                                                    const Eigen::Vector2d& pixel2);
 
+// TriangulateWithMotion for the many pixel pairs of one motion: what depends on the motion alone
+// is computed once. Keeps a reference to the camera.
+class MotionTriangulator {
+ public:
+  MotionTriangulator(const CameraModel& camera, const Pose2& base2_from_base1);
+  std::optional<ParallaxPoint> operator()(const Eigen::Vector2d& pixel1,
+                                          const Eigen::Vector2d& pixel2) const;
+
+ private:
+  const CameraModel& camera_;
+  Eigen::Isometry3d camera2_from_base1_;
+  Eigen::Vector3d c1_;  // camera 1's centre, base 1
+  Eigen::Vector3d a_;   // camera 1's centre, camera 2
+  Eigen::Vector3d k_a_;
+};
+
 // The paper's zero disparity for a pixel: where the point at height_m on the ray of pixel1 appears
 // in image 2, relative to where the floor homography predicts it.
 struct ZeroDisparity {
