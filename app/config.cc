@@ -201,6 +201,8 @@ OptionTable::OptionTable(AppConfig* config) : config_(config) {
             "odometry yaw noise per radian (> 0)");
   AddInt("mapping", "window_size", &m.window_size,
          "keyframes per sliding-window adjustment (>= 2)");
+  AddInt("mapping", "window_max_iterations", &m.window.max_iterations,
+         "Ceres iterations per sliding-window adjustment (>= 1)");
   AddBool("mapping", "refine_camera", &m.window.refine_camera,
           "refine camera height, pitch and roll in the window");
   AddDouble("mapping", "pixel_sigma_px", &m.window.pixel_sigma_px,

@@ -239,11 +239,7 @@ WindowResult AdjustWindow(const std::vector<WindowKeyframe>& keyframes,
   ceres::Solver::Options solver;
   // Few poses, many landmarks: eliminate the landmarks (Schur complement); the reduced system is
   // at most 3 * window + 3 wide.
-  solver.linear_solver_type =
-      ceres::IsSparseLinearAlgebraLibraryTypeAvailable(ceres::SUITE_SPARSE) ||
-              ceres::IsSparseLinearAlgebraLibraryTypeAvailable(ceres::EIGEN_SPARSE)
-          ? ceres::SPARSE_SCHUR
-          : ceres::DENSE_SCHUR;
+  solver.linear_solver_type = ceres::DENSE_SCHUR;
   solver.max_num_iterations = options.max_iterations;
   solver.function_tolerance = options.function_tolerance;
   solver.num_threads = 1;

