@@ -74,8 +74,11 @@ AlignmentImage PrepareAlignmentImage(const cv::Mat& image, const DirectAlignment
     cv::pyrDown(image, small);
   }
   small.convertTo(out.intensity, CV_32F);
-  cv::Sobel(out.intensity, out.gx, CV_32F, 1, 0, 3, 1.0 / 8.0);
-  cv::Sobel(out.intensity, out.gy, CV_32F, 0, 1, 3, 1.0 / 8.0);
+  // The 3x3 Sobel of the 8-bit image in one pass: integer sums, exact; / 8 in float as before.
+  cv::Mat gx, gy;
+  cv::spatialGradient(small, gx, gy, 3);
+  gx.convertTo(out.gx, CV_32F, 1.0 / 8.0);
+  gy.convertTo(out.gy, CV_32F, 1.0 / 8.0);
   return out;
 }
 
