@@ -1,5 +1,6 @@
 #include "perception/zero_disparity.h"
 
+#include <algorithm>
 #include <cmath>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/video/tracking.hpp>
@@ -167,7 +168,7 @@ ZeroDisparityField ComputeZeroDisparity(const cv::Mat& image1, const cv::Mat& im
       for (int x = 0; x < cols; ++x) {
         const double dx = ex - ez * x, dy = ey - ez * y;
         const double n = std::sqrt(dx * dx + dy * dy);
-        const double inverse = n > 0 ? 1.0 / n : 0.0;
+        const double inverse = 1.0 / std::max(n, 1e-300);  // at the epipole dx = dy = 0: u = 0
         pux[x] = static_cast<float>(dx * inverse);
         puy[x] = static_cast<float>(dy * inverse);
       }
@@ -197,6 +198,10 @@ ZeroDisparityField ComputeZeroDisparity(const cv::Mat& image1, const cv::Mat& im
     const float h10 = h_f(1, 0), h11 = h_f(1, 1), h12 = h_f(1, 2);
     const float h20 = h_f(2, 0), h21 = h_f(2, 1), h22 = h_f(2, 2);
     auto warp = [&](bool final) {
+      // Copies in registers: read through the captured references, the loop below would reload
+      // them after every store (they might alias the maps) and could not be vectorised.
+      const float a00 = h00, a01 = h01, a02 = h02, a10 = h10, a11 = h11, a12 = h12;
+      const float a20 = h20, a21 = h21, a22 = h22;
       for (int y = 0; y < rows; ++y) {
         const float* __restrict ps = s.ptr<float>(y);
         const float* __restrict pux = ux.ptr<float>(y);
@@ -207,9 +212,9 @@ ZeroDisparityField ComputeZeroDisparity(const cv::Mat& image1, const cv::Mat& im
           // Where image 1 holds what image 2 shows at (x, y) for zero disparity s: H^-1 (q - s u).
           const float qx = static_cast<float>(x) - ps[x] * pux[x];
           const float qy = static_cast<float>(y) - ps[x] * puy[x];
-          const float w = 1.0f / (h20 * qx + h21 * qy + h22);
-          mx[x] = (h00 * qx + h01 * qy + h02) * w;
-          my[x] = (h10 * qx + h11 * qy + h12) * w;
+          const float w = 1.0f / (a20 * qx + a21 * qy + a22);
+          mx[x] = (a00 * qx + a01 * qy + a02) * w;
+          my[x] = (a10 * qx + a11 * qy + a12) * w;
         }
       }
       cv::remap(i1, warped, map_x, map_y, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
@@ -289,7 +294,10 @@ ZeroDisparityField ComputeZeroDisparity(const cv::Mat& image1, const cv::Mat& im
         float* __restrict sigma = field.sigma_px.ptr<float>(y);
         float* __restrict perpendicular_sigma = field.perpendicular_sigma_px.ptr<float>(y);
         for (int x = 0; x < cols; ++x) {
-          perpendicular[x] = pgg[x] > 1e-3f ? -pgd[x] / pgg[x] * scale : 0.f;
+          // Computed for every pixel, then selected: a division under a condition is not
+          // vectorised.
+          const float across = -pgd[x] / std::max(pgg[x], 1e-3f) * scale;
+          perpendicular[x] = pgg[x] > 1e-3f ? across : 0.f;
           // Mean |d| of a Gaussian is 0.8 sigma; one grey level of quantisation at least.
           const float noise = std::max(1.25f * res[x], 1.0f);
           sigma[x] = noise / std::sqrt(area * std::max(tex[x], 1e-6f)) * scale;
