@@ -1015,8 +1015,9 @@ std::vector<FeatureObservation> SequenceDetector::TrackFeatures(
   cv::calcOpticalFlowPyrLK(previous_pyramid_, current_pyramid, p0, p1, st1, cv::noArray(), window,
                            gm.lk_levels, criteria, flags);
   back = p0;
-  // The check starts where a consistent track must end, so the two finest levels tell whether it
-  // returns there; the coarser ones cost as much again and matter only for tracks that do not.
+  // The check starts where a consistent track must end, so the finest level alone tells whether
+  // it returns there; each coarser level costs as much again and matters only for tracks that do
+  // not (which the check rejects either way).
   cv::calcOpticalFlowPyrLK(current_pyramid, previous_pyramid_, p1, back, st2, cv::noArray(), window,
                            0, criteria, cv::OPTFLOW_USE_INITIAL_FLOW);
   for (std::size_t i = 0; i < p0.size(); ++i) {

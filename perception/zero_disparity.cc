@@ -193,15 +193,13 @@ ZeroDisparityField ComputeZeroDisparity(const cv::Mat& image1, const cv::Mat& im
     // difference d: (gu d, gu^2) while iterating; at the end (gu^2, |d|, gp d, gp^2), for the
     // texture, the residual and the offset across the epipolar line (a static point has none).
     // In float, twice as many lanes as double; at most 1e-4 px off at these image sizes.
-    const auto h_f = h_inv.cast<float>().eval();
-    const float h00 = h_f(0, 0), h01 = h_f(0, 1), h02 = h_f(0, 2);
-    const float h10 = h_f(1, 0), h11 = h_f(1, 1), h12 = h_f(1, 2);
-    const float h20 = h_f(2, 0), h21 = h_f(2, 1), h22 = h_f(2, 2);
+    const Eigen::Matrix3f h_f = h_inv.cast<float>();
     auto warp = [&](bool final) {
-      // Copies in registers: read through the captured references, the loop below would reload
-      // them after every store (they might alias the maps) and could not be vectorised.
-      const float a00 = h00, a01 = h01, a02 = h02, a10 = h10, a11 = h11, a12 = h12;
-      const float a20 = h20, a21 = h21, a22 = h22;
+      // Locals of the lambda: read through a captured reference, the loop below would reload them
+      // after every store (the maps might alias them) and could not be vectorised.
+      const float a00 = h_f(0, 0), a01 = h_f(0, 1), a02 = h_f(0, 2);
+      const float a10 = h_f(1, 0), a11 = h_f(1, 1), a12 = h_f(1, 2);
+      const float a20 = h_f(2, 0), a21 = h_f(2, 1), a22 = h_f(2, 2);
       for (int y = 0; y < rows; ++y) {
         const float* __restrict ps = s.ptr<float>(y);
         const float* __restrict pux = ux.ptr<float>(y);
@@ -294,10 +292,7 @@ ZeroDisparityField ComputeZeroDisparity(const cv::Mat& image1, const cv::Mat& im
         float* __restrict sigma = field.sigma_px.ptr<float>(y);
         float* __restrict perpendicular_sigma = field.perpendicular_sigma_px.ptr<float>(y);
         for (int x = 0; x < cols; ++x) {
-          // Computed for every pixel, then selected: a division under a condition is not
-          // vectorised.
-          const float across = -pgd[x] / std::max(pgg[x], 1e-3f) * scale;
-          perpendicular[x] = pgg[x] > 1e-3f ? across : 0.f;
+          perpendicular[x] = pgg[x] > 1e-3f ? -pgd[x] / pgg[x] * scale : 0.f;
           // Mean |d| of a Gaussian is 0.8 sigma; one grey level of quantisation at least.
           const float noise = std::max(1.25f * res[x], 1.0f);
           sigma[x] = noise / std::sqrt(area * std::max(tex[x], 1e-6f)) * scale;

@@ -99,9 +99,9 @@ class MotionTriangulator {
  private:
   const CameraModel& camera_;
   Eigen::Isometry3d camera2_from_base1_;
-  Eigen::Vector3d c1_;  // camera 1's centre, base 1
-  Eigen::Vector3d a_;   // camera 1's centre, camera 2
-  Eigen::Vector3d k_a_;
+  Eigen::Vector3d c1_;   // camera 1's centre, base 1
+  Eigen::Vector3d a_;    // camera 1's centre, camera 2
+  Eigen::Vector3d k_a_;  // its image in camera 2 (homogeneous): the near end of ray 1's image
 };
 
 // The paper's zero disparity for a pixel: where the point at height_m on the ray of pixel1 appears
