@@ -121,7 +121,12 @@ WindowResult AdjustWindow(const std::vector<WindowKeyframe>& keyframes,
   const cost::CameraFixed fixed_camera = cost::CameraFixed::From(calibration);
   const CameraModel model(calibration);
 
-  ceres::Problem problem;
+  // One robust loss for every reprojection, owned here (declared before the problem, so it
+  // outlives it).
+  ceres::HuberLoss reprojection_loss(options.huber_sigmas);
+  ceres::Problem::Options problem_options;
+  problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  ceres::Problem problem(problem_options);
   for (const PoseGraphEdge& e : odometry) {
     if (e.from < 0 || e.to < 0 || e.from >= n || e.to >= n) continue;
     AddEdge(e, poses[e.from].data(), poses[e.to].data(), nullptr, &problem);
@@ -172,7 +177,6 @@ WindowResult AdjustWindow(const std::vector<WindowKeyframe>& keyframes,
       const double* pose = poses[o.keyframe].data();
       if (!cost::ProjectMapPoint(fixed_camera, pose, camera.data(), landmark->data(), pixel))
         continue;
-      ceres::LossFunction* loss = new ceres::HuberLoss(options.huber_sigmas);
       ceres::CostFunction* cost_function = nullptr;
       std::vector<double*> blocks = {poses[o.keyframe].data(), landmark->data()};
       if (!options.refine_camera) {
@@ -203,7 +207,7 @@ WindowResult AdjustWindow(const std::vector<WindowKeyframe>& keyframes,
                                                      options.pixel_sigma_px));
         }
       }
-      problem.AddResidualBlock(cost_function, loss, blocks);
+      problem.AddResidualBlock(cost_function, &reprojection_loss, blocks);
       ++added;
     }
     if (added == 0) continue;
