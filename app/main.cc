@@ -12,8 +12,8 @@ int main(int argc, char** argv) {
   // Every frame allocates and frees the same image-sized buffers (pyramids, gradients, maps of
   // 0.3-1.2 MB) in four threads. With glibc's defaults these go to mmap and back, and each frame
   // pays for their pages again in page faults (most of the kernel's 12.5 % of a run's CPU
-  // samples). Kept in the heap, they are reused (tools/bench/throughput.sh: 62 -> 75 frames/s,
-  // system time 3.4 -> 0.8 s, peak RSS +10 MB).
+  // samples). Kept in the heap, they are reused (tools/bench/throughput.sh: 62 -> 75-86 frames/s,
+  // system time 3.4 -> 0.6-0.8 s, peak RSS +10 MB).
   mallopt(M_MMAP_THRESHOLD, 32 << 20);
   mallopt(M_TRIM_THRESHOLD, 256 << 20);
   CLI::App app{
