@@ -55,6 +55,10 @@ OptionTable::OptionTable(AppConfig* config) : config_(config) {
   AddInt("ground_motion", "lk_window_px", &gm.lk_window_px,
          "Lucas-Kanade window side, px (odd, >= 5)");
   AddInt("ground_motion", "lk_levels", &gm.lk_levels, "Lucas-Kanade pyramid levels [0, 6]");
+  AddInt("ground_motion", "lk_max_iterations", &gm.lk_max_iterations,
+         "Lucas-Kanade iterations per level (>= 1)");
+  AddDouble("ground_motion", "lk_min_step_px", &gm.lk_min_step_px,
+            "Lucas-Kanade stops below this step, px (> 0)");
   AddDouble("ground_motion", "forward_backward_max_px", &gm.forward_backward_max_px,
             "forward-backward tracking check, px (> 0)");
   AddInt("ground_motion", "ransac_iterations", &gm.ransac_iterations, "RANSAC iterations (> 0)");

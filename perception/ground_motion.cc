@@ -73,6 +73,8 @@ bool GroundMotionOptions::IsValid(std::string* error) const {
   if (!(corner_min_distance_px >= 0)) return fail("corner_min_distance_px: must be >= 0");
   if (lk_window_px < 5 || lk_window_px % 2 == 0) return fail("lk_window_px: must be odd and >= 5");
   if (lk_levels < 0 || lk_levels > 6) return fail("lk_levels: must be in [0, 6]");
+  if (lk_max_iterations < 1) return fail("lk_max_iterations: must be >= 1");
+  if (!(lk_min_step_px > 0)) return fail("lk_min_step_px: must be > 0");
   if (!(forward_backward_max_px > 0)) return fail("forward_backward_max_px: must be > 0");
   if (ransac_iterations <= 0) return fail("ransac_iterations: must be > 0");
   if (!(inlier_threshold_px > 0)) return fail("inlier_threshold_px: must be > 0");
@@ -203,7 +205,8 @@ GroundMotion EstimateGroundMotion(const cv::Mat& image1, const cv::Mat& image2,
     flags = cv::OPTFLOW_USE_INITIAL_FLOW;
   }
   const cv::Size window(options.lk_window_px, options.lk_window_px);
-  const cv::TermCriteria criteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 30, 0.01);
+  const cv::TermCriteria criteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS,
+                                  options.lk_max_iterations, options.lk_min_step_px);
   std::vector<uchar> status_fwd, status_bwd;
   // Each pyramid (with its derivatives) is built once for both directions, and the backward check
   // starts where a consistent track ends, so its two finest levels suffice (as SequenceDetector).

@@ -25,6 +25,11 @@ struct GroundMotionOptions {
   // Pyramidal Lucas-Kanade: window side (odd, >= 5) and pyramid levels (>= 0).
   int lk_window_px = 21;
   int lk_levels = 3;
+  // Lucas-Kanade stops per level after lk_max_iterations (>= 1) or once a step is below
+  // lk_min_step_px (> 0). The direct alignment refines the fitted motion on the floor's texture
+  // afterwards, so the corners need not converge further than the fit's inlier threshold needs.
+  int lk_max_iterations = 20;
+  double lk_min_step_px = 0.02;
   // A track is kept when tracking back lands within this many pixels of its start (> 0).
   double forward_backward_max_px = 0.5;
   // RANSAC over 2-point planar motions: iterations (> 0) and inlier threshold in image 2 (px, > 0).

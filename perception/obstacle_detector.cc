@@ -527,8 +527,9 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
       const double sigma_px =
           std::max<double>(co.disparity_sigma_px, field.sigma_px.at<float>(y, x));
       const Eigen::Vector2d u(field.ux.at<float>(y, x), field.uy.at<float>(y, x));
-      const auto tri = triangulate(ApplyHomography(h_inv, q - s * u), q);
-      const auto tri_sigma = triangulate(ApplyHomography(h_inv, q - (s + sigma_px) * u), q);
+      const auto tri = triangulate.OnEpipolarLine(ApplyHomography(h_inv, q - s * u), q);
+      const auto tri_sigma =
+          triangulate.OnEpipolarLine(ApplyHomography(h_inv, q - (s + sigma_px) * u), q);
       if (!tri || !tri_sigma || tri->depth_m <= 0) continue;
       sample.measured = true;
       sample.s_px = s;
@@ -1010,7 +1011,8 @@ std::vector<FeatureObservation> SequenceDetector::TrackFeatures(
   }
   std::vector<uchar> st1, st2;
   const cv::Size window(gm.lk_window_px, gm.lk_window_px);
-  const cv::TermCriteria criteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 20, 0.02);
+  const cv::TermCriteria criteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS,
+                                  gm.lk_max_iterations, gm.lk_min_step_px);
   // The pyramids are built once per frame and serve both directions and the next frame.
   cv::calcOpticalFlowPyrLK(previous_pyramid_, current_pyramid, p0, p1, st1, cv::noArray(), window,
                            gm.lk_levels, criteria, flags);

@@ -192,9 +192,11 @@ ZeroDisparityField ComputeZeroDisparity(const cv::Mat& image1, const cv::Mat& im
     // search needs, of the gradient along u (gu), the one across it (gp) and the zero-mean
     // difference d: (gu d, gu^2) while iterating; at the end (gu^2, |d|, gp d, gp^2), for the
     // texture, the residual and the offset across the epipolar line (a static point has none).
+    // For the floor hypothesis only |d|, unsummed.
     // In float, twice as many lanes as double; at most 1e-4 px off at these image sizes.
+    enum class Terms { kIterate, kFinal, kAbsDifference };
     const Eigen::Matrix3f h_f = h_inv.cast<float>();
-    auto warp = [&](bool final) {
+    auto warp = [&](Terms what) {
       // Locals of the lambda: read through a captured reference, the loop below would reload them
       // after every store (the maps might alias them) and could not be vectorised.
       const float a00 = h_f(0, 0), a01 = h_f(0, 1), a02 = h_f(0, 2);
@@ -216,9 +218,23 @@ ZeroDisparityField ComputeZeroDisparity(const cv::Mat& image1, const cv::Mat& im
         }
       }
       cv::remap(i1, warped, map_x, map_y, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
+      cv::boxFilter(warped, mean_w, CV_32F, box);
+      if (what == Terms::kAbsDifference) {
+        terms.create(rows, cols, CV_32F);
+        for (int y = 0; y < rows; ++y) {
+          const std::uint8_t* __restrict pw = warped.ptr<std::uint8_t>(y);
+          const float* __restrict pa = i2_zero_mean.ptr<float>(y);
+          const float* __restrict pm = mean_w.ptr<float>(y);
+          float* __restrict pt = terms.ptr<float>(y);
+          for (int x = 0; x < cols; ++x) {
+            pt[x] = std::abs(pa[x] - (static_cast<float>(pw[x]) - pm[x]));
+          }
+        }
+        return;
+      }
       // The 3x3 Sobel of the 8-bit warp in one pass; the integer sums are exact, / 8 as below.
       cv::spatialGradient(warped, grad_x, grad_y, 3);
-      cv::boxFilter(warped, mean_w, CV_32F, box);
+      const bool final = what == Terms::kFinal;
       terms.create(rows, cols, final ? CV_32FC4 : CV_32FC2);
       for (int y = 0; y < rows; ++y) {
         const std::uint8_t* __restrict pw = warped.ptr<std::uint8_t>(y);
@@ -249,7 +265,7 @@ ZeroDisparityField ComputeZeroDisparity(const cv::Mat& image1, const cv::Mat& im
     const float max_step = static_cast<float>(options.max_step_px);
     const float damping = static_cast<float>(options.damping);
     for (int it = 0; it < options.iterations_per_level; ++it) {
-      warp(false);
+      warp(Terms::kIterate);
       for (int y = 0; y < rows; ++y) {
         float* __restrict ps = s.ptr<float>(y);
         const float* __restrict pnd = sums.ptr<float>(y);
@@ -266,11 +282,10 @@ ZeroDisparityField ComputeZeroDisparity(const cv::Mat& image1, const cv::Mat& im
       cv::Mat found, abs_d;
       cv::swap(found, s);
       s = cv::Mat::zeros(rows, cols, CV_32F);
-      warp(true);
-      cv::extractChannel(terms, abs_d, 1);
-      cv::boxFilter(abs_d, field.floor_residual_fine, CV_32F, fine);
+      warp(Terms::kAbsDifference);
+      cv::boxFilter(terms, field.floor_residual_fine, CV_32F, fine);
       s = found;
-      warp(true);
+      warp(Terms::kFinal);
       cv::extractChannel(terms, abs_d, 1);
       cv::boxFilter(abs_d, field.residual_fine, CV_32F, fine);
       // The window sums apart: texture and residual as they are, the rest per pixel below.

@@ -144,8 +144,8 @@ MotionTriangulator::MotionTriangulator(const CameraModel& camera, const Pose2& b
       a_(camera2_from_base1_ * c1_),
       k_a_(camera.K() * a_) {}
 
-std::optional<ParallaxPoint> MotionTriangulator::operator()(const Eigen::Vector2d& pixel1,
-                                                            const Eigen::Vector2d& pixel2) const {
+std::optional<ParallaxPoint> MotionTriangulator::OnEpipolarLine(
+    const Eigen::Vector2d& pixel1, const Eigen::Vector2d& pixel2) const {
   // Point on ray 1: X(s) = C1 + s d1 (base 1). In camera 2: Y(s) = A + s B. The measured pixel2's
   // normalised ray m satisfies m x Y(s) = 0: two independent linear equations in s.
   const Eigen::Vector3d d1 = camera_.RayInBase(pixel1);
@@ -154,16 +154,26 @@ std::optional<ParallaxPoint> MotionTriangulator::operator()(const Eigen::Vector2
   const Eigen::Vector3d mb = m.cross(b), ma = m.cross(a_);
   const double denom = mb.squaredNorm();
   // No parallax: the baseline is (nearly) along the ray, or there is no baseline.
-  if (denom < 1e-18 || (a_ - (a_.dot(b) / b.squaredNorm()) * b).norm() < 1e-9) return std::nullopt;
+  if (denom < 1e-18 || (a_ - (a_.dot(b) / b.squaredNorm()) * b).squaredNorm() < 1e-18) {
+    return std::nullopt;
+  }
   const double s = -mb.dot(ma) / denom;
   ParallaxPoint out;
   out.point_in_base1 = c1_ + s * d1;
   out.depth_m = (camera_.camera_from_base() * out.point_in_base1).z();
+  return out;
+}
+
+std::optional<ParallaxPoint> MotionTriangulator::operator()(const Eigen::Vector2d& pixel1,
+                                                            const Eigen::Vector2d& pixel2) const {
+  std::optional<ParallaxPoint> out = OnEpipolarLine(pixel1, pixel2);
+  if (!out) return out;
   // Epipolar residual: distance of pixel2 to the image of ray 1 in camera 2.
+  const Eigen::Vector3d b = camera2_from_base1_.linear() * camera_.RayInBase(pixel1);
   const Eigen::Vector3d p_far = camera_.K() * b;  // image of ray 1, with k_a_ (its near end)
   Eigen::Vector3d line = k_a_.cross(p_far);
   const double ln = line.head<2>().norm();
-  out.epipolar_residual_px = ln > 0 ? std::abs(line.dot(pixel2.homogeneous())) / ln : 0.0;
+  out->epipolar_residual_px = ln > 0 ? std::abs(line.dot(pixel2.homogeneous())) / ln : 0.0;
   return out;
 }
 

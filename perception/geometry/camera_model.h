@@ -95,6 +95,10 @@ class MotionTriangulator {
   MotionTriangulator(const CameraModel& camera, const Pose2& base2_from_base1);
   std::optional<ParallaxPoint> operator()(const Eigen::Vector2d& pixel1,
                                           const Eigen::Vector2d& pixel2) const;
+  // The same without the epipolar residual (left 0): for pixels on the epipolar line by
+  // construction, as the dense search's are.
+  std::optional<ParallaxPoint> OnEpipolarLine(const Eigen::Vector2d& pixel1,
+                                              const Eigen::Vector2d& pixel2) const;
 
  private:
   const CameraModel& camera_;
