@@ -15,16 +15,17 @@ struct Sample {
   double i2 = 0.0;
 };
 
-// Bilinear sample of a CV_32F image; false outside.
-bool Bilinear(const cv::Mat& image, const Eigen::Vector2d& p, double* value) {
+// Bilinear sample of a single-channel image of type T, times scale; false outside.
+template <typename T>
+bool Bilinear(const cv::Mat& image, const Eigen::Vector2d& p, double scale, double* value) {
   const double x = p.x(), y = p.y();
   if (!(x >= 0 && y >= 0 && x < image.cols - 1 && y < image.rows - 1)) return false;
   const int x0 = static_cast<int>(x), y0 = static_cast<int>(y);
   const double fx = x - x0, fy = y - y0;
-  const float* r0 = image.ptr<float>(y0);
-  const float* r1 = image.ptr<float>(y0 + 1);
-  *value =
-      (1 - fy) * ((1 - fx) * r0[x0] + fx * r0[x0 + 1]) + fy * ((1 - fx) * r1[x0] + fx * r1[x0 + 1]);
+  const T* r0 = image.ptr<T>(y0);
+  const T* r1 = image.ptr<T>(y0 + 1);
+  *value = scale * ((1 - fy) * ((1 - fx) * r0[x0] + fx * r0[x0 + 1]) +
+                    fy * ((1 - fx) * r1[x0] + fx * r1[x0 + 1]));
   return true;
 }
 
@@ -73,12 +74,9 @@ AlignmentImage PrepareAlignmentImage(const cv::Mat& image, const DirectAlignment
   } else {
     cv::pyrDown(image, small);
   }
-  small.convertTo(out.intensity, CV_32F);
-  // The 3x3 Sobel of the 8-bit image in one pass: integer sums, exact; / 8 in float as before.
-  cv::Mat gx, gy;
-  cv::spatialGradient(small, gx, gy, 3);
-  gx.convertTo(out.gx, CV_32F, 1.0 / 8.0);
-  gy.convertTo(out.gy, CV_32F, 1.0 / 8.0);
+  out.intensity = small;
+  // The 3x3 Sobel of the 8-bit image in one pass: integer sums, exact.
+  cv::spatialGradient(small, out.gx, out.gy, 3);
   return out;
 }
 
@@ -118,13 +116,13 @@ DirectAlignment AlignFloorDirect(const AlignmentImage& image1, const AlignmentIm
       static_cast<float>(step * step * options.min_gradient * options.min_gradient);
   for (int y = stride / 2; y < i2.rows; y += stride) {
     const std::uint8_t* m = strip_mask.ptr<std::uint8_t>(std::min(step * y, strip_mask.rows - 1));
-    const float* px = gx2.ptr<float>(y);
-    const float* py = gy2.ptr<float>(y);
+    const std::int16_t* px = gx2.ptr<std::int16_t>(y);
+    const std::int16_t* py = gy2.ptr<std::int16_t>(y);
     for (int x = stride / 2; x < i2.cols; x += stride) {
-      if (!m[std::min(step * x, strip_mask.cols - 1)] || px[x] * px[x] + py[x] * py[x] < min_g2) {
-        continue;
-      }
-      samples.push_back({Eigen::Vector2d(x, y), i2.at<float>(y, x)});
+      const float gx = static_cast<float>(px[x] * AlignmentImage::kGradientScale);
+      const float gy = static_cast<float>(py[x] * AlignmentImage::kGradientScale);
+      if (!m[std::min(step * x, strip_mask.cols - 1)] || gx * gx + gy * gy < min_g2) continue;
+      samples.push_back({Eigen::Vector2d(x, y), static_cast<double>(i2.at<std::uint8_t>(y, x))});
     }
   }
   if (options.max_samples > 0 && static_cast<int>(samples.size()) > options.max_samples) {
@@ -160,7 +158,7 @@ DirectAlignment AlignFloorDirect(const AlignmentImage& image1, const AlignmentIm
     r->assign(samples.size(), NAN);
     for (std::size_t k = 0; k < samples.size(); ++k) {
       double v;
-      if (Bilinear(i1, ApplyHomography(h_inv, samples[k].q), &v)) {
+      if (Bilinear<std::uint8_t>(i1, ApplyHomography(h_inv, samples[k].q), 1.0, &v)) {
         (*r)[k] = samples[k].i2 - v - x.offset;
       }
     }
@@ -215,7 +213,10 @@ DirectAlignment AlignFloorDirect(const AlignmentImage& image1, const AlignmentIm
         if (std::isnan(r[k])) continue;
         const Eigen::Vector2d p1 = ApplyHomography(h_inv, samples[k].q);
         double gx, gy;
-        if (!Bilinear(gx1, p1, &gx) || !Bilinear(gy1, p1, &gy)) continue;
+        if (!Bilinear<std::int16_t>(gx1, p1, AlignmentImage::kGradientScale, &gx) ||
+            !Bilinear<std::int16_t>(gy1, p1, AlignmentImage::kGradientScale, &gy)) {
+          continue;
+        }
         Eigen::Matrix<double, kG + 1, 1> j;
         for (int p = 0; p < kG; ++p) {
           const Eigen::Vector2d dp = (ApplyHomography(h_plus[p], samples[k].q) -

@@ -59,7 +59,10 @@ Eigen::Matrix3d PitchHomography(const CameraModel& camera, double pitch_rad);
 // frame, it serves every alignment the frame takes part in.
 struct AlignmentImage {
   int level = 0;
-  cv::Mat intensity, gx, gy;  // CV_32F, the level's size
+  // The level's size: the (blurred) image, CV_8U, and its 3x3 Sobel gradients, CV_16S, in units
+  // of 1/8 grey level per pixel (kGradientScale): exact integers, converted where sampled.
+  cv::Mat intensity, gx, gy;
+  static constexpr double kGradientScale = 1.0 / 8.0;
   bool empty() const { return intensity.empty(); }
 };
 

@@ -1,6 +1,7 @@
 #include "perception/obstacle_detector.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/eigen.hpp>
@@ -785,29 +786,19 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
                           cv::INTER_NEAREST | cv::WARP_INVERSE_MAP, cv::BORDER_REPLICATE);
     }
   }
-  r.num_unknown = 0;
+  // The label counts from a histogram (no branch per pixel).
+  std::array<int, 256> count{};
   for (int yy = 0; yy < r.labels.rows; ++yy) {
     const std::uint8_t* p = r.labels.ptr<std::uint8_t>(yy);
-    for (int xx = 0; xx < r.labels.cols; ++xx) {
-      switch (static_cast<PixelLabel>(p[xx])) {
-        case PixelLabel::kFloor:
-          ++r.num_floor;
-          break;
-        case PixelLabel::kObstacle:
-          ++r.num_obstacle;
-          break;
-        case PixelLabel::kDropOff:
-          ++r.num_drop_off;
-          break;
-        case PixelLabel::kMoving:
-          ++r.num_moving;
-          break;
-        default:
-          ++r.num_unknown;
-          break;
-      }
-    }
+    for (int xx = 0; xx < r.labels.cols; ++xx) ++count[p[xx]];
   }
+  const auto of = [&](PixelLabel label) { return count[static_cast<std::uint8_t>(label)]; };
+  r.num_floor += of(PixelLabel::kFloor);
+  r.num_obstacle += of(PixelLabel::kObstacle);
+  r.num_drop_off += of(PixelLabel::kDropOff);
+  r.num_moving += of(PixelLabel::kMoving);
+  r.num_unknown = r.labels.rows * r.labels.cols - of(PixelLabel::kFloor) -
+                  of(PixelLabel::kObstacle) - of(PixelLabel::kDropOff) - of(PixelLabel::kMoving);
   return r;
 }
 
