@@ -102,6 +102,17 @@ TEST(ServeTest, PublishesAnswersReloadsAndStops) {
           static_cast<char*>(nullptr));
     _exit(127);
   }
+  // A failed assertion returns early: the server must not outlive the test (it would hold the
+  // test's output open until its --duration ends, and publish into the next run's domain).
+  struct ServerGuard {
+    pid_t pid;
+    bool reaped = false;
+    ~ServerGuard() {
+      if (reaped) return;
+      kill(pid, SIGKILL);
+      waitpid(pid, nullptr, 0);
+    }
+  } guard{server};
 
   // 1. A reader created after the map went out gets it, cell for cell.
   IndependentMapReader reader;
@@ -178,6 +189,7 @@ TEST(ServeTest, PublishesAnswersReloadsAndStops) {
   ASSERT_EQ(kill(server, SIGINT), 0);
   int status = 0;
   ASSERT_EQ(waitpid(server, &status, 0), server);
+  guard.reaped = true;
   ASSERT_TRUE(WIFEXITED(status));
   EXPECT_EQ(WEXITSTATUS(status), 130);
 }
