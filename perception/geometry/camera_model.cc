@@ -144,8 +144,9 @@ MotionTriangulator::MotionTriangulator(const CameraModel& camera, const Pose2& b
       a_(camera2_from_base1_ * c1_),
       k_a_(camera.K() * a_) {}
 
-std::optional<ParallaxPoint> MotionTriangulator::OnEpipolarLine(
-    const Eigen::Vector2d& pixel1, const Eigen::Vector2d& pixel2) const {
+std::optional<ParallaxPoint> MotionTriangulator::Solve(const Eigen::Vector2d& pixel1,
+                                                       const Eigen::Vector2d& pixel2,
+                                                       Eigen::Vector3d* b_out) const {
   // Point on ray 1: X(s) = C1 + s d1 (base 1). In camera 2: Y(s) = A + s B. The measured pixel2's
   // normalised ray m satisfies m x Y(s) = 0: two independent linear equations in s.
   const Eigen::Vector3d d1 = camera_.RayInBase(pixel1);
@@ -161,15 +162,21 @@ std::optional<ParallaxPoint> MotionTriangulator::OnEpipolarLine(
   ParallaxPoint out;
   out.point_in_base1 = c1_ + s * d1;
   out.depth_m = (camera_.camera_from_base() * out.point_in_base1).z();
+  if (b_out) *b_out = b;
   return out;
+}
+
+std::optional<ParallaxPoint> MotionTriangulator::OnEpipolarLine(
+    const Eigen::Vector2d& pixel1, const Eigen::Vector2d& pixel2) const {
+  return Solve(pixel1, pixel2, nullptr);
 }
 
 std::optional<ParallaxPoint> MotionTriangulator::operator()(const Eigen::Vector2d& pixel1,
                                                             const Eigen::Vector2d& pixel2) const {
-  std::optional<ParallaxPoint> out = OnEpipolarLine(pixel1, pixel2);
+  Eigen::Vector3d b;  // ray 1's direction in camera 2
+  std::optional<ParallaxPoint> out = Solve(pixel1, pixel2, &b);
   if (!out) return out;
   // Epipolar residual: distance of pixel2 to the image of ray 1 in camera 2.
-  const Eigen::Vector3d b = camera2_from_base1_.linear() * camera_.RayInBase(pixel1);
   const Eigen::Vector3d p_far = camera_.K() * b;  // image of ray 1, with k_a_ (its near end)
   Eigen::Vector3d line = k_a_.cross(p_far);
   const double ln = line.head<2>().norm();

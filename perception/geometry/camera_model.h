@@ -101,6 +101,10 @@ class MotionTriangulator {
                                               const Eigen::Vector2d& pixel2) const;
 
  private:
+  // The point, and ray 1's direction in camera 2 (b_out, when not null).
+  std::optional<ParallaxPoint> Solve(const Eigen::Vector2d& pixel1, const Eigen::Vector2d& pixel2,
+                                     Eigen::Vector3d* b_out) const;
+
   const CameraModel& camera_;
   Eigen::Isometry3d camera2_from_base1_;
   Eigen::Vector3d c1_;   // camera 1's centre, base 1
