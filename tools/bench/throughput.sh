@@ -5,6 +5,10 @@
 # REPEAT times longer input (the same images forward and backward, so the robot drives the loops
 # back and forth) for the memory bound: peak RSS after FRAMES and after REPEAT x FRAMES frames.
 #   tools/bench/throughput.sh            # BUILD=build OUT=/tmp/monoplane-throughput FRAMES=1000 REPEAT=10
+# With COMPARE=/path/to/another/monoplane it instead runs the FRAMES frames RUNS times (default 3)
+# with each binary in turn: the machine's speed drifts by up to a third, so a before/after comparison
+# needs runs of both in the same minutes.
+#   COMPARE=/tmp/old/monoplane tools/bench/throughput.sh
 set -eu
 BUILD=${BUILD:-build}
 OUT=${OUT:-/tmp/monoplane-throughput}
@@ -32,10 +36,23 @@ awk -v n="$FRAMES" -v r="$REPEAT" 'BEGIN {
 export CYCLONEDDS_URI="${CYCLONEDDS_URI:-<CycloneDDS><Domain Id='any'><General><Interfaces><NetworkInterface name='lo'/></Interfaces><AllowMulticast>false</AllowMulticast></General></Domain></CycloneDDS>}"
 cfg=""
 [ -n "$CONFIG" ] && cfg="--config $CONFIG"
-for input in seq long; do
-  rm -f "$OUT/$input.db" "$OUT/$input.db-wal" "$OUT/$input.db-shm"
-  echo "== monoplane run --input $OUT/$input --map $OUT/$input.db --publish $cfg"
+# run BINARY INPUT: maps OUT/INPUT into OUT/INPUT.db, timed, and prints the summary's lines that
+# match $show.
+run() {
+  rm -f "$OUT/$2.db" "$OUT/$2.db-wal" "$OUT/$2.db-shm"
+  echo "== $1 run --input $OUT/$2 --map $OUT/$2.db --publish $cfg"
   /usr/bin/time -f "peak RSS %M kB, wall %e s, user %U s, system %S s" \
-    "$MP" run --input "$OUT/$input" --map "$OUT/$input.db" --publish --quiet $cfg 2>&1 |
-    grep -E "frames read|keyframes|wall time|time per frame|DDS|peak RSS"
+    "$1" run --input "$OUT/$2" --map "$OUT/$2.db" --publish --quiet $cfg 2>&1 | grep -E "$show"
+}
+if [ -n "${COMPARE:-}" ]; then
+  show="wall time|peak RSS"
+  for i in $(seq "${RUNS:-3}"); do
+    run "$COMPARE" seq
+    run "$MP" seq
+  done
+  exit 0
+fi
+show="frames read|keyframes|wall time|time per frame|DDS|peak RSS"
+for input in seq long; do
+  run "$MP" "$input"
 done
