@@ -84,7 +84,7 @@ int main(int argc, char** argv) {
   });
 
   // grid
-  std::string grid_pred, grid_gt, grid_trajectory;
+  std::string grid_pred, grid_gt, grid_trajectory, grid_seen_from;
   GridEvalOptions grid_options;
   CLI::App* grid =
       app.add_subcommand("grid", "occupancy grid vs a ground-truth grid (map_server YAML)");
@@ -95,6 +95,9 @@ int main(int argc, char** argv) {
   grid->add_option("--trajectory", grid_trajectory, "TUM trajectory: score only cells near it");
   grid->add_option("--radius", grid_options.radius_m, "with --trajectory: distance, m")
       ->capture_default_str();
+  grid->add_option("--seen-from", grid_seen_from,
+                   "simulated sequence folder: also score recall of the GT-occupied cells its "
+                   "camera saw a surface >= 3 cm high in (GT depth, every 2nd pixel)");
   grid->add_flag("--json", json, "print JSON instead of a table");
   grid->callback([&] {
     std::string error;
@@ -116,8 +119,15 @@ int main(int argc, char** argv) {
       }
       for (const TumPose& p : poses) positions.push_back(p.position.head<2>());
     }
+    std::vector<std::uint8_t> seen;
+    if (!grid_seen_from.empty() && !SeenSurfaceCells(grid_seen_from, gt, /*pixel_step=*/2,
+                                                     /*min_height_m=*/0.03, &seen, &error)) {
+      exit_code = Fail(error);
+      return;
+    }
     GridEvalResult result;
-    if (!CompareGrids(pred, gt, grid_options, positions, &result, &error)) {
+    if (!CompareGrids(pred, gt, grid_options, positions, &result, &error,
+                      seen.empty() ? nullptr : &seen)) {
       exit_code = Fail(error);
       return;
     }

@@ -253,6 +253,12 @@ std::string GridReportTable(const GridEvalResult& r) {
       << " of GT occupied)\n"
       << "unknown share:        " << Percent(r.unknown_share) << " (" << r.gt_known_pred_unknown
       << " of " << r.gt_known << " GT known cells)\n";
+  if (r.recall_seen || r.gt_occupied_seen > 0) {
+    out << "GT occupied seen:     " << r.gt_occupied_seen << " (the camera saw a surface there)\n"
+        << "recall of seen:       " << Percent(r.recall_seen) << " (" << r.gt_occupied_seen_recalled
+        << " / " << r.gt_occupied_seen << ")\n"
+        << "F1 with that recall:  " << Fixed(r.f1_seen) << "\n";
+  }
   return out.str();
 }
 
@@ -271,6 +277,10 @@ std::string GridReportJson(const GridEvalResult& r) {
              .Add("f1", r.f1)
              .Add("dangerous_share", r.dangerous_share)
              .Add("unknown_share", r.unknown_share)
+             .Add("gt_occupied_seen", r.gt_occupied_seen)
+             .Add("gt_occupied_seen_recalled", r.gt_occupied_seen_recalled)
+             .Add("recall_seen", r.recall_seen)
+             .Add("f1_seen", r.f1_seen)
              .Str() +
          "\n";
 }

@@ -2,9 +2,14 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
+#include <opencv2/imgcodecs.hpp>
 
+#include "perception/geometry/camera_calibration.h"
+#include "perception/geometry/camera_model.h"
 #include "perception/geometry/pose2.h"
 #include "tools/eval/error_stats.h"
+#include "tools/eval/trajectory_metrics.h"
 
 namespace monoplane::eval {
 
@@ -29,8 +34,13 @@ CellState StateOfValue(std::int8_t value) {
 
 bool CompareGrids(const MapServerMap& pred, const MapServerMap& gt, const GridEvalOptions& options,
                   const std::vector<Eigen::Vector2d>& positions_in_map, GridEvalResult* result,
-                  std::string* error) {
+                  std::string* error, const std::vector<std::uint8_t>* seen_cells) {
   if (!options.IsValid(error)) return false;
+  if (seen_cells && seen_cells->size() != gt.grid.geometry.NumCells()) {
+    *error = "seen cells: " + std::to_string(seen_cells->size()) + " for a GT grid of " +
+             std::to_string(gt.grid.geometry.NumCells()) + " cells";
+    return false;
+  }
   *result = GridEvalResult{};
   const GridGeometry& g = gt.grid.geometry;
   const int w = g.width, h = g.height;
@@ -80,6 +90,14 @@ bool CompareGrids(const MapServerMap& pred, const MapServerMap& gt, const GridEv
     }
     return false;
   };
+  const auto any_seen = [&](int col, int row) {
+    for (const Eigen::Vector2i& o : offsets) {
+      const int c = col + o.x(), r = row + o.y();
+      if (c < 0 || r < 0 || c >= w || r >= h) continue;
+      if ((*seen_cells)[g.Index(c, r)]) return true;
+    }
+    return false;
+  };
 
   for (int row = 0; row < h; ++row) {
     for (int col = 0; col < w; ++col) {
@@ -97,6 +115,10 @@ bool CompareGrids(const MapServerMap& pred, const MapServerMap& gt, const GridEv
         const bool recalled = any_within(pred_state, col, row);
         if (recalled) ++result->gt_occupied_recalled;
         if (!recalled && ps == CellState::kFree) ++result->dangerous;
+        if (seen_cells && any_seen(col, row)) {
+          ++result->gt_occupied_seen;
+          if (recalled) ++result->gt_occupied_seen_recalled;
+        }
       }
       if (ps == CellState::kOccupied) {
         ++result->pred_occupied;
@@ -112,10 +134,80 @@ bool CompareGrids(const MapServerMap& pred, const MapServerMap& gt, const GridEv
     const double sum = *result->precision + *result->recall;
     result->f1 = sum > 0.0 ? 2.0 * *result->precision * *result->recall / sum : 0.0;
   }
+  if (seen_cells) {
+    result->recall_seen = Ratio(static_cast<double>(result->gt_occupied_seen_recalled),
+                                static_cast<double>(result->gt_occupied_seen));
+    if (result->precision && result->recall_seen) {
+      const double sum = *result->precision + *result->recall_seen;
+      result->f1_seen = sum > 0.0 ? 2.0 * *result->precision * *result->recall_seen / sum : 0.0;
+    }
+  }
   result->dangerous_share =
       Ratio(static_cast<double>(result->dangerous), static_cast<double>(result->gt_occupied));
   result->unknown_share = Ratio(static_cast<double>(result->gt_known_pred_unknown),
                                 static_cast<double>(result->gt_known));
+  return true;
+}
+
+bool SeenSurfaceCells(const std::string& seq_dir, const MapServerMap& gt, int pixel_step,
+                      double min_height_m, std::vector<std::uint8_t>* seen, std::string* error) {
+  namespace fs = std::filesystem;
+  if (pixel_step < 1) {
+    *error = "pixel_step = " + std::to_string(pixel_step) + ": must be >= 1";
+    return false;
+  }
+  CameraCalibration calibration;
+  if (!LoadCalibrationFile((fs::path(seq_dir) / "calib.yaml").string(), &calibration, error))
+    return false;
+  const CameraModel camera(calibration);
+  std::vector<TumPose> poses;
+  if (!LoadTumTrajectory((fs::path(seq_dir) / "gt" / "trajectory.txt").string(), &poses, error))
+    return false;
+  const fs::path depth_dir = fs::path(seq_dir) / "gt" / "depth";
+  std::error_code ec;
+  std::vector<fs::path> frames;
+  for (const auto& entry : fs::directory_iterator(depth_dir, ec)) {
+    if (entry.is_regular_file() && entry.path().extension() == ".png")
+      frames.push_back(entry.path());
+  }
+  if (ec || frames.empty()) {
+    *error = depth_dir.string() + ": no .png frames (expected the sequence's GT depth)";
+    return false;
+  }
+  std::sort(frames.begin(), frames.end());
+  const bool distorted = calibration.intrinsics.HasDistortion();
+  const Eigen::Matrix3d k_inv = camera.K_inverse();
+  seen->assign(gt.grid.geometry.NumCells(), 0);
+  for (const fs::path& path : frames) {
+    const std::string stem = path.stem().string();
+    if (stem.empty() || !std::all_of(stem.begin(), stem.end(), ::isdigit)) continue;
+    const std::size_t index = std::stoul(stem);
+    if (index >= poses.size()) {
+      *error = path.string() + ": frame " + stem + " has no line in gt/trajectory.txt (" +
+               std::to_string(poses.size()) + " lines)";
+      return false;
+    }
+    const cv::Mat depth = cv::imread(path.string(), cv::IMREAD_UNCHANGED);
+    if (depth.empty() || depth.type() != CV_16UC1) {
+      *error = path.string() + ": cannot read a 16-bit depth image";
+      return false;
+    }
+    const TumPose& p = poses[index];
+    const Pose2 map_from_base{p.position.x(), p.position.y(), YawOfQuaternion(p.orientation)};
+    for (int v = 0; v < depth.rows; v += pixel_step) {
+      const auto* row = depth.ptr<std::uint16_t>(v);
+      for (int u = 0; u < depth.cols; u += pixel_step) {
+        if (row[u] == 0) continue;
+        Eigen::Vector2d pixel(u, v);
+        if (distorted) pixel = camera.UndistortPixel(pixel);
+        const Eigen::Vector3d point_in_base =
+            camera.base_from_camera() * ((row[u] * 1e-3) * (k_inv * pixel.homogeneous()));
+        if (point_in_base.z() < min_height_m) continue;
+        const auto cell = gt.CellOf(map_from_base * Eigen::Vector2d(point_in_base.head<2>()));
+        if (cell) (*seen)[gt.grid.geometry.Index(cell->x(), cell->y())] = 1;
+      }
+    }
+  }
   return true;
 }
 

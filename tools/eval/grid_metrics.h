@@ -39,14 +39,31 @@ struct GridEvalResult {
   std::optional<double> f1;
   std::optional<double> dangerous_share;  // dangerous / gt_occupied
   std::optional<double> unknown_share;    // gt_known_pred_unknown / gt_known
+  // With seen cells (SeenSurfaceCells): the GT-occupied cells with a seen cell within tolerance,
+  // those of them recalled, their recall and the F1 of precision and that recall. What a map
+  // made from that camera path could recall at best is gt_occupied_seen / gt_occupied.
+  std::int64_t gt_occupied_seen = 0;
+  std::int64_t gt_occupied_seen_recalled = 0;
+  std::optional<double> recall_seen;  // gt_occupied_seen_recalled / gt_occupied_seen
+  std::optional<double> f1_seen;
 };
 
 // Compares a predicted grid with a ground-truth grid in map-frame metres: the prediction is
 // sampled at the centre of every ground-truth cell (origins, resolutions and yaws may differ).
 // `positions_in_map` (may be empty) restricts the scored cells when options.radius_m > 0.
-// Fails only on invalid options.
+// `seen_cells` (GT grid cells, row-major, 1 = seen; may be null) adds the *_seen figures.
+// Fails only on invalid options or a seen_cells of the wrong size.
 bool CompareGrids(const MapServerMap& pred, const MapServerMap& gt, const GridEvalOptions& options,
                   const std::vector<Eigen::Vector2d>& positions_in_map, GridEvalResult* result,
-                  std::string* error);
+                  std::string* error, const std::vector<std::uint8_t>* seen_cells = nullptr);
+
+// The cells of `gt`'s grid in which the camera of a simulated sequence saw a surface at least
+// min_height_m above the floor: every pixel_step-th pixel (rows and columns) of each frame's
+// gt/depth/NNNNNN.png, back-projected with the sequence's calib.yaml from the frame's pose (line
+// N + 1 of gt/trajectory.txt, in the GT map's frame). A map made from that camera cannot know of
+// an obstacle anywhere else: the GT grid also holds the insides of boxes, table tops above the
+// view and what the path never faced. Row-major, 1 = seen. Errors name the file.
+bool SeenSurfaceCells(const std::string& seq_dir, const MapServerMap& gt, int pixel_step,
+                      double min_height_m, std::vector<std::uint8_t>* seen, std::string* error);
 
 }  // namespace monoplane::eval

@@ -3,9 +3,12 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <opencv2/imgcodecs.hpp>
+
+#include "tools/eval/eval_test_fixtures.h"
 
 namespace monoplane::eval {
 namespace {
@@ -167,6 +170,58 @@ TEST_F(GridMetricsTest, UnknownShareAndRadiusRestriction) {
   EXPECT_LT(r.gt_cells_scored, 30);
   EXPECT_DOUBLE_EQ(*r.unknown_share, 1.0);
   EXPECT_FALSE(r.recall.has_value());  // no GT wall there
+}
+
+TEST_F(GridMetricsTest, SeenCellsComeFromGroundTruthDepthAtTheTrajectory) {
+  // The tiny level camera 1 m up sees every pixel's point (within a millimetre) d metres ahead
+  // at 1 m height. Frame 0 at (-1, 0.025) facing +x with d = 0.525 m and frame 1 at (0, 0.525)
+  // facing -x with d = 0.475 m both see x = -0.475: the wall's cells (10, 20) and (10, 30).
+  const MapServerMap gt = WriteAndLoad("gt", WallImage(10), 0.05, -1.0, -1.0);
+  const fs::path seq = dir_ / "seq";
+  fs::create_directories(seq / "gt" / "depth");
+  std::ofstream(seq / "calib.yaml") << CalibrationToYaml(TinyCalibration());
+  std::ofstream(seq / "gt" / "trajectory.txt") << "0.0 -1 0.025 0 0 0 0 1\n0.1 0 0.525 0 0 0 1 0\n";
+  ASSERT_TRUE(cv::imwrite((seq / "gt/depth/000000.png").string(),
+                          cv::Mat(3, 4, CV_16UC1, cv::Scalar(525))));
+  ASSERT_TRUE(cv::imwrite((seq / "gt/depth/000001.png").string(),
+                          cv::Mat(3, 4, CV_16UC1, cv::Scalar(475))));
+  std::vector<std::uint8_t> seen;
+  std::string error;
+  ASSERT_TRUE(SeenSurfaceCells(seq.string(), gt, 1, 0.03, &seen, &error)) << error;
+  const GridGeometry& g = gt.grid.geometry;
+  ASSERT_EQ(seen.size(), g.NumCells());
+  EXPECT_EQ(std::count(seen.begin(), seen.end(), 1), 2);
+  EXPECT_EQ(seen[g.Index(10, 20)], 1);
+  EXPECT_EQ(seen[g.Index(10, 30)], 1);
+
+  // A prediction with the wall's cell (10, 20) alone: of the two seen GT cells one is recalled;
+  // with a tolerance of 1 cell the seen ones are (10, 19..21) and (10, 29..31), 3 recalled.
+  cv::Mat one(40, 40, CV_8UC1, cv::Scalar(254));
+  one.at<std::uint8_t>(39 - 20, 10) = 0;
+  const MapServerMap pred = WriteAndLoad("one", one, 0.05, -1.0, -1.0);
+  GridEvalResult r;
+  ASSERT_TRUE(CompareGrids(pred, gt, GridEvalOptions{}, {}, &r, &error, &seen)) << error;
+  EXPECT_EQ(r.gt_occupied_seen, 2);
+  EXPECT_EQ(r.gt_occupied_seen_recalled, 1);
+  EXPECT_DOUBLE_EQ(*r.recall_seen, 0.5);
+  EXPECT_DOUBLE_EQ(*r.f1_seen, 2.0 * 1.0 * 0.5 / 1.5);
+  GridEvalOptions tolerant;
+  tolerant.tolerance_cells = 1;
+  ASSERT_TRUE(CompareGrids(pred, gt, tolerant, {}, &r, &error, &seen)) << error;
+  EXPECT_EQ(r.gt_occupied_seen, 6);
+  EXPECT_EQ(r.gt_occupied_seen_recalled, 3);
+  ASSERT_TRUE(CompareGrids(pred, gt, tolerant, {}, &r, &error)) << error;
+  EXPECT_FALSE(r.recall_seen.has_value());  // not asked for
+
+  // Points below min_height_m are not surfaces; a frame without a pose is an error.
+  ASSERT_TRUE(SeenSurfaceCells(seq.string(), gt, 1, 1.5, &seen, &error)) << error;
+  EXPECT_EQ(std::count(seen.begin(), seen.end(), 1), 0);
+  ASSERT_TRUE(cv::imwrite((seq / "gt/depth/000002.png").string(),
+                          cv::Mat(3, 4, CV_16UC1, cv::Scalar(500))));
+  EXPECT_FALSE(SeenSurfaceCells(seq.string(), gt, 1, 0.03, &seen, &error));
+  EXPECT_NE(error.find("000002.png"), std::string::npos) << error;
+  const std::vector<std::uint8_t> wrong_size(7, 0);
+  EXPECT_FALSE(CompareGrids(pred, gt, tolerant, {}, &r, &error, &wrong_size));
 }
 
 TEST_F(GridMetricsTest, InvalidOptionsAreRejected) {

@@ -11,13 +11,17 @@
 
 namespace monoplane::eval {
 
-std::optional<std::int8_t> MapServerMap::ValueAt(const Eigen::Vector2d& point_in_map) const {
+std::optional<Eigen::Vector2i> MapServerMap::CellOf(const Eigen::Vector2d& point_in_map) const {
   const Eigen::Vector2d origin(grid.geometry.origin_x_m, grid.geometry.origin_y_m);
   Eigen::Vector2d local = point_in_map;
   if (origin_yaw_rad != 0.0) {
     local = Pose2{0.0, 0.0, -origin_yaw_rad} * (point_in_map - origin) + origin;
   }
-  const auto cell = grid.geometry.CellOf(local);
+  return grid.geometry.CellOf(local);
+}
+
+std::optional<std::int8_t> MapServerMap::ValueAt(const Eigen::Vector2d& point_in_map) const {
+  const auto cell = CellOf(point_in_map);
   if (!cell) return std::nullopt;
   return grid.At(cell->x(), cell->y());
 }

@@ -18,6 +18,8 @@ struct MapServerMap {
   double origin_yaw_rad = 0.0;  // YAML origin yaw, counter-clockwise
   std::string image_path;       // resolved image path
 
+  // The cell (col, row) holding a map-frame point, nullopt outside the grid.
+  std::optional<Eigen::Vector2i> CellOf(const Eigen::Vector2d& point_in_map) const;
   // The cell value at a map-frame point, nullopt outside the grid.
   std::optional<std::int8_t> ValueAt(const Eigen::Vector2d& point_in_map) const;
   // The map-frame centre of a cell.
