@@ -147,6 +147,8 @@ OptionTable::OptionTable(AppConfig* config) : config_(config) {
   AddInt("classification", "floor_edge_samples", &c.floor_edge_samples,
          "top view: non-floor samples above the floor's last one that keep its cell not free "
          "(>= 0; 0 = off)");
+  AddInt("classification", "edge_floor_unknown_samples", &c.edge_floor_unknown_samples,
+         "floor samples this close to an obstacle in their column are unknown (>= 0; 0 = off)");
   AddInt("classification", "column_min_samples", &c.column_min_samples,
          "top view: obstacle samples are placed on the surface their image column shows when "
          "it has this many (>= 0; 0 = off: each at its own footprint)");

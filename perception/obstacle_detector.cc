@@ -280,6 +280,7 @@ bool ClassificationOptions::IsValid(std::string* error) const {
     return fail("min_surface_neighbours: must be in [0, 8]");
   }
   if (floor_edge_samples < 0) return fail("floor_edge_samples: must be >= 0");
+  if (edge_floor_unknown_samples < 0) return fail("edge_floor_unknown_samples: must be >= 0");
   if (column_min_samples < 0) return fail("column_min_samples: must be >= 0");
   if (free_margin_cells < 0) return fail("free_margin_cells: must be >= 0");
   if (!(column_max_sigmas >= 0)) return fail("column_max_sigmas: must be >= 0");
@@ -605,6 +606,23 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
           PixelLabel& label = labels[i * sample_cols + j];
           if (label != PixelLabel::kFloor) label = PixelLabel::kMoving;
         }
+      }
+    }
+  }
+
+  // Floor next to an obstacle in its image column (its base below it, the floor behind its top
+  // above it): the matching window straddled the edge, and the floor label reached onto the
+  // obstacle's edge pixels. Unknown, not floor.
+  if (co.edge_floor_unknown_samples > 0) {
+    const int reach = co.edge_floor_unknown_samples;
+    const std::vector<PixelLabel> before = labels;
+    for (int i = 0; i < sample_rows; ++i) {
+      for (int j = 0; j < sample_cols; ++j) {
+        if (before[i * sample_cols + j] != PixelLabel::kFloor) continue;
+        bool next_to_obstacle = false;
+        for (int d = std::max(0, i - reach); d <= std::min(sample_rows - 1, i + reach); ++d)
+          next_to_obstacle |= before[d * sample_cols + j] == PixelLabel::kObstacle;
+        if (next_to_obstacle) labels[i * sample_cols + j] = PixelLabel::kUnknown;
       }
     }
   }
