@@ -571,7 +571,7 @@ TEST_F(DetectorOnSyntheticScene, FloorNextToAnObstacleInItsColumnIsUnknown) {
   without.classification.edge_floor_unknown_samples = 0;
   const auto [b, r, r0] = DetectBoth(scene, p1, p2, without);
   ASSERT_EQ(r.status, PairStatus::kOk) << r.message;
-  MaybeDump("low_box_edges", b.image, r);
+  MaybeDump("box_edges", b.image, r);
   auto box_as_floor = [&](const FrameResult& result) {
     int n = 0;
     for (int y = 0; y < b.image.rows; ++y) {
