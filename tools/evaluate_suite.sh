@@ -16,8 +16,8 @@ if [ ${#scenes[@]} -eq 0 ]; then
   for f in "$root"/tests/data/scenes/*.yaml; do scenes+=("$(basename "$f" .yaml)"); done
 fi
 mkdir -p "$out"
-echo "| scene | frames | obstacle recall | floor as obstacle | coverage | dangerous | height error (median) | grid precision | grid recall | dangerous cells | grid unknown | ATE (m) | frames/s |"
-echo "|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+echo "| scene | frames | obstacle recall | floor as obstacle | coverage | dangerous | height error (median) | grid precision | grid recall | grid recall of seen | dangerous cells | grid unknown | ATE (m) | frames/s |"
+echo "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
 for scene in "${scenes[@]}"; do
   dir="$out/$scene"
   seq="$dir/sequence"
@@ -33,7 +33,7 @@ for scene in "${scenes[@]}"; do
   "$build/tools/eval/monoplane-eval" labels --pred "$dir/frames" --gt "$seq" >"$dir/labels.txt"
   "$build/tools/eval/monoplane-eval" labels --pred "$dir/frames" --gt "$seq" --json >"$dir/labels.json"
   "$build/tools/eval/monoplane-eval" grid --pred "$dir/map.yaml" --gt "$seq/gt/map.yaml" --tolerance 1 \
-    --json >"$dir/grid.json"
+    --seen-from "$seq" --json >"$dir/grid.json"
   "$build/tools/eval/monoplane-eval" traj --pred "$dir/trajectory.txt" --gt "$seq/gt/trajectory.txt" \
     --json >"$dir/traj.json"
   python3 - "$scene" "$dir" <<'EOF'
@@ -47,11 +47,11 @@ fps = re.search(r"([0-9.]+) frames/s", run)
 frames = re.search(r"frames read (\d+)", run)
 pct = lambda v: "-" if v is None else "%.1f %%" % (100 * v)
 cm = lambda v: "-" if v is None else "%.1f cm" % (100 * v)
-print("| %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %.3f | %s |" % (
+print("| %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %.3f | %s |" % (
     scene, frames.group(1) if frames else "?", pct(labels["obstacle_recall"]),
     pct(labels["floor_false_obstacle_rate"]), pct(labels["coverage"]), pct(labels["dangerous_rate"]),
     cm(labels["height_error_median_m"]), pct(grid.get("precision")), pct(grid.get("recall")),
-    pct(grid.get("dangerous_share")), pct(grid.get("unknown_share")), traj["ate_m"]["rmse"],
+    pct(grid.get("recall_seen")), pct(grid.get("dangerous_share")), pct(grid.get("unknown_share")), traj["ate_m"]["rmse"],
     fps.group(1) if fps else "?"))
 EOF
 done

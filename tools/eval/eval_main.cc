@@ -85,6 +85,7 @@ int main(int argc, char** argv) {
 
   // grid
   std::string grid_pred, grid_gt, grid_trajectory, grid_seen_from;
+  double grid_seen_range_m = 6.0;
   GridEvalOptions grid_options;
   CLI::App* grid =
       app.add_subcommand("grid", "occupancy grid vs a ground-truth grid (map_server YAML)");
@@ -98,6 +99,9 @@ int main(int argc, char** argv) {
   grid->add_option("--seen-from", grid_seen_from,
                    "simulated sequence folder: also score recall of the GT-occupied cells its "
                    "camera saw a surface >= 3 cm high in (GT depth, every 2nd pixel)");
+  grid->add_option("--seen-range", grid_seen_range_m,
+                   "with --seen-from: only surfaces within this ground distance of the robot, m")
+      ->capture_default_str();
   grid->add_flag("--json", json, "print JSON instead of a table");
   grid->callback([&] {
     std::string error;
@@ -120,8 +124,9 @@ int main(int argc, char** argv) {
       for (const TumPose& p : poses) positions.push_back(p.position.head<2>());
     }
     std::vector<std::uint8_t> seen;
-    if (!grid_seen_from.empty() && !SeenSurfaceCells(grid_seen_from, gt, /*pixel_step=*/2,
-                                                     /*min_height_m=*/0.03, &seen, &error)) {
+    if (!grid_seen_from.empty() &&
+        !SeenSurfaceCells(grid_seen_from, gt, /*pixel_step=*/2, /*min_height_m=*/0.03,
+                          grid_seen_range_m, &seen, &error)) {
       exit_code = Fail(error);
       return;
     }

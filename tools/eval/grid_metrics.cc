@@ -150,7 +150,8 @@ bool CompareGrids(const MapServerMap& pred, const MapServerMap& gt, const GridEv
 }
 
 bool SeenSurfaceCells(const std::string& seq_dir, const MapServerMap& gt, int pixel_step,
-                      double min_height_m, std::vector<std::uint8_t>* seen, std::string* error) {
+                      double min_height_m, double max_range_m, std::vector<std::uint8_t>* seen,
+                      std::string* error) {
   namespace fs = std::filesystem;
   if (pixel_step < 1) {
     *error = "pixel_step = " + std::to_string(pixel_step) + ": must be >= 1";
@@ -202,7 +203,8 @@ bool SeenSurfaceCells(const std::string& seq_dir, const MapServerMap& gt, int pi
         if (distorted) pixel = camera.UndistortPixel(pixel);
         const Eigen::Vector3d point_in_base =
             camera.base_from_camera() * ((row[u] * 1e-3) * (k_inv * pixel.homogeneous()));
-        if (point_in_base.z() < min_height_m) continue;
+        if (point_in_base.z() < min_height_m || point_in_base.head<2>().norm() > max_range_m)
+          continue;
         const auto cell = gt.CellOf(map_from_base * Eigen::Vector2d(point_in_base.head<2>()));
         if (cell) (*seen)[gt.grid.geometry.Index(cell->x(), cell->y())] = 1;
       }

@@ -58,12 +58,15 @@ bool CompareGrids(const MapServerMap& pred, const MapServerMap& gt, const GridEv
                   std::string* error, const std::vector<std::uint8_t>* seen_cells = nullptr);
 
 // The cells of `gt`'s grid in which the camera of a simulated sequence saw a surface at least
-// min_height_m above the floor: every pixel_step-th pixel (rows and columns) of each frame's
+// min_height_m above the floor within max_range_m (ground distance from the robot's base; the
+// detector places nothing farther than its classification.max_range_m, 6 m by default): every
+// pixel_step-th pixel (rows and columns) of each frame's
 // gt/depth/NNNNNN.png, back-projected with the sequence's calib.yaml from the frame's pose (line
 // N + 1 of gt/trajectory.txt, in the GT map's frame). A map made from that camera cannot know of
 // an obstacle anywhere else: the GT grid also holds the insides of boxes, table tops above the
 // view and what the path never faced. Row-major, 1 = seen. Errors name the file.
 bool SeenSurfaceCells(const std::string& seq_dir, const MapServerMap& gt, int pixel_step,
-                      double min_height_m, std::vector<std::uint8_t>* seen, std::string* error);
+                      double min_height_m, double max_range_m, std::vector<std::uint8_t>* seen,
+                      std::string* error);
 
 }  // namespace monoplane::eval

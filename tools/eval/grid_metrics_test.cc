@@ -187,7 +187,7 @@ TEST_F(GridMetricsTest, SeenCellsComeFromGroundTruthDepthAtTheTrajectory) {
                           cv::Mat(3, 4, CV_16UC1, cv::Scalar(475))));
   std::vector<std::uint8_t> seen;
   std::string error;
-  ASSERT_TRUE(SeenSurfaceCells(seq.string(), gt, 1, 0.03, &seen, &error)) << error;
+  ASSERT_TRUE(SeenSurfaceCells(seq.string(), gt, 1, 0.03, 6.0, &seen, &error)) << error;
   const GridGeometry& g = gt.grid.geometry;
   ASSERT_EQ(seen.size(), g.NumCells());
   EXPECT_EQ(std::count(seen.begin(), seen.end(), 1), 2);
@@ -213,12 +213,16 @@ TEST_F(GridMetricsTest, SeenCellsComeFromGroundTruthDepthAtTheTrajectory) {
   ASSERT_TRUE(CompareGrids(pred, gt, tolerant, {}, &r, &error)) << error;
   EXPECT_FALSE(r.recall_seen.has_value());  // not asked for
 
-  // Points below min_height_m are not surfaces; a frame without a pose is an error.
-  ASSERT_TRUE(SeenSurfaceCells(seq.string(), gt, 1, 1.5, &seen, &error)) << error;
+  // Points below min_height_m are not surfaces, nor those beyond max_range_m (0.525 m and 0.475 m
+  // ahead here); a frame without a pose is an error.
+  ASSERT_TRUE(SeenSurfaceCells(seq.string(), gt, 1, 1.5, 6.0, &seen, &error)) << error;
   EXPECT_EQ(std::count(seen.begin(), seen.end(), 1), 0);
+  ASSERT_TRUE(SeenSurfaceCells(seq.string(), gt, 1, 0.03, 0.5, &seen, &error)) << error;
+  EXPECT_EQ(std::count(seen.begin(), seen.end(), 1), 1);
+  EXPECT_EQ(seen[g.Index(10, 30)], 1);
   ASSERT_TRUE(cv::imwrite((seq / "gt/depth/000002.png").string(),
                           cv::Mat(3, 4, CV_16UC1, cv::Scalar(500))));
-  EXPECT_FALSE(SeenSurfaceCells(seq.string(), gt, 1, 0.03, &seen, &error));
+  EXPECT_FALSE(SeenSurfaceCells(seq.string(), gt, 1, 0.03, 6.0, &seen, &error));
   EXPECT_NE(error.find("000002.png"), std::string::npos) << error;
   const std::vector<std::uint8_t> wrong_size(7, 0);
   EXPECT_FALSE(CompareGrids(pred, gt, tolerant, {}, &r, &error, &wrong_size));
