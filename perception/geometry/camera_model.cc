@@ -35,6 +35,10 @@ Eigen::Vector3d CameraModel::RayInBase(const Eigen::Vector2d& pixel) const {
   return (base_from_camera_.linear() * (k_inv_ * pixel.homogeneous())).normalized();
 }
 
+Eigen::Vector3d CameraModel::PointInBase(const Eigen::Vector2d& pixel, double depth_m) const {
+  return base_from_camera_ * (depth_m * (k_inv_ * pixel.homogeneous()));
+}
+
 std::optional<Eigen::Vector2d> CameraModel::PixelToFloor(const Eigen::Vector2d& pixel) const {
   const Eigen::Vector3d ray = RayInBase(pixel);
   if (ray.z() >= -1e-12) return std::nullopt;  // never reaches the floor

@@ -29,6 +29,8 @@ class CameraModel {
 
   // Unit viewing ray of a pixel, in the base frame.
   Eigen::Vector3d RayInBase(const Eigen::Vector2d& pixel) const;
+  // The base-frame point seen at a pixel at depth_m along the optical axis (a depth image's value).
+  Eigen::Vector3d PointInBase(const Eigen::Vector2d& pixel, double depth_m) const;
 
   // The floor point (z = 0, base frame) seen at a pixel; nullopt at or above the horizon.
   std::optional<Eigen::Vector2d> PixelToFloor(const Eigen::Vector2d& pixel) const;

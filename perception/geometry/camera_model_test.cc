@@ -52,6 +52,20 @@ TEST(CameraModel, FloorRoundTripAndHorizon) {
   }
 }
 
+TEST(CameraModel, PointInBaseInvertsProjectionWithTheOpticalDepth) {
+  for (const auto& calib : Mounts()) {
+    const CameraModel camera(calib);
+    for (const Eigen::Vector3d& point :
+         {Eigen::Vector3d(2.0, 0.5, 0.3), Eigen::Vector3d(1.2, -0.4, 0.0),
+          Eigen::Vector3d(4.0, 1.0, 1.5)}) {
+      const auto pixel = camera.ProjectToPixel(point);
+      ASSERT_TRUE(pixel);
+      const double depth_m = (camera.camera_from_base() * point).z();
+      EXPECT_LT((camera.PointInBase(*pixel, depth_m) - point).norm(), 1e-9);
+    }
+  }
+}
+
 TEST(CameraModel, HorizonLineHoldsVanishingPoints) {
   for (const auto& calib : Mounts()) {
     const CameraModel camera(calib);

@@ -32,6 +32,17 @@ CellState StateOfValue(std::int8_t value) {
   return CellState::kUnknown;
 }
 
+namespace {
+
+std::optional<double> F1(const std::optional<double>& precision,
+                         const std::optional<double>& recall) {
+  if (!precision || !recall) return std::nullopt;
+  const double sum = *precision + *recall;
+  return sum > 0.0 ? 2.0 * *precision * *recall / sum : 0.0;
+}
+
+}  // namespace
+
 bool CompareGrids(const MapServerMap& pred, const MapServerMap& gt, const GridEvalOptions& options,
                   const std::vector<Eigen::Vector2d>& positions_in_map, GridEvalResult* result,
                   std::string* error, const std::vector<std::uint8_t>* seen_cells) {
@@ -82,21 +93,20 @@ bool CompareGrids(const MapServerMap& pred, const MapServerMap& gt, const GridEv
       if (dx * dx + dy * dy <= k * k) offsets.emplace_back(dx, dy);
     }
   }
-  const auto any_within = [&](const std::vector<CellState>& states, int col, int row) {
+  // Whether test(index) holds for a cell within the tolerance of (col, row).
+  const auto any_near = [&](int col, int row, const auto& test) {
     for (const Eigen::Vector2i& o : offsets) {
       const int c = col + o.x(), r = row + o.y();
       if (c < 0 || r < 0 || c >= w || r >= h) continue;
-      if (states[g.Index(c, r)] == CellState::kOccupied) return true;
+      if (test(g.Index(c, r))) return true;
     }
     return false;
   };
+  const auto any_within = [&](const std::vector<CellState>& states, int col, int row) {
+    return any_near(col, row, [&](std::size_t i) { return states[i] == CellState::kOccupied; });
+  };
   const auto any_seen = [&](int col, int row) {
-    for (const Eigen::Vector2i& o : offsets) {
-      const int c = col + o.x(), r = row + o.y();
-      if (c < 0 || r < 0 || c >= w || r >= h) continue;
-      if ((*seen_cells)[g.Index(c, r)]) return true;
-    }
-    return false;
+    return any_near(col, row, [&](std::size_t i) { return (*seen_cells)[i] != 0; });
   };
 
   for (int row = 0; row < h; ++row) {
@@ -130,17 +140,11 @@ bool CompareGrids(const MapServerMap& pred, const MapServerMap& gt, const GridEv
                             static_cast<double>(result->pred_occupied));
   result->recall = Ratio(static_cast<double>(result->gt_occupied_recalled),
                          static_cast<double>(result->gt_occupied));
-  if (result->precision && result->recall) {
-    const double sum = *result->precision + *result->recall;
-    result->f1 = sum > 0.0 ? 2.0 * *result->precision * *result->recall / sum : 0.0;
-  }
+  result->f1 = F1(result->precision, result->recall);
   if (seen_cells) {
     result->recall_seen = Ratio(static_cast<double>(result->gt_occupied_seen_recalled),
                                 static_cast<double>(result->gt_occupied_seen));
-    if (result->precision && result->recall_seen) {
-      const double sum = *result->precision + *result->recall_seen;
-      result->f1_seen = sum > 0.0 ? 2.0 * *result->precision * *result->recall_seen / sum : 0.0;
-    }
+    result->f1_seen = F1(result->precision, result->recall_seen);
   }
   result->dangerous_share =
       Ratio(static_cast<double>(result->dangerous), static_cast<double>(result->gt_occupied));
@@ -177,7 +181,6 @@ bool SeenSurfaceCells(const std::string& seq_dir, const MapServerMap& gt, int pi
   }
   std::sort(frames.begin(), frames.end());
   const bool distorted = calibration.intrinsics.HasDistortion();
-  const Eigen::Matrix3d k_inv = camera.K_inverse();
   seen->assign(gt.grid.geometry.NumCells(), 0);
   for (const fs::path& path : frames) {
     const std::string stem = path.stem().string();
@@ -201,8 +204,7 @@ bool SeenSurfaceCells(const std::string& seq_dir, const MapServerMap& gt, int pi
         if (row[u] == 0) continue;
         Eigen::Vector2d pixel(u, v);
         if (distorted) pixel = camera.UndistortPixel(pixel);
-        const Eigen::Vector3d point_in_base =
-            camera.base_from_camera() * ((row[u] * 1e-3) * (k_inv * pixel.homogeneous()));
+        const Eigen::Vector3d point_in_base = camera.PointInBase(pixel, row[u] * 1e-3);
         if (point_in_base.z() < min_height_m || point_in_base.head<2>().norm() > max_range_m)
           continue;
         const auto cell = gt.CellOf(map_from_base * Eigen::Vector2d(point_in_base.head<2>()));

@@ -118,8 +118,6 @@ bool TallyLabelFrame(const LabelFrame& frame, const CameraModel& camera,
     }
   }
 
-  const Eigen::Matrix3d k_inv = camera.K().inverse();
-  const Eigen::Isometry3d& base_from_camera = camera.base_from_camera();
   const bool distorted = intrinsics.HasDistortion();
   LabelTally frame_tally;  // committed only when the whole frame is valid
   frame_tally.bands.resize(num_bands);
@@ -147,9 +145,7 @@ bool TallyLabelFrame(const LabelFrame& frame, const CameraModel& camera,
       if (gt_depth_row[u] != 0) {
         Eigen::Vector2d pixel(u, v);
         if (distorted) pixel = camera.UndistortPixel(pixel);
-        const Eigen::Vector3d point_in_camera =
-            (gt_depth_row[u] * 1e-3) * (k_inv * pixel.homogeneous());
-        const Eigen::Vector3d point_in_base = base_from_camera * point_in_camera;
+        const Eigen::Vector3d point_in_base = camera.PointInBase(pixel, gt_depth_row[u] * 1e-3);
         distance_m = std::hypot(point_in_base.x(), point_in_base.y());
         const auto it =
             std::upper_bound(options.band_edges_m.begin(), options.band_edges_m.end(), distance_m);
