@@ -253,7 +253,7 @@ std::string GridReportTable(const GridEvalResult& r) {
       << " of GT occupied)\n"
       << "unknown share:        " << Percent(r.unknown_share) << " (" << r.gt_known_pred_unknown
       << " of " << r.gt_known << " GT known cells)\n";
-  if (r.recall_seen || r.gt_occupied_seen > 0) {
+  if (r.seen_scored) {
     out << "GT occupied seen:     " << r.gt_occupied_seen << " (the camera saw a surface there)\n"
         << "recall of seen:       " << Percent(r.recall_seen) << " (" << r.gt_occupied_seen_recalled
         << " / " << r.gt_occupied_seen << ")\n"

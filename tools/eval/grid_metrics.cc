@@ -142,6 +142,7 @@ bool CompareGrids(const MapServerMap& pred, const MapServerMap& gt, const GridEv
                          static_cast<double>(result->gt_occupied));
   result->f1 = F1(result->precision, result->recall);
   if (seen_cells) {
+    result->seen_scored = true;
     result->recall_seen = Ratio(static_cast<double>(result->gt_occupied_seen_recalled),
                                 static_cast<double>(result->gt_occupied_seen));
     result->f1_seen = F1(result->precision, result->recall_seen);
@@ -159,6 +160,10 @@ bool SeenSurfaceCells(const std::string& seq_dir, const MapServerMap& gt, int pi
   namespace fs = std::filesystem;
   if (pixel_step < 1) {
     *error = "pixel_step = " + std::to_string(pixel_step) + ": must be >= 1";
+    return false;
+  }
+  if (!(max_range_m > 0)) {
+    *error = "seen range = " + std::to_string(max_range_m) + " m: must be > 0";
     return false;
   }
   CameraCalibration calibration;

@@ -42,6 +42,7 @@ struct GridEvalResult {
   // With seen cells (SeenSurfaceCells): the GT-occupied cells with a seen cell within tolerance,
   // those of them recalled, their recall and the F1 of precision and that recall. What a map
   // made from that camera path could recall at best is gt_occupied_seen / gt_occupied.
+  bool seen_scored = false;  // seen cells were given
   std::int64_t gt_occupied_seen = 0;
   std::int64_t gt_occupied_seen_recalled = 0;
   std::optional<double> recall_seen;  // gt_occupied_seen_recalled / gt_occupied_seen

@@ -201,6 +201,7 @@ TEST_F(GridMetricsTest, SeenCellsComeFromGroundTruthDepthAtTheTrajectory) {
   const MapServerMap pred = WriteAndLoad("one", one, 0.05, -1.0, -1.0);
   GridEvalResult r;
   ASSERT_TRUE(CompareGrids(pred, gt, GridEvalOptions{}, {}, &r, &error, &seen)) << error;
+  EXPECT_TRUE(r.seen_scored);
   EXPECT_EQ(r.gt_occupied_seen, 2);
   EXPECT_EQ(r.gt_occupied_seen_recalled, 1);
   EXPECT_DOUBLE_EQ(*r.recall_seen, 0.5);
@@ -211,7 +212,8 @@ TEST_F(GridMetricsTest, SeenCellsComeFromGroundTruthDepthAtTheTrajectory) {
   EXPECT_EQ(r.gt_occupied_seen, 6);
   EXPECT_EQ(r.gt_occupied_seen_recalled, 3);
   ASSERT_TRUE(CompareGrids(pred, gt, tolerant, {}, &r, &error)) << error;
-  EXPECT_FALSE(r.recall_seen.has_value());  // not asked for
+  EXPECT_FALSE(r.seen_scored);  // not asked for
+  EXPECT_FALSE(r.recall_seen.has_value());
 
   // Points below min_height_m are not surfaces, nor those beyond max_range_m (0.525 m and 0.475 m
   // ahead here); a frame without a pose is an error.
@@ -224,6 +226,8 @@ TEST_F(GridMetricsTest, SeenCellsComeFromGroundTruthDepthAtTheTrajectory) {
                           cv::Mat(3, 4, CV_16UC1, cv::Scalar(500))));
   EXPECT_FALSE(SeenSurfaceCells(seq.string(), gt, 1, 0.03, 6.0, &seen, &error));
   EXPECT_NE(error.find("000002.png"), std::string::npos) << error;
+  EXPECT_FALSE(SeenSurfaceCells(seq.string(), gt, 1, 0.03, -1.0, &seen, &error));
+  EXPECT_NE(error.find("must be > 0"), std::string::npos) << error;
   const std::vector<std::uint8_t> wrong_size(7, 0);
   EXPECT_FALSE(CompareGrids(pred, gt, tolerant, {}, &r, &error, &wrong_size));
 }
