@@ -811,12 +811,12 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
     for (int xx = 0; xx < r.labels.cols; ++xx) ++count[p[xx]];
   }
   const auto of = [&](PixelLabel label) { return count[static_cast<std::uint8_t>(label)]; };
-  r.num_floor += of(PixelLabel::kFloor);
-  r.num_obstacle += of(PixelLabel::kObstacle);
-  r.num_drop_off += of(PixelLabel::kDropOff);
-  r.num_moving += of(PixelLabel::kMoving);
-  r.num_unknown = r.labels.rows * r.labels.cols - of(PixelLabel::kFloor) -
-                  of(PixelLabel::kObstacle) - of(PixelLabel::kDropOff) - of(PixelLabel::kMoving);
+  r.num_floor = of(PixelLabel::kFloor);
+  r.num_obstacle = of(PixelLabel::kObstacle);
+  r.num_drop_off = of(PixelLabel::kDropOff);
+  r.num_moving = of(PixelLabel::kMoving);
+  r.num_unknown =
+      r.labels.rows * r.labels.cols - r.num_floor - r.num_obstacle - r.num_drop_off - r.num_moving;
   return r;
 }
 

@@ -51,7 +51,7 @@ print("| %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %.3f | %s |
     scene, frames.group(1) if frames else "?", pct(labels["obstacle_recall"]),
     pct(labels["floor_false_obstacle_rate"]), pct(labels["coverage"]), pct(labels["dangerous_rate"]),
     cm(labels["height_error_median_m"]), pct(grid.get("precision")), pct(grid.get("recall")),
-    pct(grid.get("recall_seen")), pct(grid.get("dangerous_share")), pct(grid.get("unknown_share")), traj["ate_m"]["rmse"],
-    fps.group(1) if fps else "?"))
+    pct(grid.get("recall_seen")), pct(grid.get("dangerous_share")), pct(grid.get("unknown_share")),
+    traj["ate_m"]["rmse"], fps.group(1) if fps else "?"))
 EOF
 done

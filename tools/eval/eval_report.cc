@@ -263,26 +263,27 @@ std::string GridReportTable(const GridEvalResult& r) {
 }
 
 std::string GridReportJson(const GridEvalResult& r) {
-  return JsonObject()
-             .Add("gt_cells_scored", r.gt_cells_scored)
-             .Add("gt_known", r.gt_known)
-             .Add("gt_occupied", r.gt_occupied)
-             .Add("gt_occupied_recalled", r.gt_occupied_recalled)
-             .Add("pred_occupied", r.pred_occupied)
-             .Add("pred_occupied_matched", r.pred_occupied_matched)
-             .Add("dangerous", r.dangerous)
-             .Add("gt_known_pred_unknown", r.gt_known_pred_unknown)
-             .Add("precision", r.precision)
-             .Add("recall", r.recall)
-             .Add("f1", r.f1)
-             .Add("dangerous_share", r.dangerous_share)
-             .Add("unknown_share", r.unknown_share)
-             .Add("gt_occupied_seen", r.gt_occupied_seen)
-             .Add("gt_occupied_seen_recalled", r.gt_occupied_seen_recalled)
-             .Add("recall_seen", r.recall_seen)
-             .Add("f1_seen", r.f1_seen)
-             .Str() +
-         "\n";
+  JsonObject json;
+  json.Add("gt_cells_scored", r.gt_cells_scored)
+      .Add("gt_known", r.gt_known)
+      .Add("gt_occupied", r.gt_occupied)
+      .Add("gt_occupied_recalled", r.gt_occupied_recalled)
+      .Add("pred_occupied", r.pred_occupied)
+      .Add("pred_occupied_matched", r.pred_occupied_matched)
+      .Add("dangerous", r.dangerous)
+      .Add("gt_known_pred_unknown", r.gt_known_pred_unknown)
+      .Add("precision", r.precision)
+      .Add("recall", r.recall)
+      .Add("f1", r.f1)
+      .Add("dangerous_share", r.dangerous_share)
+      .Add("unknown_share", r.unknown_share);
+  if (r.seen_scored) {  // only when asked for (--seen-from)
+    json.Add("gt_occupied_seen", r.gt_occupied_seen)
+        .Add("gt_occupied_seen_recalled", r.gt_occupied_seen_recalled)
+        .Add("recall_seen", r.recall_seen)
+        .Add("f1_seen", r.f1_seen);
+  }
+  return json.Str() + "\n";
 }
 
 std::string TrajectoryReportTable(const TrajectoryEvalResult& r) {
