@@ -242,15 +242,16 @@ bool ParseMountSection(const YAML::Node& mount, CameraMount* m, std::string* err
   return reader.ok();
 }
 
-std::string ReadFile(const std::string& path, std::string* error) {
+bool ReadFile(const std::string& path, std::string* text, std::string* error) {
   std::ifstream file(path, std::ios::binary);
   if (!file) {
     *error = path + ": cannot open file";
-    return {};
+    return false;
   }
   std::ostringstream buffer;
   buffer << file.rdbuf();
-  return buffer.str();
+  *text = buffer.str();
+  return true;
 }
 
 std::string Num(double v) {
@@ -394,8 +395,8 @@ bool ParseCalibrationYaml(const std::string& yaml_text, CameraCalibration* calib
 
 bool LoadCalibrationFile(const std::string& path, CameraCalibration* calibration,
                          std::string* error) {
-  const std::string text = ReadFile(path, error);
-  if (!error->empty()) return false;
+  std::string text;
+  if (!ReadFile(path, &text, error)) return false;
   if (!ParseCalibrationYaml(text, calibration, error)) {
     *error = path + ": " + *error;
     return false;
@@ -404,8 +405,8 @@ bool LoadCalibrationFile(const std::string& path, CameraCalibration* calibration
 }
 
 bool LoadIntrinsicsFile(const std::string& path, CameraIntrinsics* intrinsics, std::string* error) {
-  const std::string text = ReadFile(path, error);
-  if (!error->empty()) return false;
+  std::string text;
+  if (!ReadFile(path, &text, error)) return false;
   const bool opencv_flavour = text.rfind("%YAML:1.0", 0) == 0 || text.rfind("<?xml", 0) == 0 ||
                               text.find("!!opencv-matrix") != std::string::npos;
   CameraIntrinsics parsed;

@@ -177,6 +177,11 @@ TEST(CameraCalibration, MissingFileIsNamed) {
   std::string error;
   EXPECT_FALSE(LoadCalibrationFile("/nonexistent/calib.yaml", &c, &error));
   EXPECT_EQ(error, "/nonexistent/calib.yaml: cannot open file");
+  // The error string of that failure, reused, does not make a good file fail.
+  EXPECT_TRUE(LoadCalibrationFile(kCalibDir + "/default.yaml", &c, &error)) << error;
+  CameraIntrinsics intrinsics;
+  error = "left over";
+  EXPECT_TRUE(LoadIntrinsicsFile(kCalibDir + "/default.yaml", &intrinsics, &error)) << error;
 }
 
 }  // namespace
