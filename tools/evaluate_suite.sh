@@ -16,8 +16,8 @@ if [ ${#scenes[@]} -eq 0 ]; then
   for f in "$root"/tests/data/scenes/*.yaml; do scenes+=("$(basename "$f" .yaml)"); done
 fi
 mkdir -p "$out"
-echo "| scene | frames | obstacle recall | floor as obstacle | coverage | dangerous | height error (median) | grid precision | grid recall | grid recall of seen | dangerous cells | grid unknown | ATE (m) | frames/s |"
-echo "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+echo "| scene | frames | obstacle recall (<= 4 m) | of textured (<= 4 m) | floor as obstacle | coverage | dangerous | height error (median) | grid precision | grid recall | grid recall of seen | dangerous cells | grid unknown | ATE (m) | frames/s |"
+echo "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
 for scene in "${scenes[@]}"; do
   dir="$out/$scene"
   seq="$dir/sequence"
@@ -30,8 +30,10 @@ for scene in "${scenes[@]}"; do
     ${CONFIG:+--config "$CONFIG"} >"$dir/run.txt"
   "$build/app/monoplane" export "$dir/map.db" --grid "$dir/map.yaml" --trajectory "$dir/trajectory.txt" \
     --png "$dir/map.png" >/dev/null
-  "$build/tools/eval/monoplane-eval" labels --pred "$dir/frames" --gt "$seq" >"$dir/labels.txt"
-  "$build/tools/eval/monoplane-eval" labels --pred "$dir/frames" --gt "$seq" --json >"$dir/labels.json"
+  "$build/tools/eval/monoplane-eval" labels --pred "$dir/frames" --gt "$seq" --min-texture 1 \
+    >"$dir/labels.txt"
+  "$build/tools/eval/monoplane-eval" labels --pred "$dir/frames" --gt "$seq" --min-texture 1 --json \
+    >"$dir/labels.json"
   "$build/tools/eval/monoplane-eval" grid --pred "$dir/map.yaml" --gt "$seq/gt/map.yaml" --tolerance 1 \
     --seen-from "$seq" --json >"$dir/grid.json"
   "$build/tools/eval/monoplane-eval" traj --pred "$dir/trajectory.txt" --gt "$seq/gt/trajectory.txt" \
@@ -39,7 +41,8 @@ for scene in "${scenes[@]}"; do
   python3 - "$scene" "$dir" <<'EOF'
 import json, re, sys
 scene, d = sys.argv[1], sys.argv[2]
-labels = json.load(open(d + "/labels.json"))["overall"]
+all_labels = json.load(open(d + "/labels.json"))
+labels, near = all_labels["overall"], all_labels["near"]
 grid = json.load(open(d + "/grid.json"))
 traj = json.load(open(d + "/traj.json"))
 run = open(d + "/run.txt").read()
@@ -47,8 +50,9 @@ fps = re.search(r"([0-9.]+) frames/s", run)
 frames = re.search(r"frames read (\d+)", run)
 pct = lambda v: "-" if v is None else "%.1f %%" % (100 * v)
 cm = lambda v: "-" if v is None else "%.1f cm" % (100 * v)
-print("| %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %.3f | %s |" % (
-    scene, frames.group(1) if frames else "?", pct(labels["obstacle_recall"]),
+print("| %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %.3f | %s |" % (
+    scene, frames.group(1) if frames else "?", pct(near["obstacle_recall"]),
+    pct(near["obstacle_recall_textured"]),
     pct(labels["floor_false_obstacle_rate"]), pct(labels["coverage"]), pct(labels["dangerous_rate"]),
     cm(labels["height_error_median_m"]), pct(grid.get("precision")), pct(grid.get("recall")),
     pct(grid.get("recall_seen")), pct(grid.get("dangerous_share")), pct(grid.get("unknown_share")),

@@ -46,6 +46,16 @@ int main(int argc, char** argv) {
       ->add_option("--max-height-distance", label_options.max_height_error_distance_m,
                    "height errors within this ground distance, m")
       ->capture_default_str();
+  labels
+      ->add_option("--near-range", label_options.near_range_m,
+                   "the bands up to this distance are also summed (a band edge), m")
+      ->capture_default_str();
+  labels
+      ->add_option("--min-texture", label_options.min_texture,
+                   "also count GT obstacle pixels whose image texture is below this apart, and "
+                   "the recall of the others (the matcher's min_texture is 1.0; reads "
+                   "SEQ/images), grey levels^2/px^2, 0 = off")
+      ->capture_default_str();
   labels->add_flag("--json", json, "print JSON instead of a table");
   labels->callback([&] {
     LabelEvalResult result;

@@ -87,29 +87,30 @@ std::string ErrorStatsJson(const ErrorStats& s) {
       .Str();
 }
 
-std::string LabelMetricsJson(const LabelMetrics& m) {
+// The weak-texture keys only when they were scored (they read 0 / null otherwise, as if every
+// obstacle pixel had texture).
+std::string LabelMetricsJson(const LabelMetrics& m, bool texture_scored) {
   const LabelCounts& c = m.counts;
-  const std::string counts = JsonObject()
-                                 .Add("gt_surface", c.gt_surface)
-                                 .Add("gt_surface_predicted", c.gt_surface_predicted)
-                                 .Add("gt_obstacle", c.gt_obstacle)
-                                 .Add("gt_obstacle_low", c.gt_obstacle_low)
-                                 .Add("obstacle_as_obstacle", c.obstacle_as_obstacle)
-                                 .Add("obstacle_as_moving", c.obstacle_as_moving)
-                                 .Add("obstacle_as_floor", c.obstacle_as_floor)
-                                 .Add("obstacle_unknown", c.obstacle_unknown)
-                                 .Add("gt_floor", c.gt_floor)
-                                 .Add("floor_predicted", c.floor_predicted)
-                                 .Add("floor_as_not_floor", c.floor_as_not_floor)
-                                 .Add("gt_drop", c.gt_drop)
-                                 .Add("gt_drop_shallow", c.gt_drop_shallow)
-                                 .Add("drop_as_drop", c.drop_as_drop)
-                                 .Add("gt_moving", c.gt_moving)
-                                 .Add("moving_as_moving", c.moving_as_moving)
-                                 .Add("height_error_samples", c.height_error_samples)
-                                 .Str();
-  return JsonObject()
-      .Add("band", m.name)
+  JsonObject counts_json;
+  counts_json.Add("gt_surface", c.gt_surface)
+      .Add("gt_surface_predicted", c.gt_surface_predicted)
+      .Add("gt_obstacle", c.gt_obstacle)
+      .Add("gt_obstacle_low", c.gt_obstacle_low)
+      .Add("obstacle_as_obstacle", c.obstacle_as_obstacle)
+      .Add("obstacle_as_moving", c.obstacle_as_moving)
+      .Add("obstacle_as_floor", c.obstacle_as_floor)
+      .Add("obstacle_unknown", c.obstacle_unknown)
+      .Add("gt_floor", c.gt_floor)
+      .Add("floor_predicted", c.floor_predicted)
+      .Add("floor_as_not_floor", c.floor_as_not_floor)
+      .Add("gt_drop", c.gt_drop)
+      .Add("gt_drop_shallow", c.gt_drop_shallow)
+      .Add("drop_as_drop", c.drop_as_drop)
+      .Add("gt_moving", c.gt_moving)
+      .Add("moving_as_moving", c.moving_as_moving)
+      .Add("height_error_samples", c.height_error_samples);
+  JsonObject json;
+  json.Add("band", m.name)
       .Add("min_distance_m", m.min_distance_m)
       .Add("max_distance_m", m.max_distance_m)
       .Add("obstacle_recall", m.obstacle_recall)
@@ -121,9 +122,14 @@ std::string LabelMetricsJson(const LabelMetrics& m) {
       .Add("coverage", m.coverage)
       .Add("dangerous_rate", m.dangerous_rate)
       .Add("height_error_median_m", m.height_error_median_m)
-      .Add("height_error_mean_m", m.height_error_mean_m)
-      .Raw("counts", counts)
-      .Str();
+      .Add("height_error_mean_m", m.height_error_mean_m);
+  if (texture_scored) {
+    counts_json.Add("gt_obstacle_weak", c.gt_obstacle_weak)
+        .Add("weak_obstacle_as_obstacle", c.weak_obstacle_as_obstacle);
+    json.Add("weak_texture_share", m.weak_texture_share)
+        .Add("obstacle_recall_textured", m.obstacle_recall_textured);
+  }
+  return json.Raw("counts", counts_json.Str()).Str();
 }
 
 std::string KittiMetricsJson(const KittiMetrics& m) {
@@ -160,6 +166,7 @@ std::string LabelReportTable(const LabelEvalResult& result) {
              w);
   std::vector<LabelMetrics> rows = result.bands;
   rows.push_back(result.overall);
+  rows.push_back(result.near);
   for (const LabelMetrics& m : rows) {
     out += Row(
         {m.name, Percent(m.obstacle_recall), Percent(m.obstacle_recall_with_moving),
@@ -169,16 +176,25 @@ std::string LabelReportTable(const LabelEvalResult& result) {
          std::to_string(m.counts.gt_obstacle), std::to_string(m.counts.gt_floor)},
         w);
   }
+  if (result.texture_scored) {
+    out += "obstacle pixels with weak texture: " + Percent(result.overall.weak_texture_share) +
+           " overall, " + Percent(result.near.weak_texture_share) + " within " + result.near.name +
+           "; recall of the others: " + Percent(result.overall.obstacle_recall_textured) +
+           " overall, " + Percent(result.near.obstacle_recall_textured) + " within " +
+           result.near.name + "\n";
+  }
   return out;
 }
 
 std::string LabelReportJson(const LabelEvalResult& result) {
+  const bool t = result.texture_scored;
   std::vector<std::string> bands;
-  for (const LabelMetrics& m : result.bands) bands.push_back(LabelMetricsJson(m));
+  for (const LabelMetrics& m : result.bands) bands.push_back(LabelMetricsJson(m, t));
   return JsonObject()
              .Add("frames_scored", result.frames_scored)
              .Add("frames_missing", result.frames_missing)
-             .Raw("overall", LabelMetricsJson(result.overall))
+             .Raw("overall", LabelMetricsJson(result.overall, t))
+             .Raw("near", LabelMetricsJson(result.near, t))
              .Raw("bands", Array(bands))
              .Str() +
          "\n";

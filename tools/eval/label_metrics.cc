@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <limits>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "tools/eval/error_stats.h"
 
@@ -37,6 +38,16 @@ bool LabelEvalOptions::IsValid(std::string* error) const {
       return false;
     }
   }
+  if (!(near_range_m > 0.0) ||
+      std::find(band_edges_m.begin(), band_edges_m.end(), near_range_m) == band_edges_m.end()) {
+    *error = "LabelEvalOptions::near_range_m = " + std::to_string(near_range_m) +
+             ": must be > 0 and one of the band edges";
+    return false;
+  }
+  if (!(min_texture >= 0.0) || !std::isfinite(min_texture)) {
+    *error = "LabelEvalOptions::min_texture = " + std::to_string(min_texture) + ": must be >= 0";
+    return false;
+  }
   return true;
 }
 
@@ -49,6 +60,8 @@ void LabelCounts::Add(const LabelCounts& o) {
   obstacle_as_moving += o.obstacle_as_moving;
   obstacle_as_floor += o.obstacle_as_floor;
   obstacle_unknown += o.obstacle_unknown;
+  gt_obstacle_weak += o.gt_obstacle_weak;
+  weak_obstacle_as_obstacle += o.weak_obstacle_as_obstacle;
   gt_floor += o.gt_floor;
   floor_predicted += o.floor_predicted;
   floor_as_not_floor += o.floor_as_not_floor;
@@ -62,13 +75,7 @@ void LabelCounts::Add(const LabelCounts& o) {
 
 namespace {
 
-bool CheckImage(const cv::Mat& image, int type, const cv::Size& size, const char* name,
-                std::string* error) {
-  if (image.type() != type) {
-    *error = std::string(name) + ": expected " + (type == CV_8UC1 ? "an 8-bit" : "a 16-bit") +
-             " single-channel image";
-    return false;
-  }
+bool CheckSize(const cv::Mat& image, const cv::Size& size, const char* name, std::string* error) {
   if (image.size() != size) {
     *error = std::string(name) + ": size " + std::to_string(image.cols) + "x" +
              std::to_string(image.rows) + " differs from the calibration's " +
@@ -76,6 +83,29 @@ bool CheckImage(const cv::Mat& image, int type, const cv::Size& size, const char
     return false;
   }
   return true;
+}
+
+bool CheckImage(const cv::Mat& image, int type, const cv::Size& size, const char* name,
+                std::string* error) {
+  if (image.type() != type) {
+    *error = std::string(name) + ": expected " + (type == CV_8UC1 ? "an 8-bit" : "a 16-bit") +
+             " single-channel image";
+    return false;
+  }
+  return CheckSize(image, size, name, error);
+}
+
+// The texture the dense matcher sees at its defaults (LabelEvalOptions::min_texture), per pixel of
+// the half-resolution image.
+cv::Mat MatcherTexture(const cv::Mat& image) {
+  cv::Mat grey = image, half, gx, gy, texture;
+  if (image.channels() == 3) cv::cvtColor(image, grey, cv::COLOR_BGR2GRAY);
+  if (image.channels() == 4) cv::cvtColor(image, grey, cv::COLOR_BGRA2GRAY);
+  cv::pyrDown(grey, half);
+  cv::Sobel(half, gx, CV_32F, 1, 0, 3, 0.125);
+  cv::Sobel(half, gy, CV_32F, 0, 1, 3, 0.125);
+  cv::boxFilter(gx.mul(gx) + gy.mul(gy), texture, CV_32F, cv::Size(7, 7));
+  return texture;
 }
 
 std::optional<double> HeightOf(std::uint16_t value) {
@@ -97,6 +127,17 @@ bool TallyLabelFrame(const LabelFrame& frame, const CameraModel& camera,
       (!frame.pred_height.empty() &&
        !CheckImage(frame.pred_height, CV_16UC1, size, "pred height", error))) {
     return false;
+  }
+  cv::Mat texture;
+  if (options.min_texture > 0.0) {
+    if (frame.image.empty() || frame.image.depth() != CV_8U ||
+        (frame.image.channels() != 1 && frame.image.channels() != 3 &&
+         frame.image.channels() != 4)) {
+      *error = "image: an 8-bit grey or colour input image is needed with min_texture > 0";
+      return false;
+    }
+    if (!CheckSize(frame.image, size, "image", error)) return false;
+    texture = MatcherTexture(frame.image);
   }
   const std::size_t num_bands = options.band_edges_m.size();
   if (tally->bands.empty()) {
@@ -175,6 +216,12 @@ bool TallyLabelFrame(const LabelFrame& frame, const CameraModel& camera,
           if (pl == kLabelMoving) ++counts->obstacle_as_moving;
           if (pl == kLabelFloor) ++counts->obstacle_as_floor;
           if (pl == kLabelUnknown) ++counts->obstacle_unknown;
+          if (!texture.empty() &&
+              texture.at<float>(std::min(v / 2, texture.rows - 1),
+                                std::min(u / 2, texture.cols - 1)) < options.min_texture) {
+            ++counts->gt_obstacle_weak;
+            if (pl == kLabelObstacle) ++counts->weak_obstacle_as_obstacle;
+          }
           if (height_errors && distance_m <= options.max_height_error_distance_m &&
               pred_height_row) {
             if (const auto pred_height_m = HeightOf(pred_height_row[u])) {
@@ -214,7 +261,7 @@ bool TallyLabelFrame(const LabelFrame& frame, const CameraModel& camera,
 namespace {
 
 LabelMetrics MetricsOf(const std::string& name, double min_m, double max_m, const LabelCounts& c,
-                       const std::vector<float>& height_errors) {
+                       const std::vector<float>& height_errors, bool texture_scored) {
   LabelMetrics m;
   m.name = name;
   m.min_distance_m = min_m;
@@ -230,6 +277,11 @@ LabelMetrics MetricsOf(const std::string& name, double min_m, double max_m, cons
   m.moving_recall = Ratio(d(c.moving_as_moving), d(c.gt_moving));
   m.coverage = Ratio(d(c.gt_surface_predicted), d(c.gt_surface));
   m.dangerous_rate = Ratio(d(c.obstacle_as_floor), d(c.gt_obstacle));
+  if (texture_scored) {
+    m.weak_texture_share = Ratio(d(c.gt_obstacle_weak), d(c.gt_obstacle));
+    m.obstacle_recall_textured = Ratio(d(c.obstacle_as_obstacle - c.weak_obstacle_as_obstacle),
+                                       d(c.gt_obstacle - c.gt_obstacle_weak));
+  }
   if (!height_errors.empty()) {
     const ErrorStats stats =
         ComputeErrorStats(std::vector<double>(height_errors.begin(), height_errors.end()));
@@ -245,9 +297,10 @@ LabelEvalResult SummarizeLabels(const LabelTally& tally, const LabelEvalOptions&
   LabelEvalResult result;
   result.frames_scored = tally.frames_scored;
   result.frames_missing = tally.frames_missing;
+  result.texture_scored = options.min_texture > 0.0;
   const std::size_t num_bands = options.band_edges_m.size();
-  LabelCounts overall = tally.no_depth;
-  std::vector<float> all_errors;
+  LabelCounts overall = tally.no_depth, near;
+  std::vector<float> all_errors, near_errors;
   const double inf = std::numeric_limits<double>::infinity();
   for (std::size_t b = 0; b < num_bands; ++b) {
     const LabelCounts counts = b < tally.bands.size() ? tally.bands[b] : LabelCounts{};
@@ -258,11 +311,17 @@ LabelEvalResult SummarizeLabels(const LabelTally& tally, const LabelEvalOptions&
     const std::string name = b + 1 < num_bands
                                  ? FormatBandEdge(lo) + "-" + FormatBandEdge(hi) + " m"
                                  : FormatBandEdge(lo) + "+ m";
-    result.bands.push_back(MetricsOf(name, lo, hi, counts, errors));
+    result.bands.push_back(MetricsOf(name, lo, hi, counts, errors, result.texture_scored));
     overall.Add(counts);
     all_errors.insert(all_errors.end(), errors.begin(), errors.end());
+    if (hi <= options.near_range_m) {
+      near.Add(counts);
+      near_errors.insert(near_errors.end(), errors.begin(), errors.end());
+    }
   }
-  result.overall = MetricsOf("overall", 0.0, inf, overall, all_errors);
+  result.overall = MetricsOf("overall", 0.0, inf, overall, all_errors, result.texture_scored);
+  result.near = MetricsOf("0-" + FormatBandEdge(options.near_range_m) + " m", 0.0,
+                          options.near_range_m, near, near_errors, result.texture_scored);
   return result;
 }
 
@@ -325,6 +384,11 @@ bool EvaluateLabelSequence(const std::string& pred_dir, const std::string& seq_d
     if (fs::exists(pred_height_path, ec) && !read(pred_height_path, &frame.pred_height)) {
       return false;
     }
+    if (options.min_texture > 0.0) {
+      fs::path image_path = fs::path(seq_dir) / "images" / name;
+      if (!fs::exists(image_path, ec)) image_path.replace_extension(".jpg");
+      if (!read(image_path, &frame.image)) return false;
+    }
     std::string frame_error;
     if (!TallyLabelFrame(frame, camera, options, &tally, &frame_error)) {
       // Name the file the complaint is about.
@@ -333,6 +397,7 @@ bool EvaluateLabelSequence(const std::string& pred_dir, const std::string& seq_d
       if (frame_error.rfind("gt height", 0) == 0) file = gt_height_path.string();
       if (frame_error.rfind("gt depth", 0) == 0) file = gt_depth_path.string();
       if (frame_error.rfind("pred height", 0) == 0) file = pred_height_path.string();
+      if (frame_error.rfind("image", 0) == 0) file = (fs::path(seq_dir) / "images" / name).string();
       *error = file + ": " + frame_error;
       return false;
     }

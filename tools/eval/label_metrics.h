@@ -27,6 +27,17 @@ struct LabelEvalOptions {
   double max_height_error_distance_m = 8.0;
   // Lower edges of the distance bands, metres, increasing from 0; the last band is open.
   std::vector<double> band_edges_m{0.0, 1.0, 2.0, 4.0, 8.0, 16.0};
+  // The bands up to this distance are also summed into LabelEvalResult::near, the range the
+  // issue's recall target names (metres; one of band_edges_m, > 0).
+  double near_range_m = 4.0;
+  // GT obstacle pixels whose image shows less texture than this are also counted apart (weak
+  // texture), and recall is given for the others too: the mean squared gradient magnitude (grey
+  // levels^2 per pixel^2, Sobel / 8) over a 7x7 window of the half-resolution grey image, where the
+  // dense matcher searches at its defaults (ZeroDisparityOptions finest_level 1, window_px 7).
+  // The gradient in any one direction, such as along an epipolar line, is at most this, so below
+  // the matcher's ClassificationOptions::min_texture (1.0) no pixel can be measured: it is unknown
+  // unless filled in from its segment. Needs the input images (LabelFrame::image). >= 0, 0 = off.
+  double min_texture = 0.0;
 
   bool IsValid(std::string* error) const;
 };
@@ -41,6 +52,8 @@ struct LabelCounts {
   std::int64_t obstacle_as_moving = 0;
   std::int64_t obstacle_as_floor = 0;  // dangerous
   std::int64_t obstacle_unknown = 0;
+  std::int64_t gt_obstacle_weak = 0;           // ... whose texture is below min_texture
+  std::int64_t weak_obstacle_as_obstacle = 0;  // ... predicted obstacle
   std::int64_t gt_floor = 0;
   std::int64_t floor_predicted = 0;     // predicted not unknown
   std::int64_t floor_as_not_floor = 0;  // predicted obstacle, drop-off or moving
@@ -73,6 +86,7 @@ struct LabelFrame {
   cv::Mat gt_depth;     // CV_16UC1
   cv::Mat pred_labels;  // CV_8UC1
   cv::Mat pred_height;  // CV_16UC1 or empty
+  cv::Mat image;        // the input image, 8-bit grey or colour; needed when min_texture > 0
 };
 
 // Adds one frame to `tally` (which must come from an earlier call or be default-constructed).
@@ -100,11 +114,17 @@ struct LabelMetrics {
   // max_height_error_distance_m) with a predicted height.
   std::optional<double> height_error_median_m;
   std::optional<double> height_error_mean_m;
+  // With min_texture > 0: gt_obstacle_weak / gt_obstacle, and the obstacle recall over the other
+  // GT obstacle pixels (those with texture).
+  std::optional<double> weak_texture_share;
+  std::optional<double> obstacle_recall_textured;
 };
 
 struct LabelEvalResult {
   std::vector<LabelMetrics> bands;
-  LabelMetrics overall;  // includes pixels without GT depth
+  LabelMetrics overall;         // includes pixels without GT depth
+  LabelMetrics near;            // the bands up to options.near_range_m
+  bool texture_scored = false;  // options.min_texture > 0
   int frames_scored = 0;
   int frames_missing = 0;
 };
@@ -114,7 +134,8 @@ LabelEvalResult SummarizeLabels(const LabelTally& tally, const LabelEvalOptions&
 // Scores every ground-truth frame of a simulated sequence SEQ (SEQ/calib.yaml,
 // SEQ/gt/{labels,height,depth}/NNNNNN.png) against the per-frame outputs in PRED
 // (PRED/labels/NNNNNN.png, PRED/height/NNNNNN.png optional). GT frames without PRED labels count as
-// missing. Errors name the unreadable or invalid file.
+// missing. With min_texture > 0 the input images SEQ/images/NNNNNN.png (or .jpg) are read too.
+// Errors name the unreadable or invalid file.
 bool EvaluateLabelSequence(const std::string& pred_dir, const std::string& seq_dir,
                            const LabelEvalOptions& options, LabelEvalResult* result,
                            std::string* error);

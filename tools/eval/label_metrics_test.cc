@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <fstream>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "tools/eval/eval_test_fixtures.h"
 
@@ -99,6 +100,92 @@ TEST(LabelMetrics, RejectsWrongSizesAndValues) {
   EXPECT_EQ(tally.frames_scored, 0);
 }
 
+// A level camera 1 m up, 64x48 pixels; every pixel 2 m ahead. GT obstacle (0.1 m high) on columns
+// 0-15, which show noise, and 48-63, which show a flat grey; floor between. The predictions call
+// columns 0-11 and 60-63 obstacle.
+LabelFrame HalfTexturedFrame(CameraCalibration* calibration) {
+  calibration->intrinsics.width = 64;
+  calibration->intrinsics.height = 48;
+  calibration->intrinsics.fx = calibration->intrinsics.fy = 1000.0;
+  calibration->intrinsics.cx = 31.5;
+  calibration->intrinsics.cy = 23.5;
+  calibration->mount.height_m = 1.0;
+  LabelFrame f;
+  f.gt_labels = cv::Mat(48, 64, CV_8UC1, cv::Scalar(kLabelFloor));
+  f.gt_labels.colRange(0, 16).setTo(kLabelObstacle);
+  f.gt_labels.colRange(48, 64).setTo(kLabelObstacle);
+  f.gt_height = cv::Mat(48, 64, CV_16UC1, cv::Scalar(HeightValue(100)));
+  f.gt_depth = cv::Mat(48, 64, CV_16UC1, cv::Scalar(2000));
+  f.pred_labels = cv::Mat(48, 64, CV_8UC1, cv::Scalar(kLabelFloor));
+  f.pred_labels.colRange(0, 12).setTo(kLabelObstacle);
+  f.pred_labels.colRange(60, 64).setTo(kLabelObstacle);
+  f.image = cv::Mat(48, 64, CV_8UC1, cv::Scalar(128));
+  cv::RNG rng(1);
+  rng.fill(f.image.colRange(0, 32), cv::RNG::UNIFORM, 0, 256);
+  return f;
+}
+
+TEST(LabelMetrics, WeakTextureObstaclePixelsAreCountedApart) {
+  CameraCalibration calibration;
+  const LabelFrame f = HalfTexturedFrame(&calibration);
+  const CameraModel camera(calibration);
+  LabelEvalOptions options;
+  options.min_texture = 1.0;
+  LabelTally tally;
+  std::string error;
+  ASSERT_TRUE(TallyLabelFrame(f, camera, options, &tally, &error)) << error;
+  const LabelEvalResult r = SummarizeLabels(tally, options);
+  EXPECT_TRUE(r.texture_scored);
+  EXPECT_EQ(r.overall.counts.gt_obstacle, 48 * 32);
+  EXPECT_EQ(r.overall.counts.gt_obstacle_weak, 48 * 16);          // the flat columns
+  EXPECT_EQ(r.overall.counts.weak_obstacle_as_obstacle, 48 * 4);  // columns 60-63
+  EXPECT_DOUBLE_EQ(*r.overall.obstacle_recall, 16.0 / 32.0);
+  EXPECT_DOUBLE_EQ(*r.overall.weak_texture_share, 0.5);
+  EXPECT_DOUBLE_EQ(*r.overall.obstacle_recall_textured, 12.0 / 16.0);
+  // Everything lies 2 m ahead: within the near range (0-4 m), in the 2-4 m band.
+  EXPECT_EQ(r.near.name, "0-4 m");
+  EXPECT_EQ(r.near.counts.gt_obstacle, 48 * 32);
+  EXPECT_DOUBLE_EQ(*r.near.obstacle_recall_textured, 12.0 / 16.0);
+  EXPECT_EQ(r.bands[2].counts.gt_obstacle_weak, 48 * 16);
+
+  // Off by default: nothing counted apart, no figures; the near range still sums.
+  LabelTally off_tally;
+  ASSERT_TRUE(TallyLabelFrame(f, camera, LabelEvalOptions{}, &off_tally, &error)) << error;
+  const LabelEvalResult off = SummarizeLabels(off_tally, LabelEvalOptions{});
+  EXPECT_FALSE(off.texture_scored);
+  EXPECT_EQ(off.overall.counts.gt_obstacle_weak, 0);
+  EXPECT_FALSE(off.overall.obstacle_recall_textured.has_value());
+  EXPECT_DOUBLE_EQ(*off.near.obstacle_recall, 0.5);
+  LabelEvalOptions far = options;
+  far.near_range_m = 1.0;
+  LabelTally far_tally;
+  ASSERT_TRUE(TallyLabelFrame(f, camera, far, &far_tally, &error)) << error;
+  EXPECT_EQ(SummarizeLabels(far_tally, far).near.counts.gt_obstacle, 0);
+
+  // A colour image gives the same; a missing or wrong-sized one is an error, as are options out of
+  // range.
+  LabelFrame colour = f;
+  cv::cvtColor(f.image, colour.image, cv::COLOR_GRAY2BGR);
+  LabelTally colour_tally;
+  ASSERT_TRUE(TallyLabelFrame(colour, camera, options, &colour_tally, &error)) << error;
+  EXPECT_EQ(colour_tally.bands[2].gt_obstacle_weak, 48 * 16);
+  LabelFrame bad = f;
+  bad.image = cv::Mat();
+  EXPECT_FALSE(TallyLabelFrame(bad, camera, options, &tally, &error));
+  EXPECT_NE(error.find("image: an 8-bit"), std::string::npos) << error;
+  bad.image = cv::Mat(10, 10, CV_8UC1, cv::Scalar(0));
+  EXPECT_FALSE(TallyLabelFrame(bad, camera, options, &tally, &error));
+  EXPECT_NE(error.find("image: size 10x10"), std::string::npos) << error;
+  LabelEvalOptions invalid = options;
+  invalid.near_range_m = 3.0;
+  EXPECT_FALSE(invalid.IsValid(&error));
+  EXPECT_NE(error.find("near_range_m"), std::string::npos) << error;
+  invalid = options;
+  invalid.min_texture = -1.0;
+  EXPECT_FALSE(invalid.IsValid(&error));
+  EXPECT_NE(error.find("min_texture"), std::string::npos) << error;
+}
+
 class LabelSequenceTest : public ::testing::Test {
  protected:
   void SetUp() override {
@@ -136,6 +223,15 @@ TEST_F(LabelSequenceTest, UnreadableInputNamesTheFile) {
   EXPECT_FALSE(EvaluateLabelSequence((dir_ / "pred").string(), (dir_ / "nothing").string(),
                                      LabelEvalOptions{}, &r, &error));
   EXPECT_NE(error.find("calib.yaml"), std::string::npos) << error;
+
+  // Scoring texture needs the input images; the fixture has none.
+  LabelEvalOptions texture;
+  texture.min_texture = 1.0;
+  fs::remove(dir_ / "pred/labels/000001.png");
+  EXPECT_FALSE(EvaluateLabelSequence((dir_ / "pred").string(), (dir_ / "seq").string(), texture, &r,
+                                     &error));
+  EXPECT_NE(error.find("seq/images/000000.jpg: cannot read"), std::string::npos)
+      << "[" << error << "]";
 }
 
 }  // namespace
