@@ -180,6 +180,8 @@ OptionTable::OptionTable(AppConfig* config) : config_(config) {
             "camera travel between the frames of a pair, m (> 0)");
   AddInt("pair_selection", "max_history", &ps.max_history,
          "frames kept to choose a reference from (>= 2)");
+  AddBool("pair_selection", "hold_reference", &ps.hold_reference,
+          "a robot that stops after driving keeps its last reference far enough away");
   AddDouble("pair_selection", "max_rotation_rad", &ps.max_rotation_rad,
             "largest yaw between the frames of a pair, rad (> 0)");
   AddDouble("pair_selection", "turn_min_baseline_m", &ps.turn_min_baseline_m,

@@ -44,15 +44,21 @@ bool CreateFrameOutputFolders(const std::string& dir, std::string* error) {
 }
 
 bool WriteFrameOutputs(const std::string& dir, int index, const cv::Mat& image,
-                       const FrameResult& result, bool panels, std::string* error) {
+                       const FrameResult& result, const ObstacleDetector& detector, bool panels,
+                       std::string* error) {
   const std::filesystem::path d(dir);
-  if (!Write((d / "labels" / Name(index, "png")).string(), result.labels, error)) return false;
-  if (!Write((d / "height" / Name(index, "png")).string(), result.height_mm, error)) return false;
+  if (!Write((d / "labels" / Name(index, "png")).string(), detector.ToInputPixels(result.labels),
+             error) ||
+      !Write((d / "height" / Name(index, "png")).string(), detector.ToInputPixels(result.height_mm),
+             error)) {
+    return false;
+  }
   if (!WriteMapServerFiles(result.local_map, (d / "local" / Name(index, "yaml")).string(), error)) {
     return false;
   }
-  if (panels && !Write((d / "panels" / Name(index, "jpg")).string(), RenderPanels(image, result),
-                       error, {cv::IMWRITE_JPEG_QUALITY, 85})) {
+  if (panels && !Write((d / "panels" / Name(index, "jpg")).string(),
+                       RenderPanels(detector.Undistort(image), result), error,
+                       {cv::IMWRITE_JPEG_QUALITY, 85})) {
     return false;
   }
   return true;

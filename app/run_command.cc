@@ -221,8 +221,8 @@ int Run(const RunRequest& request, RunSummary* summary) {
         const bool panels =
             every == 1 || (p->frame.index >= next_panel_index && r.status == PairStatus::kOk);
         if (panels) next_panel_index = (p->frame.index / every + 1) * every;
-        if (!WriteFrameOutputs(request.frames_out, p->frame.index, p->frame.image, r, panels,
-                               &error)) {
+        if (!WriteFrameOutputs(request.frames_out, p->frame.index, p->frame.image, r,
+                               detector.detector(), panels, &error)) {
           std::cerr << "\nmonoplane run: " << error << "\n";
           sink_failed = true;
           g_interrupted = true;

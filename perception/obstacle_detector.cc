@@ -357,7 +357,38 @@ ObstacleDetector::ObstacleDetector(const CameraCalibration& calibration,
                                in.distortion[3], in.distortion[4]);
     cv::initUndistortRectifyMap(k, d, cv::noArray(), k, cv::Size(in.width, in.height), CV_32FC1,
                                 undistort_map_x_, undistort_map_y_);
+    // And back: where each input pixel lies in the undistorted image.
+    std::vector<cv::Point2f> input_pixels, undistorted;
+    input_pixels.reserve(static_cast<std::size_t>(in.width) * in.height);
+    for (int y = 0; y < in.height; ++y) {
+      for (int x = 0; x < in.width; ++x) input_pixels.emplace_back(x, y);
+    }
+    cv::undistortPoints(input_pixels, undistorted, k, d, cv::noArray(), k);
+    input_map_x_.create(in.height, in.width, CV_32FC1);
+    input_map_y_.create(in.height, in.width, CV_32FC1);
+    for (int y = 0, i = 0; y < in.height; ++y) {
+      for (int x = 0; x < in.width; ++x, ++i) {
+        input_map_x_.at<float>(y, x) = undistorted[i].x;
+        input_map_y_.at<float>(y, x) = undistorted[i].y;
+      }
+    }
   }
+}
+
+cv::Mat ObstacleDetector::Undistort(const cv::Mat& image) const {
+  if (undistort_map_x_.empty()) return image;
+  cv::Mat undistorted;
+  cv::remap(image, undistorted, undistort_map_x_, undistort_map_y_, cv::INTER_LINEAR,
+            cv::BORDER_CONSTANT);
+  return undistorted;
+}
+
+cv::Mat ObstacleDetector::ToInputPixels(const cv::Mat& per_pixel) const {
+  if (input_map_x_.empty()) return per_pixel;
+  cv::Mat in_input;
+  cv::remap(per_pixel, in_input, input_map_x_, input_map_y_, cv::INTER_NEAREST, cv::BORDER_CONSTANT,
+            cv::Scalar(0));
+  return in_input;
 }
 
 cv::Mat ObstacleDetector::Prepare(const cv::Mat& image, std::string* error) const {
@@ -394,12 +425,7 @@ cv::Mat ObstacleDetector::Prepare(const cv::Mat& image, std::string* error) cons
       *error = "unsupported number of channels: " + std::to_string(eight_bit.channels());
       return {};
   }
-  if (!undistort_map_x_.empty()) {
-    cv::Mat undistorted;
-    cv::remap(grey, undistorted, undistort_map_x_, undistort_map_y_, cv::INTER_LINEAR,
-              cv::BORDER_CONSTANT);
-    return undistorted;
-  }
+  if (!undistort_map_x_.empty()) return Undistort(grey);
   return grey.isContinuous() ? grey : grey.clone();
 }
 
@@ -917,18 +943,15 @@ SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, Timesta
     out.result->motion = out.step;
   } else {
     // 2. The newest earlier frame far enough away for parallax; when turning, a narrower pair.
-    const Eigen::Vector2d c_now = CameraCentreXyInOdom(camera, odom_from_base_);
     const PairSelectionOptions& ps = options.pair_selection;
     bool rotated = false;  // the search stopped at a frame turned too far
     auto newest_with = [&](double min_baseline_m, double max_rotation_rad) -> const Frame* {
       for (auto it = history_.rbegin(); it != history_.rend(); ++it) {
-        const double yaw = (odom_from_base_.Inverse() * it->odom_from_base).yaw;
-        if (std::abs(yaw) > max_rotation_rad) {
+        if (std::abs(YawTo(*it)) > max_rotation_rad) {
           rotated = true;
           return nullptr;
         }
-        const Eigen::Vector2d c = CameraCentreXyInOdom(camera, it->odom_from_base);
-        if ((c_now - c).norm() >= min_baseline_m) return &*it;
+        if (BaselineTo(*it) >= min_baseline_m) return &*it;
       }
       return nullptr;
     };
@@ -991,10 +1014,31 @@ SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, Timesta
   history_.push_back({prepared, odom_from_base_, stamp_ns, out.features});
   previous_pyramid_ = std::move(pyramid);
   previous_alignment_ = std::move(alignment);
-  while (static_cast<int>(history_.size()) > options.pair_selection.max_history) {
-    history_.pop_front();
+  const PairSelectionOptions& ps = options.pair_selection;
+  const auto is_reference = [&](const Frame& f) {
+    return BaselineTo(f) >= ps.min_baseline_m && std::abs(YawTo(f)) <= ps.max_rotation_rad;
+  };
+  while (static_cast<int>(history_.size()) > ps.max_history) {
+    // The oldest frame goes, unless it is the only reference left (the robot stopped after
+    // driving; the frames after it were taken where it stands): then the one after it goes.
+    if (ps.hold_reference && is_reference(history_[0]) && !is_reference(history_[1])) {
+      history_.erase(history_.begin() + 1);
+    } else {
+      history_.pop_front();
+    }
   }
   return out;
+}
+
+double SequenceDetector::BaselineTo(const Frame& frame) const {
+  const CameraModel& camera = detector_.camera();
+  return (CameraCentreXyInOdom(camera, odom_from_base_) -
+          CameraCentreXyInOdom(camera, frame.odom_from_base))
+      .norm();
+}
+
+double SequenceDetector::YawTo(const Frame& frame) const {
+  return (odom_from_base_.Inverse() * frame.odom_from_base).yaw;
 }
 
 std::vector<FeatureObservation> SequenceDetector::TrackFeatures(

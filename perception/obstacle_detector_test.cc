@@ -267,6 +267,29 @@ struct StrayComparison {
   int Near0() const { return occupied0 - stray0; }
 };
 
+// Pixels of the boxes (true height >= 5 cm) and of the floor (0), and how `labels` calls them.
+struct BoxFloorCounts {
+  int box = 0, box_obstacle = 0, box_floor = 0, floor = 0, floor_obstacle = 0;
+};
+BoxFloorCounts CountBoxAndFloor(const Rendered& truth, const cv::Mat& labels) {
+  BoxFloorCounts c;
+  for (int y = 0; y < labels.rows; ++y) {
+    for (int x = 0; x < labels.cols; ++x) {
+      const float h = truth.height_m.at<float>(y, x);
+      const auto label = static_cast<PixelLabel>(labels.at<std::uint8_t>(y, x));
+      if (h >= 0.05f) {
+        ++c.box;
+        c.box_obstacle += label == PixelLabel::kObstacle;
+        c.box_floor += label == PixelLabel::kFloor;
+      } else if (h == 0.0f) {
+        ++c.floor;
+        c.floor_obstacle += label == PixelLabel::kObstacle;
+      }
+    }
+  }
+  return c;
+}
+
 class DetectorOnSyntheticScene : public ::testing::Test {
  protected:
   // The scene seen from p1 and p2 (world_from_base), detected with options_ (r) and with `other`
@@ -305,6 +328,20 @@ class DetectorOnSyntheticScene : public ::testing::Test {
         "%s: occupied cells farther than %.2f m from the boxes: %d of %d, %d of %d without\n",
         dump_name.c_str(), margin_m, c.stray, c.occupied, c.stray0, c.occupied0);
     return c;
+  }
+
+  // A SequenceDetector with `options`, detecting every frame, fed the scene seen from `poses`
+  // (world_from_base, one frame each); the last frame's output and its rendering (`last`).
+  SequenceDetector::Output RunEveryFrame(DetectorOptions options, const Scene& scene,
+                                         const std::vector<Pose2>& poses, Rendered* last) const {
+    options.pair_selection.detect_every = 1;
+    SequenceDetector sequence(calib_, options);
+    SequenceDetector::Output out;
+    for (std::size_t k = 0; k < poses.size(); ++k) {
+      *last = Render(scene, sequence.detector().camera(), poses[k]);
+      out = sequence.Process(last->image, static_cast<TimestampNs>(k) * kFrameNs);
+    }
+    return out;
   }
 
   CameraCalibration calib_ = DefaultCalibration();
@@ -834,51 +871,61 @@ TEST_F(DetectorOnSyntheticScene, StandstillGivesUnknown) {
   }
 }
 
+// A robot that stops after driving keeps its last reference with parallax: it keeps seeing the
+// box while it waits, also after more than max_history frames. Without hold_reference the
+// reference falls out of the history and the frame is "no parallax".
+TEST_F(DetectorOnSyntheticScene, StoppingAfterDrivingKeepsSeeing) {
+  Scene scene;
+  scene.boxes.push_back({{1.4, -0.2, 0.0}, {1.6, 0.2, 0.2}});
+  std::vector<Pose2> poses;  // 0.16 m in 4 frames, then 8 standing
+  for (int k = 0; k <= 12; ++k) poses.push_back({0.04 * std::min(k, 4), 0.0, 0.0});
+  auto run = [&](bool hold, Rendered* last) {
+    DetectorOptions options = options_;
+    options.pair_selection.max_history = 4;
+    options.pair_selection.hold_reference = hold;
+    return RunEveryFrame(options, scene, poses, last);
+  };
+  Rendered b;
+  const SequenceDetector::Output held = run(true, &b);
+  ASSERT_TRUE(held.result);
+  ASSERT_EQ(held.result->status, PairStatus::kOk) << held.result->message;
+  const BoxFloorCounts c = CountBoxAndFloor(b, held.result->labels);
+  std::printf("standing after driving: box labelled obstacle %d, floor %d of %d\n", c.box_obstacle,
+              c.box_floor, c.box);
+  ASSERT_GT(c.box, 5000);
+  EXPECT_GT(c.box_obstacle, c.box / 2);
+  EXPECT_LT(c.box_floor, c.box / 100);
+
+  const SequenceDetector::Output dropped = run(false, &b);
+  ASSERT_TRUE(dropped.result);
+  EXPECT_EQ(dropped.result->status, PairStatus::kNoParallax);
+}
+
 // Turning on the spot still moves the camera (it sits 0.1 m ahead of the axle): a pair 0.4 rad
 // apart has about 4 cm of baseline, enough for a box 1 m away. Without the turning rule the frame
 // is "no parallax".
 TEST_F(DetectorOnSyntheticScene, TurningOnTheSpotSeesANearBox) {
   Scene scene;
   scene.boxes.push_back({{0.9, 0.05, 0.0}, {1.1, 0.45, 0.3}});
+  std::vector<Pose2> poses;
+  for (int k = 0; k <= 9; ++k) poses.push_back({0, 0, 0.05 * k});
   auto run = [&](const DetectorOptions& options, Rendered* last) {
-    DetectorOptions every_frame = options;
-    every_frame.pair_selection.detect_every = 1;
-    SequenceDetector sequence(calib_, every_frame);
-    SequenceDetector::Output out;
-    for (int k = 0; k <= 9; ++k) {
-      *last = Render(scene, sequence.detector().camera(), {0, 0, 0.05 * k});
-      out = sequence.Process(last->image, k * kFrameNs);
-    }
-    return out;
+    return RunEveryFrame(options, scene, poses, last);
   };
   Rendered b;
   const SequenceDetector::Output out = run(options_, &b);
   ASSERT_TRUE(out.result);
   ASSERT_EQ(out.result->status, PairStatus::kOk) << out.result->message;
   EXPECT_TRUE(out.result->turn_pair);
-  int box = 0, box_obstacle = 0, box_floor = 0, floor = 0, floor_obstacle = 0;
-  for (int y = 0; y < 480; ++y) {
-    for (int x = 0; x < 640; ++x) {
-      const float h = b.height_m.at<float>(y, x);
-      const auto label = static_cast<PixelLabel>(out.result->labels.at<std::uint8_t>(y, x));
-      if (h >= 0.05f) {
-        ++box;
-        box_obstacle += label == PixelLabel::kObstacle;
-        box_floor += label == PixelLabel::kFloor;
-      } else if (h == 0.0f) {
-        ++floor;
-        floor_obstacle += label == PixelLabel::kObstacle;
-      }
-    }
-  }
+  const BoxFloorCounts c = CountBoxAndFloor(b, out.result->labels);
   std::printf(
       "turning pair: box labelled obstacle %d, floor %d of %d; floor labelled obstacle %d of "
       "%d\n",
-      box_obstacle, box_floor, box, floor_obstacle, floor);
-  ASSERT_GT(box, 5000);
-  EXPECT_GT(box_obstacle, box / 3);
-  EXPECT_LT(box_floor, box / 100);
-  EXPECT_LT(floor_obstacle, floor / 20);
+      c.box_obstacle, c.box_floor, c.box, c.floor_obstacle, c.floor);
+  ASSERT_GT(c.box, 5000);
+  EXPECT_GT(c.box_obstacle, c.box / 3);
+  EXPECT_LT(c.box_floor, c.box / 100);
+  EXPECT_LT(c.floor_obstacle, c.floor / 20);
 
   DetectorOptions off = options_;
   off.pair_selection.turn_max_rotation_rad = 0.0;
@@ -928,6 +975,47 @@ TEST_F(DetectorOnSyntheticScene, BadImagesAreRejectedWithReasons) {
     ASSERT_TRUE(r);
     EXPECT_EQ(r->num_floor + r->num_obstacle + r->num_drop_off + r->num_moving, 0);
   }
+}
+
+// The detector works in undistorted pixels; its per-pixel results go back to the input image's
+// pixels for the outputs: an input pixel takes the value at its undistorted position.
+TEST(ObstacleDetector, ResultsGoBackToTheInputPixels) {
+  CameraCalibration calib = DefaultCalibration();
+  const ObstacleDetector plain(calib, DetectorOptions{});
+  const cv::Mat columns(480, 640, CV_16UC1, cv::Scalar(7));
+  EXPECT_EQ(plain.ToInputPixels(columns).data, columns.data);  // no distortion: the same image
+  EXPECT_EQ(plain.Undistort(columns).data, columns.data);
+
+  calib.intrinsics.distortion = {-0.28, 0.08, 0.0005, -0.0003, 0.0};
+  const ObstacleDetector detector(calib, DetectorOptions{});
+  // An undistorted per-pixel image whose value tells its pixel: 1 + x + 640 * (y % 64).
+  cv::Mat coded(480, 640, CV_32SC1);
+  for (int y = 0; y < 480; ++y) {
+    for (int x = 0; x < 640; ++x) coded.at<int>(y, x) = 1 + x + 640 * (y % 64);
+  }
+  const cv::Mat in_input = detector.ToInputPixels(coded);
+  ASSERT_EQ(in_input.size(), coded.size());
+  ASSERT_EQ(in_input.type(), CV_32SC1);
+  int checked = 0, outside = 0;
+  for (const auto& [x, y] : std::vector<std::pair<int, int>>{
+           {320, 240}, {5, 5}, {634, 10}, {20, 470}, {600, 400}, {100, 240}, {320, 20}}) {
+    const Eigen::Vector2d q = detector.camera().UndistortPixel(Eigen::Vector2d(x, y));
+    const int qx = static_cast<int>(std::lround(q.x())), qy = static_cast<int>(std::lround(q.y()));
+    const int value = in_input.at<int>(y, x);
+    if (qx < 0 || qy < 0 || qx >= 640 || qy >= 480) {
+      EXPECT_EQ(value, 0) << x << "," << y;  // beyond the undistorted image: unknown
+      ++outside;
+      continue;
+    }
+    EXPECT_EQ(value, coded.at<int>(qy, qx)) << x << "," << y;
+    ++checked;
+  }
+  EXPECT_GE(checked, 3);
+  EXPECT_GE(outside, 1);
+  // With k1 = -0.28 a corner pixel lies tens of pixels from its undistorted position.
+  const Eigen::Vector2d corner = detector.camera().UndistortPixel(Eigen::Vector2d(20, 470));
+  EXPECT_GT((corner - Eigen::Vector2d(20, 470)).norm(), 20.0);
+  EXPECT_EQ(detector.Undistort(cv::Mat(480, 640, CV_8UC3, cv::Scalar(9, 9, 9))).type(), CV_8UC3);
 }
 
 }  // namespace

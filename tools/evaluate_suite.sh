@@ -16,7 +16,7 @@ if [ ${#scenes[@]} -eq 0 ]; then
   for f in "$root"/tests/data/scenes/*.yaml; do scenes+=("$(basename "$f" .yaml)"); done
 fi
 mkdir -p "$out"
-echo "| scene | frames | obstacle recall (<= 4 m) | of textured (<= 4 m) | floor as obstacle | coverage | dangerous | height error (median) | grid precision | grid recall | grid recall of seen | dangerous cells | grid unknown | ATE (m) | frames/s |"
+echo "| scene | frames | obstacle recall (<= 4 m) | of textured (<= 4 m) | floor as obstacle | coverage | dangerous | height error (median, <= 2 m) | grid precision | grid recall | grid recall of seen | dangerous cells | grid unknown | ATE (m) | frames/s |"
 echo "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
 for scene in "${scenes[@]}"; do
   dir="$out/$scene"
@@ -31,9 +31,9 @@ for scene in "${scenes[@]}"; do
   "$build/app/monoplane" export "$dir/map.db" --grid "$dir/map.yaml" --trajectory "$dir/trajectory.txt" \
     --png "$dir/map.png" >/dev/null
   "$build/tools/eval/monoplane-eval" labels --pred "$dir/frames" --gt "$seq" --min-texture 1 \
-    >"$dir/labels.txt"
-  "$build/tools/eval/monoplane-eval" labels --pred "$dir/frames" --gt "$seq" --min-texture 1 --json \
-    >"$dir/labels.json"
+    --max-height-distance 2 >"$dir/labels.txt"
+  "$build/tools/eval/monoplane-eval" labels --pred "$dir/frames" --gt "$seq" --min-texture 1 \
+    --max-height-distance 2 --json >"$dir/labels.json"
   "$build/tools/eval/monoplane-eval" grid --pred "$dir/map.yaml" --gt "$seq/gt/map.yaml" --tolerance 1 \
     --seen-from "$seq" --json >"$dir/grid.json"
   "$build/tools/eval/monoplane-eval" traj --pred "$dir/trajectory.txt" --gt "$seq/gt/trajectory.txt" \
