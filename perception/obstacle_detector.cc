@@ -363,7 +363,9 @@ ObstacleDetector::ObstacleDetector(const CameraCalibration& calibration,
     for (int y = 0; y < in.height; ++y) {
       for (int x = 0; x < in.width; ++x) input_pixels.emplace_back(x, y);
     }
-    cv::undistortPoints(input_pixels, undistorted, k, d, cv::noArray(), k);
+    cv::undistortPoints(input_pixels, undistorted, k, d, cv::noArray(), k,
+                        cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 50,
+                                         1e-12));  // as CameraModel::UndistortPixel
     input_map_x_.create(in.height, in.width, CV_32FC1);
     input_map_y_.create(in.height, in.width, CV_32FC1);
     for (int y = 0, i = 0; y < in.height; ++y) {
@@ -947,11 +949,11 @@ SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, Timesta
     bool rotated = false;  // the search stopped at a frame turned too far
     auto newest_with = [&](double min_baseline_m, double max_rotation_rad) -> const Frame* {
       for (auto it = history_.rbegin(); it != history_.rend(); ++it) {
-        if (std::abs(YawTo(*it)) > max_rotation_rad) {
+        if (std::abs(YawRad(*it)) > max_rotation_rad) {
           rotated = true;
           return nullptr;
         }
-        if (BaselineTo(*it) >= min_baseline_m) return &*it;
+        if (BaselineM(*it) >= min_baseline_m) return &*it;
       }
       return nullptr;
     };
@@ -1016,12 +1018,16 @@ SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, Timesta
   previous_alignment_ = std::move(alignment);
   const PairSelectionOptions& ps = options.pair_selection;
   const auto is_reference = [&](const Frame& f) {
-    return BaselineTo(f) >= ps.min_baseline_m && std::abs(YawTo(f)) <= ps.max_rotation_rad;
+    return BaselineM(f) >= ps.min_baseline_m && std::abs(YawRad(f)) <= ps.max_rotation_rad;
   };
   while (static_cast<int>(history_.size()) > ps.max_history) {
-    // The oldest frame goes, unless it is the only reference left (the robot stopped after
-    // driving; the frames after it were taken where it stands): then the one after it goes.
-    if (ps.hold_reference && is_reference(history_[0]) && !is_reference(history_[1])) {
+    // The oldest frame goes, unless no other frame could be a reference (the robot stopped, or
+    // creeps, after driving: the frames after it were taken near where it is) and it is within
+    // twice the minimum baseline: then the one after it goes.
+    const bool hold = ps.hold_reference && is_reference(history_[0]) &&
+                      BaselineM(history_[0]) <= 2.0 * ps.min_baseline_m &&
+                      std::none_of(history_.begin() + 1, history_.end(), is_reference);
+    if (hold) {
       history_.erase(history_.begin() + 1);
     } else {
       history_.pop_front();
@@ -1030,14 +1036,14 @@ SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, Timesta
   return out;
 }
 
-double SequenceDetector::BaselineTo(const Frame& frame) const {
+double SequenceDetector::BaselineM(const Frame& frame) const {
   const CameraModel& camera = detector_.camera();
   return (CameraCentreXyInOdom(camera, odom_from_base_) -
           CameraCentreXyInOdom(camera, frame.odom_from_base))
       .norm();
 }
 
-double SequenceDetector::YawTo(const Frame& frame) const {
+double SequenceDetector::YawRad(const Frame& frame) const {
   return (odom_from_base_.Inverse() * frame.odom_from_base).yaw;
 }
 

@@ -140,10 +140,11 @@ struct LocalMapOptions {
 struct PairSelectionOptions {
   double min_baseline_m = 0.10;  // camera centre travel between the pair (> 0)
   int max_history = 20;          // frames kept to choose a reference from (>= 2)
-  // When the robot stops after driving, the newest frame far enough away for a pair stays in the
-  // history (the frames after it go instead), so that a robot waiting keeps seeing what it saw
-  // while driving instead of going blind once max_history frames have passed. Standing still
-  // before any driving still gives no pair (unknown).
+  // When the robot stops (or creeps) after driving, the last frame far enough away for a pair
+  // stays in the history while it is within 2 * min_baseline_m (the frames after it go instead),
+  // so that a robot waiting keeps seeing what it saw while driving instead of going blind once
+  // max_history frames have passed. Standing still before any driving still gives no pair
+  // (unknown).
   bool hold_reference = true;
   // Largest yaw between the pair (rad, > 0). Turning pairs have little baseline for much image
   // motion and match badly; when no frame within this yaw has the baseline, the frame is
@@ -195,10 +196,10 @@ class ObstacleDetector {
   cv::Mat Prepare(const cv::Mat& image, std::string* error) const;
 
   // The detector works on undistorted images (same camera matrix); FrameResult's per-pixel images
-  // are in its pixels. Undistort: an input image (any type) into those pixels. ToInputPixels: a
-  // per-pixel image of a result (labels, heights) back into the input image's pixels, nearest
-  // neighbour, 0 (unknown) where the input pixel falls outside. Both return their argument when
-  // the calibration has no distortion.
+  // are in its pixels. Undistort: an input image (8- or 16-bit or float, bilinear) into those
+  // pixels. ToInputPixels: a per-pixel image of a result (labels, heights) back into the input
+  // image's pixels, nearest neighbour, 0 (unknown) where the input pixel falls outside. Both
+  // return their argument when the calibration has no distortion.
   cv::Mat Undistort(const cv::Mat& image) const;
   cv::Mat ToInputPixels(const cv::Mat& per_pixel) const;
 
@@ -279,8 +280,8 @@ class SequenceDetector {
                                                 std::vector<Eigen::Vector2d>* before,
                                                 std::vector<Eigen::Vector2d>* after) const;
   // Camera centre travel (m) and yaw (rad) from a history frame to the newest pose.
-  double BaselineTo(const Frame& frame) const;
-  double YawTo(const Frame& frame) const;
+  double BaselineM(const Frame& frame) const;
+  double YawRad(const Frame& frame) const;
   // Tops the tracks up with new Shi-Tomasi corners away from the tracked ones.
   std::vector<FeatureObservation> AddNewCorners(const cv::Mat& current,
                                                 std::vector<FeatureObservation> tracked);

@@ -331,15 +331,18 @@ class DetectorOnSyntheticScene : public ::testing::Test {
   }
 
   // A SequenceDetector with `options`, detecting every frame, fed the scene seen from `poses`
-  // (world_from_base, one frame each); the last frame's output and its rendering (`last`).
+  // (world_from_base, one frame each); the last frame's output and its rendering (`last`), and
+  // optionally every frame's pair status (kNoMotion for the first, which has none).
   SequenceDetector::Output RunEveryFrame(DetectorOptions options, const Scene& scene,
-                                         const std::vector<Pose2>& poses, Rendered* last) const {
+                                         const std::vector<Pose2>& poses, Rendered* last,
+                                         std::vector<PairStatus>* statuses = nullptr) const {
     options.pair_selection.detect_every = 1;
     SequenceDetector sequence(calib_, options);
     SequenceDetector::Output out;
     for (std::size_t k = 0; k < poses.size(); ++k) {
       *last = Render(scene, sequence.detector().camera(), poses[k]);
       out = sequence.Process(last->image, static_cast<TimestampNs>(k) * kFrameNs);
+      if (statuses) statuses->push_back(out.result ? out.result->status : PairStatus::kNoMotion);
     }
     return out;
   }
@@ -901,6 +904,27 @@ TEST_F(DetectorOnSyntheticScene, StoppingAfterDrivingKeepsSeeing) {
   EXPECT_EQ(dropped.result->status, PairStatus::kNoParallax);
 }
 
+// Creeping after driving (8 mm a frame: too slow for a new reference among 4 frames) keeps the
+// last reference only while it lies within twice the minimum baseline; then the frames are "no
+// parallax" again, rather than paired with an ever older, ever wider frame.
+TEST_F(DetectorOnSyntheticScene, CreepingReleasesTheHeldReference) {
+  Scene scene;
+  scene.boxes.push_back({{1.4, -0.2, 0.0}, {1.6, 0.2, 0.2}});
+  std::vector<Pose2> poses;  // 0.16 m in 4 frames, then 16 frames of 8 mm
+  for (int k = 0; k <= 20; ++k)
+    poses.push_back({0.04 * std::min(k, 4) + 0.008 * std::max(k - 4, 0), 0.0, 0.0});
+  DetectorOptions options = options_;
+  options.pair_selection.max_history = 4;
+  Rendered b;
+  std::vector<PairStatus> statuses;
+  RunEveryFrame(options, scene, poses, &b, &statuses);
+  ASSERT_EQ(statuses.size(), 21u);
+  // Frame 1 (x = 0.04 m) is the reference from frame 4 on; it is held up to 0.2 m of baseline
+  // (frame 14, x = 0.24 m) and let go after it.
+  for (int k = 4; k <= 14; ++k) EXPECT_EQ(statuses[k], PairStatus::kOk) << "frame " << k;
+  for (int k = 16; k <= 20; ++k) EXPECT_EQ(statuses[k], PairStatus::kNoParallax) << "frame " << k;
+}
+
 // Turning on the spot still moves the camera (it sits 0.1 m ahead of the axle): a pair 0.4 rad
 // apart has about 4 cm of baseline, enough for a box 1 m away. Without the turning rule the frame
 // is "no parallax".
@@ -982,9 +1006,9 @@ TEST_F(DetectorOnSyntheticScene, BadImagesAreRejectedWithReasons) {
 TEST(ObstacleDetector, ResultsGoBackToTheInputPixels) {
   CameraCalibration calib = DefaultCalibration();
   const ObstacleDetector plain(calib, DetectorOptions{});
-  const cv::Mat columns(480, 640, CV_16UC1, cv::Scalar(7));
-  EXPECT_EQ(plain.ToInputPixels(columns).data, columns.data);  // no distortion: the same image
-  EXPECT_EQ(plain.Undistort(columns).data, columns.data);
+  const cv::Mat sevens(480, 640, CV_16UC1, cv::Scalar(7));
+  EXPECT_EQ(plain.ToInputPixels(sevens).data, sevens.data);  // no distortion: the same image
+  EXPECT_EQ(plain.Undistort(sevens).data, sevens.data);
 
   calib.intrinsics.distortion = {-0.28, 0.08, 0.0005, -0.0003, 0.0};
   const ObstacleDetector detector(calib, DetectorOptions{});
