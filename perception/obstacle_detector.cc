@@ -357,23 +357,15 @@ ObstacleDetector::ObstacleDetector(const CameraCalibration& calibration,
                                in.distortion[3], in.distortion[4]);
     cv::initUndistortRectifyMap(k, d, cv::noArray(), k, cv::Size(in.width, in.height), CV_32FC1,
                                 undistort_map_x_, undistort_map_y_);
-    // And back: where each input pixel lies in the undistorted image.
-    std::vector<cv::Point2f> input_pixels, undistorted;
-    input_pixels.reserve(static_cast<std::size_t>(in.width) * in.height);
+    // And back: where each input pixel lies in the undistorted image (one two-channel map).
+    cv::Mat input_pixels(in.height, in.width, CV_32FC2);
     for (int y = 0; y < in.height; ++y) {
-      for (int x = 0; x < in.width; ++x) input_pixels.emplace_back(x, y);
+      for (int x = 0; x < in.width; ++x) input_pixels.at<cv::Vec2f>(y, x) = cv::Vec2f(x, y);
     }
-    cv::undistortPoints(input_pixels, undistorted, k, d, cv::noArray(), k,
+    cv::undistortPoints(input_pixels.reshape(2, 1), input_map_, k, d, cv::noArray(), k,
                         cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 50,
                                          1e-12));  // as CameraModel::UndistortPixel
-    input_map_x_.create(in.height, in.width, CV_32FC1);
-    input_map_y_.create(in.height, in.width, CV_32FC1);
-    for (int y = 0, i = 0; y < in.height; ++y) {
-      for (int x = 0; x < in.width; ++x, ++i) {
-        input_map_x_.at<float>(y, x) = undistorted[i].x;
-        input_map_y_.at<float>(y, x) = undistorted[i].y;
-      }
-    }
+    input_map_ = input_map_.reshape(2, in.height);
   }
 }
 
@@ -386,9 +378,9 @@ cv::Mat ObstacleDetector::Undistort(const cv::Mat& image) const {
 }
 
 cv::Mat ObstacleDetector::ToInputPixels(const cv::Mat& per_pixel) const {
-  if (input_map_x_.empty()) return per_pixel;
+  if (input_map_.empty()) return per_pixel;
   cv::Mat in_input;
-  cv::remap(per_pixel, in_input, input_map_x_, input_map_y_, cv::INTER_NEAREST, cv::BORDER_CONSTANT,
+  cv::remap(per_pixel, in_input, input_map_, cv::noArray(), cv::INTER_NEAREST, cv::BORDER_CONSTANT,
             cv::Scalar(0));
   return in_input;
 }

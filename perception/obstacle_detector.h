@@ -220,7 +220,7 @@ class ObstacleDetector {
   CameraModel camera_;
   DetectorOptions options_;
   cv::Mat undistort_map_x_, undistort_map_y_;  // undistorted pixel -> input pixel
-  cv::Mat input_map_x_, input_map_y_;          // input pixel -> undistorted pixel
+  cv::Mat input_map_;                          // input pixel -> undistorted pixel (CV_32FC2)
   cv::Mat strip_mask_;  // FloorStripMask: the direct alignment's and the tracker's floor strip
   FloorFeatureExtractor floor_features_;
 };

@@ -94,8 +94,9 @@ void Score(benchmark::State& state, const ObstacleDetector& detector) {
   const eval::LabelEvalOptions options;
   for (const auto& p : data.pairs) {
     const FrameResult r = detector.Detect(p.reference, p.current, p.motion);
-    eval::LabelFrame f{p.truth.label, p.truth.height, p.truth.depth,
-                       r.labels,      r.height_mm,    p.current};
+    // No input image: these options score no texture.
+    const eval::LabelFrame f{p.truth.label, p.truth.height, p.truth.depth,
+                             r.labels,      r.height_mm,    cv::Mat()};
     std::string error;
     eval::TallyLabelFrame(f, detector.camera(), options, &tally, &error);
   }
