@@ -42,6 +42,8 @@ int main(int argc, char** argv) {
     mark(i, 10, 2.0f);
     for (int j = 0; j < 10; ++j) mark(i, j, i == 30 ? 2.0f : -2.0f);
   }
+  // Observed without a decision (p = 0.52): unknown in every output, as never-seen cells are.
+  for (int i = 45; i <= 48; ++i) mark(i, 2, 0.1f);
   if (st.ok()) st = db->WriteGridTiles(run, grid, {});
   std::vector<FrameRecord> frames;
   for (int k = 0; k < 20 && st.ok(); ++k) {

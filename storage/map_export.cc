@@ -63,11 +63,16 @@ bool WriteMapServerFiles(const OccupancyGrid& grid, const std::string& yaml_path
     }
   }
   if (!WriteText(pgm, pgm_path, error)) return false;
+  // The thresholds must separate the three shades as map_server reads them back,
+  // p = (255 - shade) / 255: occupied 0 -> 1.0, unknown 205 -> 0.196078, free 254 -> 0.0039.
+  // With free_thresh 0.25 (nav2's map_saver default before navigation2 #5278) unknown would load
+  // as free; 0.196 is what ROS 1's map_saver and nav2's fixed trinary saver write.
   char yaml[512];
   std::snprintf(yaml, sizeof(yaml),
                 "image: %s\nmode: trinary\nresolution: %.9g\norigin: [%.9g, %.9g, 0.0]\n"
-                "negate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.25\n",
-                BaseName(pgm_path).c_str(), g.resolution_m, g.origin_x_m, g.origin_y_m);
+                "negate: 0\noccupied_thresh: %.3g\nfree_thresh: %.3g\n",
+                BaseName(pgm_path).c_str(), g.resolution_m, g.origin_x_m, g.origin_y_m,
+                kMapServerOccupiedThresh, kMapServerFreeThresh);
   return WriteText(yaml, yaml_path, error);
 }
 

@@ -12,9 +12,17 @@ namespace monoplane {
 // Exports to the formats of ../shared/INTERFACES.md. Each returns false with a message naming the
 // file and the cause in *error.
 
+// The thresholds of a trinary map_server YAML. map_server (ROS 1 and nav2) loads a shade v as
+// p = (255 - v) / 255: occupied when p > occupied_thresh, free when p < free_thresh, unknown
+// otherwise. The unknown shade 205 gives p = 0.196078, so free_thresh must be at most that for
+// unknown to load as unknown (0.25, the old nav2 default, loads it as free).
+inline constexpr double kMapServerOccupiedThresh = 0.65;
+inline constexpr double kMapServerFreeThresh = 0.196;
+
 // ROS map_server: `yaml_path` (image, mode: trinary, resolution, origin [x, y, 0], negate 0,
-// occupied_thresh 0.65, free_thresh 0.25) and a binary PGM beside it (the YAML name with .pgm):
+// occupied_thresh 0.65, free_thresh 0.196) and a binary PGM beside it (the YAML name with .pgm):
 // 0 occupied, 254 free, 205 unknown; the top row is the highest y; origin = lower-left corner.
+// map_server loads it back to exactly the grid's occupied / free / unknown cells.
 bool WriteMapServerFiles(const OccupancyGrid& grid, const std::string& yaml_path,
                          std::string* error);
 // The PGM path WriteMapServerFiles writes beside `yaml_path`.

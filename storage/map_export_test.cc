@@ -86,7 +86,7 @@ TEST(MapExport, MapServerYamlAndPgmReadBackIndependently) {
   EXPECT_EQ(yaml["origin"][2].as<double>(), 0.0);
   EXPECT_EQ(yaml["negate"].as<int>(), 0);
   EXPECT_DOUBLE_EQ(yaml["occupied_thresh"].as<double>(), 0.65);
-  EXPECT_DOUBLE_EQ(yaml["free_thresh"].as<double>(), 0.25);
+  EXPECT_DOUBLE_EQ(yaml["free_thresh"].as<double>(), 0.196);
 
   Pgm pgm;
   ASSERT_TRUE(ReadPgm(dir.File("map.pgm"), &pgm));
@@ -117,6 +117,53 @@ TEST(MapExport, MapServerYamlAndPgmReadBackIndependently) {
   EXPECT_EQ(error.rfind(dir.File("empty.yaml"), 0), 0u) << error;
   EXPECT_FALSE(WriteMapServerFiles(grid, dir.File("no/such/dir/map.yaml"), &error));
   EXPECT_NE(error.find("no/such/dir/map.pgm"), std::string::npos) << error;
+}
+
+// nav2's map_io (and ROS 1's map_server) in trinary mode: p = (255 - v) / 255 with the YAML's own
+// thresholds, occupied above occupied_thresh, free below free_thresh, otherwise unknown.
+std::int8_t MapServerCell(unsigned char v, double occupied_thresh, double free_thresh) {
+  const double p = (255.0 - v) / 255.0;
+  if (p > occupied_thresh) return kCellOccupied;
+  if (p < free_thresh) return kCellFree;
+  return kCellUnknown;
+}
+
+TEST(MapExport, MapServerLoadsExactlyTheMapsCells) {
+  TempDir dir;
+  // Every state, also cells observed without a decision (p = 0.5) and never-observed ones.
+  TiledGrid tiled = TestGrid();
+  for (int i = 0; i < 12; ++i) {
+    MarkCell(&tiled, tiled.CellOf({-0.95 + 0.1 * i, 0.35}), i % 3 == 0 ? 2.0f : -2.0f);
+    MarkCell(&tiled, tiled.CellOf({-0.95 + 0.1 * i, 0.65}), i % 2 == 0 ? 0.1f : -0.1f);
+  }
+  const OccupancyGrid grid = ToOccupancyGrid(tiled);
+  int counts[3] = {};
+  for (std::int8_t c : grid.cells) ++counts[c == kCellUnknown ? 0 : c == kCellFree ? 1 : 2];
+  ASSERT_GT(counts[0], 0);
+  ASSERT_GT(counts[1], 0);
+  ASSERT_GT(counts[2], 0);
+
+  std::string error;
+  const std::string yaml_path = dir.File("map.yaml");
+  ASSERT_TRUE(WriteMapServerFiles(grid, yaml_path, &error)) << error;
+  const YAML::Node yaml = YAML::LoadFile(yaml_path);
+  const double occupied_thresh = yaml["occupied_thresh"].as<double>();
+  const double free_thresh = yaml["free_thresh"].as<double>();
+  Pgm pgm;
+  ASSERT_TRUE(ReadPgm(dir.File("map.pgm"), &pgm));
+  ASSERT_EQ(pgm.width, grid.geometry.width);
+  ASSERT_EQ(pgm.height, grid.geometry.height);
+  for (int row = 0; row < grid.geometry.height; ++row) {
+    for (int col = 0; col < grid.geometry.width; ++col) {
+      const unsigned char v = pgm.At(col, grid.geometry.height - 1 - row);
+      EXPECT_EQ(MapServerCell(v, occupied_thresh, free_thresh), grid.At(col, row))
+          << "cell " << col << ", " << row << " shade " << int(v);
+    }
+  }
+  // The trap this guards against: with nav2's old default free_thresh 0.25 the unknown shade
+  // loads as free.
+  EXPECT_EQ(MapServerCell(205, 0.65, 0.25), kCellFree);
+  EXPECT_EQ(MapServerCell(205, occupied_thresh, free_thresh), kCellUnknown);
 }
 
 TEST(MapExport, TumTrajectory) {

@@ -17,6 +17,7 @@
 #include "storage/map_database.h"
 #include "storage/map_query.h"
 #include "test/late_joiner_grid.h"
+#include "tools/eval/map_server_map.h"
 
 namespace monoplane {
 namespace {
@@ -85,6 +86,31 @@ void ExpectSameGrid(const OccupancyGrid& received, const OccupancyGrid& expected
   EXPECT_EQ(received.cells, expected.cells);
 }
 
+// What a navigator loads is what the map says, cell by cell: rt/map as nav2's static layer reads
+// an OccupancyGrid (trinary_costmap: -1 unknown, >= lethal_threshold 100 occupied, any other
+// value free), and `monoplane export --grid` as map_server loads the YAML + PGM (eval's reader
+// applies map_server's rule p = (255 - v) / 255 with the file's own thresholds).
+void ExpectNavigatorReadsTheSameMap(const OccupancyGrid& received, const std::string& map,
+                                    const std::filesystem::path& dir) {
+  int unknown = 0, free = 0, occupied = 0;
+  for (std::int8_t c : received.cells) {
+    ASSERT_TRUE(c == kCellUnknown || c == kCellFree || c == kCellOccupied)
+        << "rt/map holds " << int(c) << ": nav2's trinary static layer reads it as free";
+    ++(c == kCellUnknown ? unknown : c == kCellFree ? free : occupied);
+  }
+  EXPECT_GT(unknown, 0);
+  EXPECT_GT(free, 0);
+  EXPECT_GT(occupied, 0);
+  const std::string yaml = (dir / "export.yaml").string();
+  const std::string command =
+      std::string(MONOPLANE_PROGRAM) + " export " + map + " --grid " + yaml + " >/dev/null";
+  ASSERT_EQ(std::system(command.c_str()), 0) << command;
+  eval::MapServerMap loaded;
+  std::string error;
+  ASSERT_TRUE(eval::LoadMapServerMap(yaml, &loaded, &error)) << error;
+  ExpectSameGrid(loaded.grid, received);
+}
+
 TEST(ServeTest, PublishesAnswersReloadsAndStops) {
   ASSERT_TRUE(interfaces::testing::kLoopbackConfigured);
   const std::filesystem::path dir =
@@ -120,6 +146,7 @@ TEST(ServeTest, PublishesAnswersReloadsAndStops) {
   ASSERT_TRUE(reader.Take(15.0, &received)) << "no map from monoplane serve within 15 s";
   EXPECT_EQ(reader.frame_id(), "map");
   ExpectSameGrid(received, ToOccupancyGrid(saved));
+  ExpectNavigatorReadsTheSameMap(received, map, dir);
 
   // 2. Queries over DDS answer what storage answers.
   std::string error;

@@ -21,7 +21,9 @@ echo "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
 for scene in "${scenes[@]}"; do
   dir="$out/$scene"
   seq="$dir/sequence"
-  if [ ! -f "$seq/times.txt" ] || [ "$seq/times.txt" -ot "$root/tests/data/scenes/$scene.yaml" ]; then
+  # Rendered again when the scene or the simulator (its ground-truth formats) is newer.
+  if [ ! -f "$seq/times.txt" ] || [ "$seq/times.txt" -ot "$root/tests/data/scenes/$scene.yaml" ] ||
+    [ "$seq/times.txt" -ot "$build/tools/sim/monoplane-sim" ]; then
     rm -rf "$seq"
     "$build/tools/sim/monoplane-sim" "$root/tests/data/scenes/$scene.yaml" --out "$seq" >/dev/null
   fi

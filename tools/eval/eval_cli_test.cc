@@ -104,7 +104,7 @@ TEST_F(EvalCliTest, GridShiftWithTolerance) {
     ASSERT_TRUE(cv::imwrite(Path(name + ".pgm"), image));
     std::ofstream(Path(name + ".yaml"))
         << "image: " << name << ".pgm\nmode: trinary\nresolution: 0.05\norigin: [0, 0, 0]\n"
-        << "negate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.25\n";
+        << "negate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.196\n";
   };
   write_map("gt", 10);
   write_map("pred", 12);

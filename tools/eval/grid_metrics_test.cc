@@ -27,7 +27,7 @@ class GridMetricsTest : public ::testing::Test {
 
   // Writes NAME.yaml + NAME.pgm (map_server trinary, as INTERFACES.md exports them) and loads it.
   MapServerMap WriteAndLoad(const std::string& name, const cv::Mat& pgm, double resolution,
-                            double origin_x, double origin_y, double free_thresh = 0.25) {
+                            double origin_x, double origin_y, double free_thresh = 0.196) {
     const fs::path yaml = dir_ / (name + ".yaml");
     EXPECT_TRUE(cv::imwrite((dir_ / (name + ".pgm")).string(), pgm));
     std::ofstream(yaml) << "image: " << name << ".pgm\nmode: trinary\nresolution: " << resolution
@@ -54,7 +54,7 @@ class GridMetricsTest : public ::testing::Test {
 TEST_F(GridMetricsTest, ReaderHonoursOriginRowOrderAndTrinaryUnknown) {
   cv::Mat image(3, 4, CV_8UC1, cv::Scalar(254));
   image.at<std::uint8_t>(0, 1) = 0;    // top row: highest y
-  image.at<std::uint8_t>(2, 3) = 205;  // bottom row: unknown even with free_thresh 0.25
+  image.at<std::uint8_t>(2, 3) = 205;  // bottom row: unknown with free_thresh 0.196
   const MapServerMap map = WriteAndLoad("m", image, 0.5, -1.0, 2.0);
   EXPECT_EQ(map.grid.geometry.width, 4);
   EXPECT_EQ(map.grid.geometry.height, 3);
@@ -65,6 +65,12 @@ TEST_F(GridMetricsTest, ReaderHonoursOriginRowOrderAndTrinaryUnknown) {
   EXPECT_EQ(map.ValueAt({-0.25, 3.25}), kCellOccupied);
   EXPECT_EQ(map.ValueAt({0.75, 2.25}), kCellUnknown);
   EXPECT_FALSE(map.ValueAt({-1.1, 2.1}).has_value());
+
+  // map_server has no exception for the unknown shade: with free_thresh 0.25 (nav2's old saver
+  // default) p = 50 / 255 = 0.196 < 0.25 loads as free, and so it is scored.
+  const MapServerMap trap = WriteAndLoad("trap", image, 0.5, -1.0, 2.0, 0.25);
+  EXPECT_EQ(trap.grid.At(3, 0), kCellFree);
+  EXPECT_EQ(trap.grid.At(1, 2), kCellOccupied);
 }
 
 TEST_F(GridMetricsTest, NegatedImageAndMissingFilesAreHandled) {

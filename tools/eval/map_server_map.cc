@@ -171,9 +171,7 @@ bool LoadMapServerMap(const std::string& yaml_path, MapServerMap* map, std::stri
         cell = value <= 100 ? static_cast<std::int8_t>(value) : kCellUnknown;
       } else {
         const double p = negated ? value / 255.0 : (255 - value) / 255.0;
-        if (mode == "trinary" && value == (negated ? 50 : 205)) {
-          cell = kCellUnknown;
-        } else if (p > occupied_thresh) {
+        if (p > occupied_thresh) {
           cell = kCellOccupied;
         } else if (p < free_thresh) {
           cell = kCellFree;

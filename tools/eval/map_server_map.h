@@ -30,9 +30,9 @@ struct MapServerMap {
 // occupied_thresh (0.65), free_thresh (0.196), mode (trinary | scale | raw, default trinary)) and
 // its image (relative paths are relative to the YAML's folder). Pixels are classified as
 // map_server does: p = (255 - v) / 255 (v / 255 when negated); p > occupied_thresh occupied,
-// p < free_thresh free, otherwise unknown. In trinary mode the pixel 205 that map_saver writes for
-// unknown stays unknown whatever free_thresh says (with free_thresh 0.25, as nav2 writes,
-// map_server would read it as free: navigation2 PR #5278). Errors name the file and the key.
+// p < free_thresh free, otherwise unknown (nav2's map_io and ROS 1's map_server alike, with no
+// exception for the unknown shade 205: a YAML with free_thresh 0.25 loads it as free, and so does
+// this reader). Errors name the file and the key.
 bool LoadMapServerMap(const std::string& yaml_path, MapServerMap* map, std::string* error);
 
 }  // namespace monoplane::eval

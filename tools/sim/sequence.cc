@@ -10,6 +10,7 @@
 #include <limits>
 #include <opencv2/imgcodecs.hpp>
 
+#include "storage/map_export.h"
 #include "tools/sim/renderer.h"
 
 namespace monoplane::sim {
@@ -164,34 +165,6 @@ OccupancyGrid StaticObstacleGrid(const Scene& scene, const Pose2& world_from_map
   return grid;
 }
 
-bool WriteMapServer(const OccupancyGrid& grid, const std::string& yaml_path, std::string* error) {
-  const GridGeometry& g = grid.geometry;
-  const fs::path yaml(yaml_path);
-  const fs::path pgm = fs::path(yaml).replace_extension(".pgm");
-  std::string pgm_data =
-      "P5\n" + std::to_string(g.width) + " " + std::to_string(g.height) + "\n255\n";
-  for (int row = g.height - 1; row >= 0; --row) {  // top row = highest y
-    for (int col = 0; col < g.width; ++col) {
-      const std::int8_t c = grid.At(col, row);
-      pgm_data.push_back(static_cast<char>(c == kCellUnknown ? 205 : c >= 65 ? 0 : 254));
-    }
-  }
-  {
-    std::ofstream out(pgm, std::ios::binary);
-    out.write(pgm_data.data(), static_cast<std::streamsize>(pgm_data.size()));
-    if (!out) {
-      if (error) *error = pgm.string() + ": cannot write";
-      return false;
-    }
-  }
-  char text[512];
-  std::snprintf(text, sizeof(text),
-                "image: %s\nmode: trinary\nresolution: %.6g\norigin: [%.6f, %.6f, 0.0]\nnegate: 0\n"
-                "occupied_thresh: 0.65\nfree_thresh: 0.25\n",
-                pgm.filename().string().c_str(), g.resolution_m, g.origin_x_m, g.origin_y_m);
-  return WriteText(yaml, text, error);
-}
-
 bool WriteObstacleOctree(const Scene& scene, const Pose2& world_from_map, double resolution_m,
                          const std::string& path, std::string* error) {
   octomap::OcTree tree(resolution_m);
@@ -285,8 +258,8 @@ bool GenerateSequence(const Scene& scene_in, const std::string& out_dir,
   }
   if (!WriteText(root / "times.txt", times, error)) return false;
   if (!WriteText(root / "gt/trajectory.txt", trajectory, error)) return false;
-  if (!WriteMapServer(StaticObstacleGrid(scene, world_from_map, options.map_resolution_m),
-                      (root / "gt/map.yaml").string(), error)) {
+  if (!WriteMapServerFiles(StaticObstacleGrid(scene, world_from_map, options.map_resolution_m),
+                           (root / "gt/map.yaml").string(), error)) {
     return false;
   }
   return WriteObstacleOctree(scene, world_from_map, options.octomap_resolution_m,

@@ -43,10 +43,6 @@ bool InsideStaticObstacle(const Scene& scene, const Eigen::Vector3d& point_in_wo
 OccupancyGrid StaticObstacleGrid(const Scene& scene, const Pose2& world_from_map,
                                  double resolution_m = 0.05);
 
-// Writes a grid as map_server YAML + PGM (trinary: 0 occupied, 254 free, 205 unknown; top row =
-// highest y). `yaml_path` ends in .yaml; the PGM takes the same stem.
-bool WriteMapServer(const OccupancyGrid& grid, const std::string& yaml_path, std::string* error);
-
 // Writes the static obstacles as an OctoMap OcTree (occupied voxels only) in the map frame.
 bool WriteObstacleOctree(const Scene& scene, const Pose2& world_from_map, double resolution_m,
                          const std::string& path, std::string* error);

@@ -116,6 +116,7 @@ TEST_F(SequenceTest, GroundTruthMapMarksObstaclesDropsFreeAndUnknown) {
   EXPECT_DOUBLE_EQ(map["resolution"].as<double>(), 0.05);
   const double ox = map["origin"][0].as<double>(), oy = map["origin"][1].as<double>();
   EXPECT_DOUBLE_EQ(map["origin"][2].as<double>(), 0.0);
+  EXPECT_DOUBLE_EQ(map["free_thresh"].as<double>(), 0.196);  // unknown (205) loads as unknown
   const cv::Mat pgm = cv::imread((*out_ / "gt/map.pgm").string(), cv::IMREAD_UNCHANGED);
   ASSERT_EQ(pgm.type(), CV_8UC1);
   // Map frame = robot at frame 0: at world (1, 0.5) facing +y, so world (wx, wy) is map
