@@ -169,6 +169,10 @@ OptionTable::OptionTable(AppConfig* config) : config_(config) {
          "measured samples a segment needs (>= 1)");
   AddDouble("classification", "segment_fill_fraction", &c.segment_fill_fraction,
             "an obstacle segment measured on this fraction labels its textureless rest, [0, 1]");
+  AddInt("classification", "fill_max_gap_samples", &c.fill_max_gap_samples,
+         "unmeasured samples bounded in their image column are filled up to this gap (>= 0)");
+  AddDouble("classification", "fill_max_floor_gap_m", &c.fill_max_floor_gap_m,
+            "longest floor gap filled as floor, m (>= 0)");
   LocalMapOptions& lm = d.local_map;
   AddDouble("local_map", "resolution_m", &lm.resolution_m, "cell side, m (> 0)");
   AddDouble("local_map", "min_x_m", &lm.min_x_m, "extent behind the base origin, m");
@@ -190,6 +194,31 @@ OptionTable::OptionTable(AppConfig* config) : config_(config) {
             "turning: largest yaw of such a pair, rad (>= 0; 0 = off)");
   AddInt("pair_selection", "detect_every", &ps.detect_every,
          "dense detection on every N-th frame, others tracked only (>= 1)");
+  HeightFilterOptions& hf = d.height_filter;
+  AddBool("height_filter", "enabled", &hf.enabled,
+          "fuse each point's height over the detected frames (false: each pair on its own)");
+  AddDouble("height_filter", "outlier_min_height_m", &hf.outlier_min_height_m,
+            "lowest height an outlier measurement takes, m (< outlier_max_height_m)");
+  AddDouble("height_filter", "outlier_max_height_m", &hf.outlier_max_height_m,
+            "highest height an outlier measurement takes, m");
+  AddDouble("height_filter", "prior_inliers", &hf.prior_inliers,
+            "Beta prior of a new estimate's inliers (> 0)");
+  AddDouble("height_filter", "prior_outliers", &hf.prior_outliers,
+            "Beta prior of a new estimate's outliers (> 0)");
+  AddDouble("height_filter", "gate_sigmas", &hf.gate_sigmas,
+            "a measurement this many sigmas off an estimate starts its own (> 0)");
+  AddDouble("height_filter", "min_sigma_px", &hf.min_sigma_px,
+            "smallest error of one measurement, px of zero disparity (>= 0)");
+  AddDouble("height_filter", "min_sigma_m", &hf.min_sigma_m,
+            "smallest sigma a fused height is judged with, m (>= 0)");
+  AddDouble("height_filter", "min_inlier_ratio", &hf.min_inlier_ratio,
+            "estimates with a lower inlier ratio give no label, (0, 1)");
+  AddDouble("height_filter", "max_carry_sigma_m", &hf.max_carry_sigma_m,
+            "estimates less certain than this are not carried to the next frame, m (> 0)");
+  AddInt("height_filter", "max_unmeasured_detections", &hf.max_unmeasured_detections,
+         "detected frames an estimate is kept without a new measurement (0..1000)");
+  AddInt("height_filter", "min_measurements_to_carry", &hf.min_measurements_to_carry,
+         "measurements an estimate needs to label a sample this pair did not measure (>= 1)");
   FloorFeatureOptions& ff = d.floor_features;
   AddBool("floor_features", "enabled", &ff.enabled,
           "floor descriptors on every detected frame, for loop closure");

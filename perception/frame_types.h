@@ -10,6 +10,7 @@
 
 #include "perception/geometry/occupancy_grid.h"
 #include "perception/geometry/pose2.h"
+#include "perception/height_filter.h"
 
 namespace monoplane {
 
@@ -104,6 +105,9 @@ struct FrameResult {
   // With DetectorOptions::defer_floor_features (and status kOk): what floor_features would have
   // been computed from; ObstacleDetector::ComputeFloorFeatures turns it into them.
   FloorFeatureSource floor_feature_source;
+  // The height estimates after this frame (HeightFilterOptions), one per sample that has one,
+  // their points in this frame's base frame. Empty when the filter is off.
+  std::vector<HeightSeed> height_seeds;
   // Counts of labelled pixels (full resolution).
   int num_floor = 0, num_obstacle = 0, num_drop_off = 0, num_moving = 0, num_unknown = 0;
 };

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/eigen.hpp>
 #include <opencv2/imgproc.hpp>
@@ -43,10 +44,21 @@ struct Sample {
   double s_px = NAN;
   double height_m = NAN;
   double height_sigma_m = NAN;
+  double height_m_per_px = NAN;    // height change per input pixel of zero disparity
   double footprint_sigma_m = NAN;  // how far one sigma of zero disparity moves point_in_base2
   double below_horizon_px = 0.0;
   Eigen::Vector2d point_in_base2{NAN, NAN};  // triangulated footprint
   Eigen::Vector2d floor_in_base2{NAN, NAN};  // where the pixel's ray meets the floor
+  // The floor hypothesis fits the sample's own neighbourhood about as well as its zero disparity
+  // (check_floor_hypothesis): its window carried a neighbour's parallax, it cannot be significant.
+  bool floor_explains = false;
+  // After alignment the sample did not match (max_residual): what was there may have changed or
+  // been covered (a moving thing); an earlier estimate is not carried onto it.
+  bool mismatched = false;
+  bool textured = false;  // enough texture along the epipolar line to be measured (min_texture)
+  // Labelled from an earlier frame's estimate without a measurement in this pair: it labels the
+  // image, but gives the top view no vote (the map counted it when it was measured).
+  bool carried = false;
 };
 
 PixelLabel Classify(const Sample& s, const ClassificationOptions& co, double camera_height_m) {
@@ -84,6 +96,216 @@ cv::Mat Superpixels(const cv::Mat& current, const ClassificationOptions& co, dou
   slic->getLabels(labels_small);
   cv::resize(labels_small, labels, current.size(), 0, 0, cv::INTER_NEAREST);
   return labels;
+}
+
+// Evidence over frames (HeightFilterOptions): each sample's measurement is fused with the earlier
+// estimate that projects into it nearest the camera (occluded ones lose), or starts a new one;
+// estimates not measured again are carried while they match what is seen. The samples then carry
+// the fused height (and its sigma, footprint and significance) for the labels; estimates that
+// still rest on this pair alone leave their sample as it is. `posterior` gets every estimate
+// certain enough to carry, its point on its sample's ray at its height.
+void FuseHeights(const CameraModel& camera, const ClassificationOptions& co,
+                 const HeightFilterOptions& hf, const std::vector<HeightSeed>& prior, int rows,
+                 int cols, double sample_px, std::vector<Sample>* samples,
+                 std::vector<HeightSeed>* posterior) {
+  const Eigen::Vector3d centre = camera.CameraCentreInBase();
+  // Per sample the estimate in front: the nearest to the camera, and among those within a
+  // surface's thickness of it (0.05 m + 5 % of the range) the most certain. Always the nearest
+  // would favour, among the noisy estimates of one surface, those erring towards the camera
+  // (upwards on the floor).
+  std::vector<int> nearest(samples->size(), -1);
+  std::vector<float> nearest_range(samples->size(), std::numeric_limits<float>::infinity());
+  std::vector<std::int32_t> sample_of(prior.size(), -1);
+  std::vector<float> range_of(prior.size(), 0.0f);
+  for (std::size_t n = 0; n < prior.size(); ++n) {
+    const Eigen::Vector3d point = prior[n].point_in_base.cast<double>();
+    const auto pixel = camera.ProjectToPixel(point);
+    if (!pixel) continue;
+    const int i = static_cast<int>(std::floor(pixel->y() / sample_px));
+    const int j = static_cast<int>(std::floor(pixel->x() / sample_px));
+    if (i < 0 || j < 0 || i >= rows || j >= cols) continue;
+    const std::size_t k = static_cast<std::size_t>(i) * cols + j;
+    sample_of[n] = static_cast<std::int32_t>(k);
+    range_of[n] = static_cast<float>((point - centre).norm());
+    nearest_range[k] = std::min(nearest_range[k], range_of[n]);
+  }
+  for (std::size_t n = 0; n < prior.size(); ++n) {
+    if (sample_of[n] < 0) continue;
+    const std::size_t k = static_cast<std::size_t>(sample_of[n]);
+    if (range_of[n] > nearest_range[k] * 1.05f + 0.05f) continue;
+    if (nearest[k] < 0 || prior[n].var_m2 < prior[nearest[k]].var_m2) {
+      nearest[k] = static_cast<int>(n);
+    }
+  }
+  posterior->clear();
+  posterior->reserve(samples->size() / 2);
+  for (int i = 0; i < rows; ++i) {
+    for (int j = 0; j < cols; ++j) {
+      const std::size_t k = static_cast<std::size_t>(i) * cols + j;
+      Sample& s = (*samples)[k];
+      HeightSeed seed;
+      bool own_pair_only = false;
+      bool carried_only = false;
+      const HeightSeed* earlier = nearest[k] >= 0 && s.raw != PixelLabel::kMoving && !s.mismatched
+                                      ? &prior[nearest[k]]
+                                      : nullptr;
+      // A measurement far off the earlier estimate is of another point (the estimate projected
+      // across an occluding edge, or the scene changed): it starts its own.
+      // The measurement's error for fusion: its own, and at least that of min_sigma_px of zero
+      // disparity, the part the pairs share (their motion's and the calibration's error).
+      const double tau =
+          s.measured ? std::max(s.height_sigma_m, s.height_m_per_px * hf.min_sigma_px) : NAN;
+      if (earlier && s.measured) {
+        const double d = s.height_m - earlier->mean_m;
+        const double var = earlier->var_m2 + tau * tau;
+        if (d * d > hf.gate_sigmas * hf.gate_sigmas * var) earlier = nullptr;
+      }
+      if (earlier) {
+        seed = *earlier;
+        if (s.measured) {
+          UpdateHeightSeed(s.height_m, tau, hf, &seed);
+          // Measurements that keep disagreeing: the estimate is given up and this pair's
+          // measurement starts a new one.
+          if (seed.InlierRatio() < hf.min_inlier_ratio) {
+            seed = NewHeightSeed(s.height_m, tau, hf);
+            own_pair_only = true;
+          }
+        } else if (++seed.unmeasured > hf.max_unmeasured_detections) {
+          continue;
+        } else {
+          carried_only = true;
+        }
+      } else if (s.measured) {
+        seed = NewHeightSeed(s.height_m, tau, hf);
+        own_pair_only = true;
+      } else {
+        continue;
+      }
+      // Where the estimate puts the point: on this sample's ray, at its height.
+      const Eigen::Vector2d q((j + 0.5) * sample_px, (i + 0.5) * sample_px);
+      const Eigen::Vector3d ray = camera.RayInBase(q);
+      const double t = (seed.mean_m - centre.z()) / ray.z();
+      if (!(t > 0.0 && std::isfinite(t))) {  // this ray never reaches that height: no estimate
+        s.measured = false;
+        s.raw = PixelLabel::kUnknown;
+        continue;
+      }
+      const Eigen::Vector3d point = centre + t * ray;
+      seed.point_in_base = point.cast<float>();
+      double sigma = std::sqrt(static_cast<double>(seed.var_m2));
+      if (sigma <= hf.max_carry_sigma_m) posterior->push_back(seed);
+      if (own_pair_only) continue;
+      if (seed.InlierRatio() < hf.min_inlier_ratio)
+        continue;  // carried, but disputed      // Not measured in this pair. Where it had texture,
+                   // something kept the pair from measuring
+      // it (no triangulation, a match far off): no earlier estimate overrules that. Where it had
+      // none, the estimate may be of a point that something without texture now hides (the
+      // floor behind a plain box): only what stands above or below the floor is carried onto
+      // it, never floor, and only when more than one pair agreed on it.
+      if (carried_only && (s.textured || seed.measurements < hf.min_measurements_to_carry ||
+                           std::abs(seed.mean_m) < co.obstacle_min_height_m)) {
+        continue;
+      }
+      s.measured = true;
+      s.carried = carried_only;
+      // Judged with at least the uncertainty of this pair's measurement (carried: of the best
+      // single one, HeightSeed::best_sigma_m): fusion gives the better mean and keeps it known,
+      // not more confidence than one pair had.
+      sigma = std::max({sigma, hf.min_sigma_m,
+                        carried_only ? static_cast<double>(seed.best_sigma_m) : s.height_sigma_m});
+      s.height_m = seed.mean_m;
+      s.height_sigma_m = sigma;
+      s.footprint_sigma_m = sigma * ray.head<2>().norm() / std::max(1e-9, std::abs(ray.z()));
+      s.point_in_base2 = point.head<2>();
+      // Significance is not created by fusing: a measured sample keeps its pair's verdict (one
+      // pair's systematic error repeats in the next ones and would add up to confidence), and the
+      // fused height must still stand out of its uncertainty.
+      s.significant = (carried_only || s.significant) && !s.floor_explains &&
+                      std::abs(s.height_m) >= co.min_disparity_sigmas * sigma;
+      s.raw = Classify(s, co, centre.z());
+    }
+  }
+}
+
+// Samples that measured nothing between two labelled ones in an image column, where what the two
+// show bounds what the gap can hold (ClassificationOptions::fill_max_gap_samples):
+// - obstacle above and obstacle below at one footprint (within 0.05 m + 3 % of its range): one
+//   vertical surface; the gap is that surface, each sample where its ray meets it;
+// - obstacle above, floor below it in front of the obstacle's footprint: the obstacle stands on
+//   the floor; a gap sample whose ray meets the floor beyond the footprint meets the surface
+//   first and is obstacle (the others stay unknown);
+// - floor above and floor below: anything standing in the gap would have hidden the far floor
+//   sample unless it is lower than camera height * (far - near) / far; when that bound is below
+//   obstacle_min_height_m and the floor gap at most fill_max_floor_gap_m (a hole in it cannot be
+//   bounded so), the gap is floor.
+// Moving, drop-off and unknown ends fill nothing.
+void FillColumnGaps(const CameraModel& camera, const ClassificationOptions& co, int rows, int cols,
+                    double sample_px, std::vector<Sample>* samples,
+                    std::vector<PixelLabel>* labels) {
+  const Eigen::Vector3d centre = camera.CameraCentreInBase();
+  const Eigen::Vector2d c = centre.head<2>();
+  const auto at = [&](int i, int j) { return static_cast<std::size_t>(i) * cols + j; };
+  const auto ray_of = [&](int i, int j) {
+    return camera.RayInBase(Eigen::Vector2d((j + 0.5) * sample_px, (i + 0.5) * sample_px));
+  };
+  // Makes sample (i, j) a point of the vertical surface through `footprint` (seen along the
+  // column), with the uncertainty of the samples that bound it.
+  const auto place_on_surface = [&](int i, int j, const Eigen::Vector2d& footprint,
+                                    const Sample& bound) {
+    const Eigen::Vector3d ray = ray_of(i, j);
+    const double horizontal = ray.head<2>().norm();
+    if (horizontal < 1e-9) return;
+    const double t = (footprint - c).norm() / horizontal;
+    Sample& s = (*samples)[at(i, j)];
+    s.measured = true;
+    s.significant = true;
+    s.height_m = centre.z() + t * ray.z();
+    s.height_sigma_m = bound.height_sigma_m;
+    s.footprint_sigma_m = bound.footprint_sigma_m;
+    s.point_in_base2 = footprint;
+    s.raw = s.height_m >= co.obstacle_min_height_m ? PixelLabel::kObstacle : PixelLabel::kUnknown;
+    (*labels)[at(i, j)] = s.raw;
+  };
+  for (int j = 0; j < cols; ++j) {
+    int above = -1;  // row of the last labelled sample above
+    for (int i = 0; i < rows; ++i) {
+      const PixelLabel below_label = (*labels)[at(i, j)];
+      if (below_label == PixelLabel::kUnknown) continue;
+      const int gap = above < 0 ? 0 : i - above - 1;
+      if (gap >= 1 && gap <= co.fill_max_gap_samples) {
+        const PixelLabel above_label = (*labels)[at(above, j)];
+        const Sample& a = (*samples)[at(above, j)];
+        const Sample& b = (*samples)[at(i, j)];
+        if (above_label == PixelLabel::kObstacle && a.measured && a.point_in_base2.allFinite()) {
+          const double range = (a.point_in_base2 - c).norm();
+          const double tolerance = 0.05 + 0.03 * range;
+          if (below_label == PixelLabel::kObstacle && b.measured &&
+              (a.point_in_base2 - b.point_in_base2).norm() <= tolerance) {
+            const Eigen::Vector2d footprint = 0.5 * (a.point_in_base2 + b.point_in_base2);
+            const Sample& bound = a.height_sigma_m > b.height_sigma_m ? a : b;
+            for (int g = above + 1; g < i; ++g) place_on_surface(g, j, footprint, bound);
+          } else if (below_label == PixelLabel::kFloor && b.floor_in_base2.allFinite() &&
+                     (b.floor_in_base2 - c).norm() < range) {
+            for (int g = above + 1; g < i; ++g) {
+              const Sample& s = (*samples)[at(g, j)];
+              if (s.floor_in_base2.allFinite() && (s.floor_in_base2 - c).norm() >= range) {
+                place_on_surface(g, j, a.point_in_base2, a);
+              }
+            }
+          }
+        } else if (above_label == PixelLabel::kFloor && below_label == PixelLabel::kFloor &&
+                   a.floor_in_base2.allFinite() && b.floor_in_base2.allFinite()) {
+          const double far = (a.floor_in_base2 - c).norm();
+          const double near = (b.floor_in_base2 - c).norm();
+          if (far > near && far - near <= co.fill_max_floor_gap_m &&
+              centre.z() * (far - near) / far < co.obstacle_min_height_m) {
+            for (int g = above + 1; g < i; ++g) (*labels)[at(g, j)] = PixelLabel::kFloor;
+          }
+        }
+      }
+      above = i;
+    }
+  }
 }
 
 // Per segment, the median height of its measured samples decides the label of all its measured
@@ -281,6 +503,10 @@ bool ClassificationOptions::IsValid(std::string* error) const {
   }
   if (floor_edge_samples < 0) return fail("floor_edge_samples: must be >= 0");
   if (edge_floor_unknown_samples < 0) return fail("edge_floor_unknown_samples: must be >= 0");
+  if (fill_max_gap_samples < 0 || fill_max_gap_samples > 1000)
+    return fail("fill_max_gap_samples: must be in [0, 1000]");
+  if (!(fill_max_floor_gap_m >= 0 && fill_max_floor_gap_m <= 10))
+    return fail("fill_max_floor_gap_m: must be in [0, 10]");
   if (column_min_samples < 0) return fail("column_min_samples: must be >= 0");
   if (free_margin_cells < 0) return fail("free_margin_cells: must be >= 0");
   if (!(column_max_sigmas >= 0)) return fail("column_max_sigmas: must be >= 0");
@@ -341,7 +567,8 @@ bool PairSelectionOptions::IsValid(std::string* error) const {
 bool DetectorOptions::IsValid(std::string* error) const {
   return ground_motion.IsValid(error) && direct_alignment.IsValid(error) &&
          zero_disparity.IsValid(error) && classification.IsValid(error) &&
-         local_map.IsValid(error) && pair_selection.IsValid(error) && floor_features.IsValid(error);
+         height_filter.IsValid(error) && local_map.IsValid(error) &&
+         pair_selection.IsValid(error) && floor_features.IsValid(error);
 }
 
 ObstacleDetector::ObstacleDetector(const CameraCalibration& calibration,
@@ -458,7 +685,8 @@ std::vector<Eigen::Vector2d> OffEpipolarCorners(const CameraModel& camera,
 FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& current,
                                      const GroundMotion& motion,
                                      const std::vector<Eigen::Vector2d>& moving_pixels,
-                                     const AlignmentImage& current_alignment) const {
+                                     const AlignmentImage& current_alignment,
+                                     const std::vector<HeightSeed>* prior_in_base) const {
   const CameraIntrinsics& in = camera_.calibration().intrinsics;
   const cv::Size size(in.width, in.height);
   const ClassificationOptions& co = options_.classification;
@@ -538,13 +766,17 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
       sample.below_horizon_px = horizon_sign * horizon.dot(q.homogeneous()) / horizon_norm;
       if (auto f = camera_.PixelToFloor(q)) sample.floor_in_base2 = *f;
       if (field.texture.at<float>(y, x) < co.min_texture) continue;  // unknown, never floor
+      sample.textured = true;
       const float perpendicular = std::abs(field.perpendicular_px.at<float>(y, x));
       if (co.moving_min_perpendicular_px > 0 && perpendicular >= co.moving_min_perpendicular_px &&
           perpendicular >= co.min_disparity_sigmas * field.perpendicular_sigma_px.at<float>(y, x)) {
         sample.raw = PixelLabel::kMoving;
         continue;
       }
-      if (field.residual.at<float>(y, x) > co.max_residual) continue;
+      if (field.residual.at<float>(y, x) > co.max_residual) {
+        sample.mismatched = true;
+        continue;
+      }
       const double s = field.s_px.at<float>(y, x);
       const double sigma_px =
           std::max<double>(co.disparity_sigma_px, field.sigma_px.at<float>(y, x));
@@ -560,14 +792,23 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
           field.floor_residual_fine.at<float>(y, x) <
               field.residual_fine.at<float>(y, x) + co.min_floor_misfit) {
         sample.significant = false;
+        sample.floor_explains = true;
       }
       sample.height_m = tri->point_in_base1.z();
       sample.height_sigma_m = std::abs(tri_sigma->point_in_base1.z() - sample.height_m);
+      sample.height_m_per_px = sample.height_sigma_m / sigma_px;
       sample.footprint_sigma_m =
           (tri_sigma->point_in_base1.head<2>() - tri->point_in_base1.head<2>()).norm();
       sample.point_in_base2 = t_rotation * tri->point_in_base1.head<2>() + t_translation;
       sample.raw = Classify(sample, co, camera_height);
     }
+  }
+
+  // Phase 1b: evidence over frames.
+  if (options_.height_filter.enabled) {
+    static const std::vector<HeightSeed> kNoPrior;
+    FuseHeights(camera_, co, options_.height_filter, prior_in_base ? *prior_in_base : kNoPrior,
+                sample_rows, sample_cols, stride * field.scale, &samples, &r.height_seeds);
   }
 
   // Phase 2: aggregate, as the paper does per segment, for stability.
@@ -628,6 +869,11 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
         }
       }
     }
+  }
+
+  // Gaps in image columns that the labels around them bound.
+  if (co.fill_max_gap_samples > 0) {
+    FillColumnGaps(camera_, co, sample_rows, sample_cols, stride * field.scale, &samples, &labels);
   }
 
   // Floor next to an obstacle in its image column (its base below it, the floor behind its top
@@ -715,6 +961,14 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
       const PixelLabel label = labels[i * sample_cols + j];
       sample_labels.at<std::uint8_t>(i, j) = static_cast<std::uint8_t>(label);
       if (sample.measured) r.zero_disparity_px.at<float>(i, j) = static_cast<float>(sample.s_px);
+      if (sample.carried) {
+        if (label == PixelLabel::kFloor) {
+          sample_height.at<std::uint16_t>(i, j) = EncodeHeightMm(0.0);
+        } else if (label == PixelLabel::kObstacle || label == PixelLabel::kDropOff) {
+          sample_height.at<std::uint16_t>(i, j) = EncodeHeightMm(sample.height_m);
+        }
+        continue;  // no second vote in the top view
+      }
       if (label == PixelLabel::kFloor) {
         sample_height.at<std::uint16_t>(i, j) = EncodeHeightMm(0.0);
         // Top view: floor at its floor point...
@@ -849,12 +1103,43 @@ SequenceDetector::SequenceDetector(const CameraCalibration& calibration,
                                    const DetectorOptions& options)
     : detector_(calibration, options) {}
 
-void SequenceDetector::Finish(Output* output) const {
+void SequenceDetector::Finish(Output* output) {
   if (!output->pending) return;
   const Output::PendingDetection& p = *output->pending;
-  output->result =
-      detector_.Detect(p.reference, p.current, p.motion, p.moving_pixels, p.current_alignment);
+  const bool fuse = detector_.options().height_filter.enabled;
+  std::vector<HeightSeed> prior;
+  if (fuse) {
+    // The estimates move into this frame through the odometry between the detected frames.
+    const Pose2 base_from_odom = p.odom_from_base.Inverse();
+    const Eigen::Matrix2f rotation = base_from_odom.Rotation().cast<float>();
+    const Eigen::Vector2f translation = base_from_odom.Translation().cast<float>();
+    prior = std::move(seeds_in_odom_);
+    for (HeightSeed& seed : prior) {
+      seed.point_in_base.head<2>() = rotation * seed.point_in_base.head<2>() + translation;
+    }
+  }
+  output->result = detector_.Detect(p.reference, p.current, p.motion, p.moving_pixels,
+                                    p.current_alignment, fuse ? &prior : nullptr);
   output->result->turn_pair = p.turn_pair;
+  if (fuse) {
+    if (output->result->status == PairStatus::kOk) {
+      seeds_in_odom_ = std::move(output->result->height_seeds);
+      const Eigen::Matrix2f rotation = p.odom_from_base.Rotation().cast<float>();
+      const Eigen::Vector2f translation = p.odom_from_base.Translation().cast<float>();
+      for (HeightSeed& seed : seeds_in_odom_) {
+        seed.point_in_base.head<2>() = rotation * seed.point_in_base.head<2>() + translation;
+      }
+      output->result->height_seeds.clear();
+    } else {
+      // No pair, no measurement: what was seen is kept, in the odometry frame.
+      const Eigen::Matrix2f rotation = p.odom_from_base.Rotation().cast<float>();
+      const Eigen::Vector2f translation = p.odom_from_base.Translation().cast<float>();
+      for (HeightSeed& seed : prior) {
+        seed.point_in_base.head<2>() = rotation * seed.point_in_base.head<2>() + translation;
+      }
+      seeds_in_odom_ = std::move(prior);
+    }
+  }
   output->pending.reset();
 }
 
@@ -998,8 +1283,9 @@ SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, Timesta
           moving = OffEpipolarCorners(camera, motion.base2_from_base1, p_ref, p_cur,
                                       options.classification.moving_track_min_px);
         }
-        out.pending = Output::PendingDetection{reference->image,  prepared,  motion,
-                                               std::move(moving), alignment, turn_pair};
+        out.pending =
+            Output::PendingDetection{reference->image, prepared,  motion,         std::move(moving),
+                                     alignment,        turn_pair, odom_from_base_};
         if (!defer_detection) Finish(&out);
         if (!turn_pair) frames_since_detection_ = 0;
       }

@@ -11,6 +11,7 @@
 #include "perception/geometry/camera_model.h"
 #include "perception/geometry/timestamp.h"
 #include "perception/ground_motion.h"
+#include "perception/height_filter.h"
 #include "perception/shi_tomasi_corners.h"
 #include "perception/zero_disparity.h"
 
@@ -86,6 +87,14 @@ struct ClassificationOptions {
   // with 1, 0.4-1.2 with 2, and with 2 one grid cell of the loop scene read free under an
   // obstacle (0 with 0 and 1). >= 0, 0 = off.
   int edge_floor_unknown_samples = 1;
+  // Labels: unmeasured samples between two labelled ones in an image column are filled where the
+  // two bound what lies between (one vertical surface, an obstacle standing on the floor, or
+  // floor on both sides of a gap too short to hide an obstacle): FillColumnGaps in the .cc says
+  // which rule fills what. Gaps of up to fill_max_gap_samples samples (>= 0, 0 = off); a floor
+  // gap at most fill_max_floor_gap_m long on the floor (metres, >= 0: a hole in it could not be
+  // seen, so it is kept short).
+  int fill_max_gap_samples = 24;
+  double fill_max_floor_gap_m = 0.10;
   // Top view, surfaces: the obstacle (or drop-off) samples of one run in an image column (up to two
   // unmeasured ones between) show one surface, vertical (a wall, a box's side: one range) or
   // horizontal (a table top from below, the lower floor past a drop-off: one height). With at
@@ -168,6 +177,7 @@ struct DetectorOptions {
   DirectAlignmentOptions direct_alignment;  // the pair's motion refined on the floor's texture
   ZeroDisparityOptions zero_disparity;
   ClassificationOptions classification;
+  HeightFilterOptions height_filter;  // heights fused over the detected frames
   LocalMapOptions local_map;
   PairSelectionOptions pair_selection;
   FloorFeatureOptions floor_features;  // computed on every kOk result (FrameResult::floor_features)
@@ -208,9 +218,14 @@ class ObstacleDetector {
   // moving_pixels: corners of `current` known to move on their own (OffEpipolarCorners).
   // current_alignment: `current` prepared for the direct alignment when the caller has it
   // already (PrepareAlignmentImage); otherwise prepared here.
+  // prior_in_base: the height estimates of earlier frames (HeightFilterOptions), their points in
+  // this frame's base frame; each sample's measurement is fused with the estimate that projects
+  // nearest the camera into it, and the labels come from the fused estimates. The result's
+  // height_seeds are the estimates after this frame (null or empty prior: from this pair alone).
   FrameResult Detect(const cv::Mat& reference, const cv::Mat& current, const GroundMotion& motion,
                      const std::vector<Eigen::Vector2d>& moving_pixels = {},
-                     const AlignmentImage& current_alignment = {}) const;
+                     const AlignmentImage& current_alignment = {},
+                     const std::vector<HeightSeed>* prior_in_base = nullptr) const;
 
   // The floor features of a result whose computation was deferred (see defer_floor_features);
   // the same as Detect would have given. Empty for an empty source.
@@ -247,21 +262,24 @@ class SequenceDetector {
     bool image_ok = false;
     std::string message;  // why the image was unusable
     // With defer_detection: the dense detection still to run (result is unset then). Run it with
-    // Finish(), on any thread: it only reads the detector and these shared, unchanging images.
+    // Finish(), on one thread, in frame order: besides the detector and these shared, unchanging
+    // images it reads and updates only the height estimates, which Process never touches.
     struct PendingDetection {
       cv::Mat reference, current;
       GroundMotion motion;
       std::vector<Eigen::Vector2d> moving_pixels;
       AlignmentImage current_alignment;
       bool turn_pair = false;
+      Pose2 odom_from_base;  // of the current frame, to carry the height estimates
     };
     std::optional<PendingDetection> pending;
   };
   // Tracks the frame and, unless defer_detection, runs the dense detection of its pair.
   Output Process(const cv::Mat& image, TimestampNs stamp_ns, bool defer_detection = false);
-  // Runs a deferred detection into output->result (no-op when nothing is pending). Const and
-  // thread-safe: a second thread can detect frame k while Process tracks frame k + 1.
-  void Finish(Output* output) const;
+  // Runs a deferred detection into output->result (no-op when nothing is pending), fusing it with
+  // the height estimates of the frames detected before. A second thread can detect frame k while
+  // Process tracks frame k + 1; detections must be finished in frame order, on one thread.
+  void Finish(Output* output);
 
   const ObstacleDetector& detector() const { return detector_; }
 
@@ -287,6 +305,9 @@ class SequenceDetector {
                                                 std::vector<FeatureObservation> tracked);
 
   ObstacleDetector detector_;
+  // The height estimates after the last detected frame, points in the odometry frame. Only
+  // Finish reads and writes them.
+  std::vector<HeightSeed> seeds_in_odom_;
   std::deque<Frame> history_;
   std::optional<Pose2> last_step_;
   double last_step_dt_s_ = 0.0;  // time the last step took (0: unknown)

@@ -739,6 +739,7 @@ TEST_F(DetectorOnSyntheticScene, TexturelessObstacleFaceFilledBySegments) {
   const Pose2 p1{0, 0, 0}, p2{0.15, 0.0, 0.0};
   DetectorOptions no_fill = options_;
   no_fill.classification.segment_fill_fraction = 1.0;
+  no_fill.classification.fill_max_gap_samples = 0;
   const auto [b, r, r0] = DetectBoth(scene, p1, p2, no_fill);
   ASSERT_EQ(r.status, PairStatus::kOk) << r.message;
   MaybeDump("textureless_box", b.image, r);
@@ -902,6 +903,56 @@ TEST_F(DetectorOnSyntheticScene, StoppingAfterDrivingKeepsSeeing) {
   const SequenceDetector::Output dropped = run(false, &b);
   ASSERT_TRUE(dropped.result);
   EXPECT_EQ(dropped.result->status, PairStatus::kNoParallax);
+}
+
+// Evidence over frames: driving towards a faint box, every detected frame is one more measurement
+// of each point; the labels of the last frame come from the fused estimates. Against each pair on
+// its own (height_filter.enabled false) more of the box is known, its heights are as accurate,
+// and the floor does not turn into obstacles.
+TEST_F(DetectorOnSyntheticScene, HeightsFusedOverFramesKnowMoreOfTheBox) {
+  Scene scene;
+  scene.box_texture = Texture(3, 0.35);  // a faint face: single pairs leave much of it unknown
+  scene.boxes.push_back({{1.6, -0.3, 0.0}, {1.9, 0.3, 0.25}});
+  std::vector<Pose2> poses;
+  for (int k = 0; k <= 12; ++k) poses.push_back({0.03 * k, 0.0, 0.0});
+  auto run = [&](bool fuse, Rendered* last) {
+    DetectorOptions options = options_;
+    options.height_filter.enabled = fuse;
+    return RunEveryFrame(options, scene, poses, last);
+  };
+  auto box_height_error = [](const Rendered& truth, const FrameResult& r) {
+    std::vector<double> errors;
+    for (int y = 0; y < r.height_mm.rows; ++y) {
+      for (int x = 0; x < r.height_mm.cols; ++x) {
+        const std::uint16_t h = r.height_mm.at<std::uint16_t>(y, x);
+        if (truth.height_m.at<float>(y, x) >= 0.05f && h != 0)
+          errors.push_back(std::abs(DecodeHeightM(h) - truth.height_m.at<float>(y, x)));
+      }
+    }
+    std::sort(errors.begin(), errors.end());
+    return errors.empty() ? 1.0 : errors[errors.size() / 2];
+  };
+  Rendered b;
+  const SequenceDetector::Output fused = run(true, &b);
+  const SequenceDetector::Output single = run(false, &b);
+  ASSERT_TRUE(fused.result && single.result);
+  ASSERT_EQ(fused.result->status, PairStatus::kOk) << fused.result->message;
+  ASSERT_EQ(single.result->status, PairStatus::kOk) << single.result->message;
+  MaybeDump("fused_box", b.image, *fused.result);
+  MaybeDump("single_box", b.image, *single.result);
+  EXPECT_TRUE(single.result->height_seeds.empty());
+  const BoxFloorCounts c = CountBoxAndFloor(b, fused.result->labels);
+  const BoxFloorCounts c0 = CountBoxAndFloor(b, single.result->labels);
+  const double e = box_height_error(b, *fused.result), e0 = box_height_error(b, *single.result);
+  std::printf(
+      "box labelled obstacle %d fused, %d single of %d; floor as obstacle %d / %d of %d; median "
+      "box height error %.4f / %.4f m\n",
+      c.box_obstacle, c0.box_obstacle, c.box, c.floor_obstacle, c0.floor_obstacle, c.floor, e, e0);
+  ASSERT_GT(c.box, 5000);
+  EXPECT_GT(c.box_obstacle, c0.box_obstacle + c.box / 50);
+  EXPECT_LT(c.floor_obstacle, c0.floor_obstacle + c.floor / 1000);
+  EXPECT_LT(c.box_floor, c.box / 100);
+  EXPECT_LE(e, e0 + 0.001);
 }
 
 // Creeping after driving (8 mm a frame: too slow for a new reference among 4 frames) keeps the
