@@ -16,8 +16,8 @@ if [ ${#scenes[@]} -eq 0 ]; then
   for f in "$root"/tests/data/scenes/*.yaml; do scenes+=("$(basename "$f" .yaml)"); done
 fi
 mkdir -p "$out"
-echo "| scene | frames | obstacle recall (<= 4 m) | of textured (<= 4 m) | floor as obstacle | coverage | dangerous | height error (median, <= 2 m) | grid precision | grid recall | grid recall of seen | dangerous cells | grid unknown | ATE (m) | frames/s |"
-echo "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+echo "| scene | frames | obstacle recall (<= 4 m) | of textured (<= 4 m) | floor as obstacle | coverage | dangerous | height error (median, <= 2 m) | grid precision | grid recall | grid recall of seen | seen floor free (<= 4 m) | dangerous cells | grid unknown | ATE (m) | frames/s |"
+echo "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
 for scene in "${scenes[@]}"; do
   dir="$out/$scene"
   seq="$dir/sequence"
@@ -52,12 +52,12 @@ fps = re.search(r"([0-9.]+) frames/s", run)
 frames = re.search(r"frames read (\d+)", run)
 pct = lambda v: "-" if v is None else "%.1f %%" % (100 * v)
 cm = lambda v: "-" if v is None else "%.1f cm" % (100 * v)
-print("| %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %.3f | %s |" % (
+print("| %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %.3f | %s |" % (
     scene, frames.group(1) if frames else "?", pct(near["obstacle_recall"]),
     pct(near["obstacle_recall_textured"]),
     pct(labels["floor_false_obstacle_rate"]), pct(labels["coverage"]), pct(labels["dangerous_rate"]),
     cm(labels["height_error_median_m"]), pct(grid.get("precision")), pct(grid.get("recall")),
-    pct(grid.get("recall_seen")), pct(grid.get("dangerous_share")), pct(grid.get("unknown_share")),
+    pct(grid.get("recall_seen")), pct(grid.get("free_recall_seen")), pct(grid.get("dangerous_share")), pct(grid.get("unknown_share")),
     traj["ate_m"]["rmse"], fps.group(1) if fps else "?"))
 EOF
 done

@@ -96,6 +96,7 @@ int main(int argc, char** argv) {
   // grid
   std::string grid_pred, grid_gt, grid_trajectory, grid_seen_from;
   double grid_seen_range_m = 6.0;
+  double grid_free_range_m = 4.0;
   GridEvalOptions grid_options;
   CLI::App* grid =
       app.add_subcommand("grid", "occupancy grid vs a ground-truth grid (map_server YAML)");
@@ -111,6 +112,10 @@ int main(int argc, char** argv) {
                    "camera saw a surface >= 3 cm high in (GT depth, every 2nd pixel)");
   grid->add_option("--seen-range", grid_seen_range_m,
                    "with --seen-from: only surfaces within this ground distance of the robot, m")
+      ->capture_default_str();
+  grid->add_option("--free-range", grid_free_range_m,
+                   "with --seen-from: the floor seen within this ground distance of the robot is "
+                   "scored for its recall as free, m")
       ->capture_default_str();
   grid->add_flag("--json", json, "print JSON instead of a table");
   grid->callback([&] {
@@ -140,9 +145,16 @@ int main(int argc, char** argv) {
       exit_code = Fail(error);
       return;
     }
+    std::vector<std::uint8_t> seen_floor;
+    if (!grid_seen_from.empty() &&
+        !SeenFloorCells(grid_seen_from, gt, /*pixel_step=*/2, /*max_height_m=*/0.01,
+                        grid_free_range_m, &seen_floor, &error)) {
+      exit_code = Fail(error);
+      return;
+    }
     GridEvalResult result;
     if (!CompareGrids(pred, gt, grid_options, positions, &result, &error,
-                      seen.empty() ? nullptr : &seen)) {
+                      seen.empty() ? nullptr : &seen, seen_floor.empty() ? nullptr : &seen_floor)) {
       exit_code = Fail(error);
       return;
     }

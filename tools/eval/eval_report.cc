@@ -275,6 +275,11 @@ std::string GridReportTable(const GridEvalResult& r) {
         << " / " << r.gt_occupied_seen << ")\n"
         << "F1 with that recall:  " << Fixed(r.f1_seen) << "\n";
   }
+  if (r.free_seen_scored) {
+    out << "GT free seen:         " << r.gt_free_seen << " (the camera saw the floor there)\n"
+        << "free of seen floor:   " << Percent(r.free_recall_seen) << " (" << r.gt_free_seen_free
+        << " / " << r.gt_free_seen << ")\n";
+  }
   return out.str();
 }
 
@@ -298,6 +303,11 @@ std::string GridReportJson(const GridEvalResult& r) {
         .Add("gt_occupied_seen_recalled", r.gt_occupied_seen_recalled)
         .Add("recall_seen", r.recall_seen)
         .Add("f1_seen", r.f1_seen);
+  }
+  if (r.free_seen_scored) {
+    json.Add("gt_free_seen", r.gt_free_seen)
+        .Add("gt_free_seen_free", r.gt_free_seen_free)
+        .Add("free_recall_seen", r.free_recall_seen);
   }
   return json.Str() + "\n";
 }

@@ -45,12 +45,15 @@ std::optional<double> F1(const std::optional<double>& precision,
 
 bool CompareGrids(const MapServerMap& pred, const MapServerMap& gt, const GridEvalOptions& options,
                   const std::vector<Eigen::Vector2d>& positions_in_map, GridEvalResult* result,
-                  std::string* error, const std::vector<std::uint8_t>* seen_cells) {
+                  std::string* error, const std::vector<std::uint8_t>* seen_cells,
+                  const std::vector<std::uint8_t>* seen_floor_cells) {
   if (!options.IsValid(error)) return false;
-  if (seen_cells && seen_cells->size() != gt.grid.geometry.NumCells()) {
-    *error = "seen cells: " + std::to_string(seen_cells->size()) + " for a GT grid of " +
-             std::to_string(gt.grid.geometry.NumCells()) + " cells";
-    return false;
+  for (const auto* cells : {seen_cells, seen_floor_cells}) {
+    if (cells && cells->size() != gt.grid.geometry.NumCells()) {
+      *error = "seen cells: " + std::to_string(cells->size()) + " for a GT grid of " +
+               std::to_string(gt.grid.geometry.NumCells()) + " cells";
+      return false;
+    }
   }
   *result = GridEvalResult{};
   const GridGeometry& g = gt.grid.geometry;
@@ -130,6 +133,10 @@ bool CompareGrids(const MapServerMap& pred, const MapServerMap& gt, const GridEv
           if (recalled) ++result->gt_occupied_seen_recalled;
         }
       }
+      if (gs == CellState::kFree && seen_floor_cells && (*seen_floor_cells)[i]) {
+        ++result->gt_free_seen;
+        if (ps == CellState::kFree) ++result->gt_free_seen_free;
+      }
       if (ps == CellState::kOccupied) {
         ++result->pred_occupied;
         if (any_within(gt_state, col, row)) ++result->pred_occupied_matched;
@@ -147,6 +154,11 @@ bool CompareGrids(const MapServerMap& pred, const MapServerMap& gt, const GridEv
                                 static_cast<double>(result->gt_occupied_seen));
     result->f1_seen = F1(result->precision, result->recall_seen);
   }
+  if (seen_floor_cells) {
+    result->free_seen_scored = true;
+    result->free_recall_seen = Ratio(static_cast<double>(result->gt_free_seen_free),
+                                     static_cast<double>(result->gt_free_seen));
+  }
   result->dangerous_share =
       Ratio(static_cast<double>(result->dangerous), static_cast<double>(result->gt_occupied));
   result->unknown_share = Ratio(static_cast<double>(result->gt_known_pred_unknown),
@@ -154,9 +166,13 @@ bool CompareGrids(const MapServerMap& pred, const MapServerMap& gt, const GridEv
   return true;
 }
 
-bool SeenSurfaceCells(const std::string& seq_dir, const MapServerMap& gt, int pixel_step,
-                      double min_height_m, double max_range_m, std::vector<std::uint8_t>* seen,
-                      std::string* error) {
+namespace {
+
+// Calls visit(point_in_base, cell index) for every pixel_step-th pixel of each frame's GT depth
+// within max_range_m (ground distance from the robot) whose point falls in a cell of `gt`.
+template <typename Visit>
+bool ForEachSeenPoint(const std::string& seq_dir, const MapServerMap& gt, int pixel_step,
+                      double max_range_m, std::string* error, const Visit& visit) {
   namespace fs = std::filesystem;
   if (pixel_step < 1) {
     *error = "pixel_step = " + std::to_string(pixel_step) + ": must be >= 1";
@@ -186,7 +202,6 @@ bool SeenSurfaceCells(const std::string& seq_dir, const MapServerMap& gt, int pi
   }
   std::sort(frames.begin(), frames.end());
   const bool distorted = calibration.intrinsics.HasDistortion();
-  seen->assign(gt.grid.geometry.NumCells(), 0);
   for (const fs::path& path : frames) {
     const std::string stem = path.stem().string();
     if (stem.empty() || !std::all_of(stem.begin(), stem.end(), ::isdigit)) continue;
@@ -210,14 +225,35 @@ bool SeenSurfaceCells(const std::string& seq_dir, const MapServerMap& gt, int pi
         Eigen::Vector2d pixel(u, v);
         if (distorted) pixel = camera.UndistortPixel(pixel);
         const Eigen::Vector3d point_in_base = camera.PointInBase(pixel, row[u] * 1e-3);
-        if (point_in_base.z() < min_height_m || point_in_base.head<2>().norm() > max_range_m)
-          continue;
+        if (point_in_base.head<2>().norm() > max_range_m) continue;
         const auto cell = gt.CellOf(map_from_base * Eigen::Vector2d(point_in_base.head<2>()));
-        if (cell) (*seen)[gt.grid.geometry.Index(cell->x(), cell->y())] = 1;
+        if (cell) visit(point_in_base, gt.grid.geometry.Index(cell->x(), cell->y()));
       }
     }
   }
   return true;
+}
+
+}  // namespace
+
+bool SeenSurfaceCells(const std::string& seq_dir, const MapServerMap& gt, int pixel_step,
+                      double min_height_m, double max_range_m, std::vector<std::uint8_t>* seen,
+                      std::string* error) {
+  seen->assign(gt.grid.geometry.NumCells(), 0);
+  return ForEachSeenPoint(seq_dir, gt, pixel_step, max_range_m, error,
+                          [&](const Eigen::Vector3d& point_in_base, std::size_t cell) {
+                            if (point_in_base.z() >= min_height_m) (*seen)[cell] = 1;
+                          });
+}
+
+bool SeenFloorCells(const std::string& seq_dir, const MapServerMap& gt, int pixel_step,
+                    double max_height_m, double max_range_m, std::vector<std::uint8_t>* seen,
+                    std::string* error) {
+  seen->assign(gt.grid.geometry.NumCells(), 0);
+  return ForEachSeenPoint(seq_dir, gt, pixel_step, max_range_m, error,
+                          [&](const Eigen::Vector3d& point_in_base, std::size_t cell) {
+                            if (std::abs(point_in_base.z()) <= max_height_m) (*seen)[cell] = 1;
+                          });
 }
 
 }  // namespace monoplane::eval

@@ -47,16 +47,25 @@ struct GridEvalResult {
   std::int64_t gt_occupied_seen_recalled = 0;
   std::optional<double> recall_seen;  // gt_occupied_seen_recalled / gt_occupied_seen
   std::optional<double> f1_seen;
+  // With seen floor cells (SeenFloorCells): the GT-free cells in which the camera saw the floor
+  // near the robot, and those of them the prediction reads free (same cell, no tolerance): how
+  // much of the floor it saw a navigator may plan on.
+  bool free_seen_scored = false;
+  std::int64_t gt_free_seen = 0;
+  std::int64_t gt_free_seen_free = 0;
+  std::optional<double> free_recall_seen;  // gt_free_seen_free / gt_free_seen
 };
 
 // Compares a predicted grid with a ground-truth grid in map-frame metres: the prediction is
 // sampled at the centre of every ground-truth cell (origins, resolutions and yaws may differ).
 // `positions_in_map` (may be empty) restricts the scored cells when options.radius_m > 0.
-// `seen_cells` (GT grid cells, row-major, 1 = seen; may be null) adds the *_seen figures.
-// Fails only on invalid options or a seen_cells of the wrong size.
+// `seen_cells` (GT grid cells, row-major, 1 = seen; may be null) adds the *_seen figures, and
+// `seen_floor_cells` (the same, from SeenFloorCells) the free_*_seen ones. Fails only on invalid
+// options or seen cells of the wrong size.
 bool CompareGrids(const MapServerMap& pred, const MapServerMap& gt, const GridEvalOptions& options,
                   const std::vector<Eigen::Vector2d>& positions_in_map, GridEvalResult* result,
-                  std::string* error, const std::vector<std::uint8_t>* seen_cells = nullptr);
+                  std::string* error, const std::vector<std::uint8_t>* seen_cells = nullptr,
+                  const std::vector<std::uint8_t>* seen_floor_cells = nullptr);
 
 // The cells of `gt`'s grid in which the camera of a simulated sequence saw a surface at least
 // min_height_m above the floor within max_range_m (ground distance from the robot's base; the
@@ -69,5 +78,11 @@ bool CompareGrids(const MapServerMap& pred, const MapServerMap& gt, const GridEv
 bool SeenSurfaceCells(const std::string& seq_dir, const MapServerMap& gt, int pixel_step,
                       double min_height_m, double max_range_m, std::vector<std::uint8_t>* seen,
                       std::string* error);
+
+// The cells of `gt`'s grid in which the same camera saw the floor (|height| <= max_height_m)
+// within max_range_m of the robot: the floor a map from that path should know as free.
+bool SeenFloorCells(const std::string& seq_dir, const MapServerMap& gt, int pixel_step,
+                    double max_height_m, double max_range_m, std::vector<std::uint8_t>* seen,
+                    std::string* error);
 
 }  // namespace monoplane::eval

@@ -178,6 +178,53 @@ TEST_F(GridMetricsTest, UnknownShareAndRadiusRestriction) {
   EXPECT_FALSE(r.recall.has_value());  // no GT wall there
 }
 
+// The floor the camera saw near the robot, and how much of it the prediction reads free.
+TEST_F(GridMetricsTest, SeenFloorIsScoredForItsRecallAsFree) {
+  // A camera 1 m up pitched 45 deg down: every pixel's ray meets the floor about 1 m ahead, at an
+  // optical depth of sqrt(2) m. Frame 0 at (-0.925, 0.025) facing +x: the floor at x = 0.075 m,
+  // cell (21, 20) of the 5 cm GT grid whose origin is (-1, -1).
+  CameraCalibration calibration = TinyCalibration();
+  calibration.mount.pitch_deg = 45.0;
+  const MapServerMap gt = WriteAndLoad("gt", WallImage(10), 0.05, -1.0, -1.0);
+  const fs::path seq = dir_ / "floor_seq";
+  fs::create_directories(seq / "gt" / "depth");
+  std::ofstream(seq / "calib.yaml") << CalibrationToYaml(calibration);
+  std::ofstream(seq / "gt" / "trajectory.txt") << "0.0 -0.925 0.025 0 0 0 0 1\n";
+  ASSERT_TRUE(cv::imwrite((seq / "gt/depth/000000.png").string(),
+                          cv::Mat(3, 4, CV_16UC1, cv::Scalar(1414))));
+  std::vector<std::uint8_t> floor, surface;
+  std::string error;
+  ASSERT_TRUE(SeenFloorCells(seq.string(), gt, 1, 0.01, 4.0, &floor, &error)) << error;
+  const GridGeometry& g = gt.grid.geometry;
+  ASSERT_EQ(floor.size(), g.NumCells());
+  EXPECT_EQ(std::count(floor.begin(), floor.end(), 1), 1);
+  EXPECT_EQ(floor[g.Index(21, 20)], 1);
+  // Not a surface above the floor; and beyond --free-range nothing is scored.
+  ASSERT_TRUE(SeenSurfaceCells(seq.string(), gt, 1, 0.03, 6.0, &surface, &error)) << error;
+  EXPECT_EQ(std::count(surface.begin(), surface.end(), 1), 0);
+  std::vector<std::uint8_t> far;
+  ASSERT_TRUE(SeenFloorCells(seq.string(), gt, 1, 0.01, 0.5, &far, &error)) << error;
+  EXPECT_EQ(std::count(far.begin(), far.end(), 1), 0);
+
+  // A prediction that knows the wall but leaves that floor unknown, and one that knows it free.
+  cv::Mat unknown_floor = WallImage(10);
+  unknown_floor.at<std::uint8_t>(39 - 20, 21) = 205;
+  GridEvalResult r;
+  ASSERT_TRUE(CompareGrids(WriteAndLoad("unknown_floor", unknown_floor, 0.05, -1.0, -1.0), gt,
+                           GridEvalOptions{}, {}, &r, &error, nullptr, &floor))
+      << error;
+  EXPECT_TRUE(r.free_seen_scored);
+  EXPECT_EQ(r.gt_free_seen, 1);
+  EXPECT_EQ(r.gt_free_seen_free, 0);
+  EXPECT_DOUBLE_EQ(*r.free_recall_seen, 0.0);
+  ASSERT_TRUE(CompareGrids(gt, gt, GridEvalOptions{}, {}, &r, &error, nullptr, &floor)) << error;
+  EXPECT_DOUBLE_EQ(*r.free_recall_seen, 1.0);
+  ASSERT_TRUE(CompareGrids(gt, gt, GridEvalOptions{}, {}, &r, &error)) << error;
+  EXPECT_FALSE(r.free_seen_scored);
+  const std::vector<std::uint8_t> wrong_size(7, 0);
+  EXPECT_FALSE(CompareGrids(gt, gt, GridEvalOptions{}, {}, &r, &error, nullptr, &wrong_size));
+}
+
 TEST_F(GridMetricsTest, SeenCellsComeFromGroundTruthDepthAtTheTrajectory) {
   // The tiny level camera 1 m up sees every pixel's point (within a millimetre) d metres ahead
   // at 1 m height. Frame 0 at (-1, 0.025) facing +x with d = 0.525 m and frame 1 at (0, 0.525)
