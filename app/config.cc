@@ -284,6 +284,9 @@ OptionTable::OptionTable(AppConfig* config) : config_(config) {
             "global grid cell side, m (> 0; a saved map keeps its own)");
   AddDouble("mapping", "footprint_radius_m", &m.footprint_radius_m,
             "the robot's footprint: cells it drove over are free, m (>= 0; 0 = off)");
+  AddInt("mapping", "keyframe_free_min_frames", &m.keyframe_free_min_frames,
+         "a keyframe's unknown cell is free when this many frames since the last keyframe saw it "
+         "free and none an obstacle next to it (>= 0; 0 = off)");
   AddFloat("mapping", "log_odds_hit", &m.log_odds.hit,
            "log-odds added for an occupied observation (> 0)");
   AddFloat("mapping", "log_odds_miss", &m.log_odds.miss,

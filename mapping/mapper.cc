@@ -87,6 +87,9 @@ bool Mapper::Options::IsValid(std::string* error) const {
   if (!(keyframe_rotation_rad > 0))
     return fail("keyframe_rotation_rad", keyframe_rotation_rad, "> 0");
   if (!(footprint_radius_m >= 0)) return fail("footprint_radius_m", footprint_radius_m, ">= 0");
+  if (keyframe_free_min_frames < 0 || keyframe_free_min_frames > 1000) {
+    return fail("keyframe_free_min_frames", keyframe_free_min_frames, "in [0, 1000]");
+  }
   if (!(keyframe_min_shared_tracks >= 0 && keyframe_min_shared_tracks <= 1)) {
     return fail("keyframe_min_shared_tracks", keyframe_min_shared_tracks, "in [0, 1]");
   }
@@ -219,6 +222,59 @@ bool Mapper::WantsKeyframe(const FrameObservation& frame) const {
   return false;
 }
 
+namespace {
+
+// Cells of `local_map` (the new keyframe's, at odom_from_keyframe) that it leaves unknown become
+// free where at least min_frames of the recent frames saw them free and none of them, nor the
+// keyframe, saw an obstacle within one cell (Options::keyframe_free_min_frames).
+template <typename Recent>
+void AddFloorSeenSinceLastKeyframe(const std::vector<Recent>& recent,
+                                   const Pose2& odom_from_keyframe, int min_frames,
+                                   OccupancyGrid* local_map) {
+  const GridGeometry& g = local_map->geometry;
+  if (recent.empty() || local_map->cells.size() != g.NumCells()) return;
+  std::vector<std::uint16_t> free_votes(g.NumCells(), 0);
+  std::vector<std::uint8_t> blocked(g.NumCells(), 0);
+  const auto block_around = [&](int col, int row) {
+    for (int r = std::max(0, row - 1); r <= std::min(g.height - 1, row + 1); ++r) {
+      for (int c = std::max(0, col - 1); c <= std::min(g.width - 1, col + 1); ++c)
+        blocked[g.Index(c, r)] = 1;
+    }
+  };
+  for (int row = 0; row < g.height; ++row) {
+    for (int col = 0; col < g.width; ++col) {
+      if (local_map->At(col, row) == kCellOccupied) block_around(col, row);
+    }
+  }
+  const Pose2 keyframe_from_odom = odom_from_keyframe.Inverse();
+  for (const Recent& r : recent) {
+    const Pose2 keyframe_from_frame = keyframe_from_odom * r.odom_from_base;
+    const GridGeometry& rg = r.local_map.geometry;
+    std::vector<std::uint8_t> voted(g.NumCells(), 0);  // one vote per frame and cell
+    for (int row = 0; row < rg.height; ++row) {
+      for (int col = 0; col < rg.width; ++col) {
+        const std::int8_t v = r.local_map.At(col, row);
+        if (v == kCellUnknown) continue;
+        const auto cell = g.CellOf(keyframe_from_frame * rg.CellCenter(col, row));
+        if (!cell) continue;
+        if (v == kCellOccupied) {
+          block_around(cell->x(), cell->y());
+          continue;
+        }
+        const std::size_t i = g.Index(cell->x(), cell->y());
+        if (!voted[i]) ++free_votes[i];
+        voted[i] = 1;
+      }
+    }
+  }
+  for (std::size_t i = 0; i < g.NumCells(); ++i) {
+    if (local_map->cells[i] == kCellUnknown && !blocked[i] && free_votes[i] >= min_frames)
+      local_map->cells[i] = kCellFree;
+  }
+}
+
+}  // namespace
+
 Mapper::FrameUpdate Mapper::AddFrame(const FrameObservation& frame) {
   CheckOrDie(!finished_, "AddFrame after FinishRun");
   FrameUpdate update;
@@ -250,6 +306,14 @@ Mapper::FrameUpdate Mapper::AddFrame(const FrameObservation& frame) {
     AddKeyframe(frame, &update);
     frames_.back().keyframe_index = static_cast<int>(keyframes_.size()) - 1;
     frames_.back().keyframe_from_base = Pose2::Identity();
+    since_keyframe_.clear();
+  } else if (options_.keyframe_free_min_frames > 0 && frame.has_result && !frame.turn_pair &&
+             frame.local_map.cells.size() == frame.local_map.geometry.NumCells() &&
+             !frame.local_map.cells.empty()) {
+    // Bounded: a robot standing still between keyframes keeps only its latest views.
+    constexpr std::size_t kMaxRecent = 32;
+    if (since_keyframe_.size() == kMaxRecent) since_keyframe_.erase(since_keyframe_.begin());
+    since_keyframe_.push_back({frame.odom_from_base, frame.local_map});
   }
   update.map_from_base = CurrentPose();
   // Before this run's first keyframe the pose is a guess (a saved map localises that keyframe).
@@ -265,6 +329,10 @@ void Mapper::AddKeyframe(const FrameObservation& frame, FrameUpdate* update) {
   kf.odom_from_base = frame.odom_from_base;
   kf.path_length_m = path_length_m_;
   kf.local_map = frame.local_map;
+  if (options_.keyframe_free_min_frames > 0) {
+    AddFloorSeenSinceLastKeyframe(since_keyframe_, frame.odom_from_base,
+                                  options_.keyframe_free_min_frames, &kf.local_map);
+  }
   kf.obstacle_points_in_base = frame.obstacle_points_in_base;
   kf.features = frame.features;
   kf.floor_features = frame.floor_features;

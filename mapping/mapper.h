@@ -111,6 +111,13 @@ class Mapper {
     // under and around the robot is out of the camera's view, and the detector's floor rule leaves
     // much of the floor it drove over unknown. m, >= 0; 0 = off.
     double footprint_radius_m = 0.15;
+    // A keyframe's local map also holds the floor that the detected frames since the previous
+    // keyframe saw: a cell the keyframe left unknown becomes free when at least this many of
+    // those frames saw it free and none of them (nor the keyframe) saw an obstacle within a cell
+    // of it. Only keyframes' local maps reach the grid, and a grid cell needs three free
+    // observations, so without this most of the floor seen between keyframes is lost. Turning
+    // pairs do not vote. >= 0; 0 = off.
+    int keyframe_free_min_frames = 4;
     LogOddsOptions log_odds;
     bool build_octree = true;
     ObstacleOctree::Options octree;
@@ -234,6 +241,13 @@ class Mapper {
   std::vector<PoseGraphEdge> refined_edges_;   // the same pairs, refined by the window
   std::vector<PoseGraphEdge> loop_edges_;
   std::vector<FrameRecord> frames_;
+  // The local maps of this run's detected frames since the last keyframe, with their poses
+  // (Options::keyframe_free_min_frames).
+  struct RecentLocalMap {
+    Pose2 odom_from_base;
+    OccupancyGrid local_map;
+  };
+  std::vector<RecentLocalMap> since_keyframe_;
   std::optional<Pose2> map_from_odom_;  // fixed by the first frame (or localisation)
   Pose2 initial_map_from_base_;
   double path_length_m_ = 0;

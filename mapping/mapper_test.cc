@@ -575,6 +575,60 @@ TEST(Mapper, TheFootprintClearsTheCellsTheRobotDroveOver) {
     EXPECT_LT(log_odds_at(with, x + 0.01, 0.01), LogOddsOptions().miss * 2) << x;
 }
 
+// The floor seen by the frames between two keyframes goes into the second one's local map where
+// enough of them saw it free and none saw an obstacle next to it.
+TEST(Mapper, AKeyframeKeepsTheFloorItsFramesSawFree) {
+  GridGeometry g;
+  g.resolution_m = 0.05;
+  g.origin_x_m = 0.0;
+  g.origin_y_m = -0.5;
+  g.width = 40;
+  g.height = 20;
+  // A frame at odom x with its local map (base frame), cells given by their odometry points.
+  const auto frame_at = [&](int k, double x, const std::vector<Eigen::Vector2d>& free,
+                            const std::vector<Eigen::Vector2d>& occupied) {
+    FrameObservation f;
+    f.stamp_ns = 100'000'000LL * (k + 1);
+    f.odom_from_base = {x, 0.0, 0.0};
+    f.step.status = GroundMotion::Status::kOk;
+    f.has_result = true;
+    f.local_map = OccupancyGrid(g, kCellUnknown);
+    const auto set = [&](const Eigen::Vector2d& p, std::int8_t value) {
+      const Eigen::Vector2i cell = *g.CellOf(p - Eigen::Vector2d(x, 0));
+      f.local_map.At(cell.x(), cell.y()) = value;
+    };
+    for (const auto& p : free) set(p, kCellFree);
+    for (const auto& p : occupied) set(p, kCellOccupied);
+    return f;
+  };
+  const Eigen::Vector2d a(1.025, 0.025), b(1.225, 0.025), c(1.425, 0.125), c_next(1.475, 0.125);
+  std::vector<FrameObservation> frames;
+  frames.push_back(frame_at(0, 0.0, {}, {}));  // the first keyframe
+  for (int k = 1; k <= 4; ++k) {               // 0.05 m apart: not keyframes
+    std::vector<Eigen::Vector2d> free = {a, c};
+    if (k == 1) free.push_back(b);  // b seen free once only
+    frames.push_back(
+        frame_at(k, 0.05 * k, free, k == 3 ? std::vector{c_next} : std::vector<Eigen::Vector2d>{}));
+  }
+  frames.push_back(frame_at(5, 0.35, {}, {}));  // the second keyframe, which saw none of them
+  const auto second_keyframe_cell = [&](int min_frames, const Eigen::Vector2d& p) {
+    Mapper::Options options;
+    options.keyframe_min_shared_tracks = 0.0;
+    options.keyframe_free_min_frames = min_frames;
+    Mapper mapper(options, testing::TestCamera());
+    for (const FrameObservation& f : frames) mapper.AddFrame(f);
+    EXPECT_EQ(mapper.keyframes().size(), 2u);
+    const OccupancyGrid local = mapper.keyframes().back().LocalMap();
+    const Eigen::Vector2i cell = *local.geometry.CellOf(p - Eigen::Vector2d(0.35, 0));
+    return local.At(cell.x(), cell.y());
+  };
+  EXPECT_EQ(second_keyframe_cell(4, a), kCellFree);     // four frames saw it free
+  EXPECT_EQ(second_keyframe_cell(4, b), kCellUnknown);  // one did
+  EXPECT_EQ(second_keyframe_cell(4, c), kCellUnknown);  // an obstacle next to it in one frame
+  EXPECT_EQ(second_keyframe_cell(0, a), kCellUnknown);  // off: the keyframe's own view only
+  EXPECT_EQ(second_keyframe_cell(1, b), kCellFree);
+}
+
 TEST(Mapper, OptionsNameTheKey) {
   Mapper::Options o;
   std::string error;
