@@ -168,6 +168,16 @@ int QueryCommand(const QueryArgs& args, const std::string& kind) {
   if (kind == "nearest" && !(args.max_radius_m > 0.0 && args.max_radius_m <= 1000.0)) {
     return Fail("query", "nearest: --max-radius must be in (0, 1000] metres");
   }
+  // Finite, bounded coordinates (an answer must come from cells actually checked).
+  const std::vector<double>& coordinates = kind == "point"     ? args.point
+                                           : kind == "region"  ? args.region
+                                           : kind == "nearest" ? args.nearest
+                                                               : args.path;
+  for (std::size_t k = 0; k + 1 < coordinates.size(); k += 2) {
+    const std::string problem =
+        QueryPointProblem(Eigen::Vector2d(coordinates[k], coordinates[k + 1]));
+    if (!problem.empty()) return Fail("query", kind + ": " + problem);
+  }
   std::unique_ptr<MapDatabase> db;
   StorageStatus st = OpenMap(args.map, &db);
   if (!st.ok()) return Fail("query", st.message(), ExitFor(st));
@@ -257,6 +267,8 @@ int QueryCommand(const QueryArgs& args, const std::string& kind) {
     for (std::size_t k = 0; k + 1 < args.path.size(); k += 2) {
       path.emplace_back(args.path[k], args.path[k + 1]);
     }
+    const std::string problem = PathQueryProblem(path, args.radius_m, grid.resolution_m());
+    if (!problem.empty()) return Fail("query", "path: " + problem);
     const QueryBox box = PathQueryBox(path, args.radius_m + grid.resolution_m());
     st = db->LoadTilesInBox(box.min_m, box.max_m, &grid);
     if (!st.ok()) return Fail("query", st.message(), ExitFor(st));

@@ -190,6 +190,38 @@ std::optional<NearestObstacle> QueryNearestObstacle(const TiledGrid& grid,
   return best;
 }
 
+std::string QueryPointProblem(const Eigen::Vector2d& point_m) {
+  if (!point_m.allFinite()) return "coordinates must be finite numbers";
+  if (point_m.cwiseAbs().maxCoeff() > kMaxQueryCoordinateM) {
+    return "coordinates must lie within " +
+           std::to_string(static_cast<long>(kMaxQueryCoordinateM)) + " m of the map origin";
+  }
+  return "";
+}
+
+std::string PathQueryProblem(const std::vector<Eigen::Vector2d>& path_m, double robot_radius_m,
+                             double resolution_m) {
+  if (path_m.empty()) return "path needs at least one point";
+  if (path_m.size() > kMaxPathPoints) {
+    return "path has " + std::to_string(path_m.size()) + " points, at most " +
+           std::to_string(kMaxPathPoints) + " are answered";
+  }
+  for (const Eigen::Vector2d& p : path_m) {
+    const std::string problem = QueryPointProblem(p);
+    if (!problem.empty()) return "path " + problem;
+  }
+  if (!(robot_radius_m >= 0.0 && robot_radius_m <= kMaxQueryRadiusM)) {
+    return "radius must be in [0, " + std::to_string(static_cast<int>(kMaxQueryRadiusM)) +
+           "] metres";
+  }
+  const QueryBox box = PathQueryBox(path_m, robot_radius_m + resolution_m);
+  const Eigen::Vector2d size = (box.max_m - box.min_m) / resolution_m + Eigen::Vector2d(2, 2);
+  if (size.x() * size.y() > kMaxPathQueryCells) {
+    return "path spans more than 1e7 cells; ask for shorter paths (split it)";
+  }
+  return "";
+}
+
 QueryBox PathQueryBox(const std::vector<Eigen::Vector2d>& path_m, double robot_radius_m) {
   QueryBox box{Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero()};
   if (path_m.empty()) return box;
@@ -293,9 +325,10 @@ PathClearance QueryPathClearance(const TiledGrid& grid, const std::vector<Eigen:
       }
     }
   }
-  result.state = result.first_blocking_cell ? PathState::kBlocked
-                 : result.unknown_cells > 0 ? PathState::kNotKnownClear
-                                            : PathState::kClear;
+  // Nothing checked (inputs beyond the cell indices' range) is not a clear path.
+  result.state = result.first_blocking_cell                              ? PathState::kBlocked
+                 : result.unknown_cells > 0 || result.cells_checked == 0 ? PathState::kNotKnownClear
+                                                                         : PathState::kClear;
   return result;
 }
 

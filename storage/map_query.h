@@ -3,6 +3,7 @@
 #include <Eigen/Core>
 #include <cstdint>
 #include <optional>
+#include <string>
 #include <vector>
 
 #include "perception/geometry/occupancy_grid.h"
@@ -76,9 +77,24 @@ struct PathClearance {
 };
 // Whether a robot of radius robot_radius_m (>= 0) can follow the polyline (>= 1 point). A cell
 // counts when the robot's disk touches the cell's square anywhere along the path (radius 0: the
-// cells the path passes through, including their edges).
+// cells the path passes through, including their edges). kClear only when cells were checked and
+// all of them are free; inputs outside PathQueryProblem's limits are not kClear either.
 PathClearance QueryPathClearance(const TiledGrid& grid, const std::vector<Eigen::Vector2d>& path_m,
                                  double robot_radius_m, const TrinaryThresholds& thresholds = {});
+
+// Limits on what a query may ask, so that every answer comes from cells actually checked, in
+// bounded time: coordinates finite and within kMaxQueryCoordinateM of the map origin (cell
+// indices stay far from overflowing at any resolution >= 1 mm); a path's robot radius finite and
+// at most kMaxQueryRadiusM; at most kMaxPathPoints points; the box a path query reads at most
+// kMaxPathQueryCells cells (100 m x 100 m at 5 cm is 4e6). Each returns "" when the input is
+// within them, else the reason (for the user: names the value).
+inline constexpr double kMaxQueryCoordinateM = 1e6;
+inline constexpr double kMaxQueryRadiusM = 100.0;
+inline constexpr std::size_t kMaxPathPoints = 10000;
+inline constexpr double kMaxPathQueryCells = 1e7;
+std::string QueryPointProblem(const Eigen::Vector2d& point_m);
+std::string PathQueryProblem(const std::vector<Eigen::Vector2d>& path_m, double robot_radius_m,
+                             double resolution_m);
 
 // The map-frame box [min, max] each query reads, for MapDatabase::LoadTilesInBox.
 struct QueryBox {

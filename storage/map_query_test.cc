@@ -2,6 +2,9 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <limits>
+
 #include "storage/test_util.h"
 
 namespace monoplane {
@@ -135,6 +138,33 @@ TEST(MapQuery, WallAcrossCorridorBlocksPathAtTheRightCell) {
   ASSERT_TRUE(beyond.first_unknown_cell);
   EXPECT_EQ(*beyond.first_unknown_cell, Eigen::Vector2i(51, 5));
   EXPECT_NEAR(beyond.unknown_distance_along_m, 5.1 - 3.55, 1e-9);
+}
+
+// "clear" only from cells actually checked: inputs the cell indices cannot hold, or that would
+// take unbounded work, are refused with the reason, and even unchecked they never read clear.
+TEST(MapQuery, PathQueriesAreTotal) {
+  const TiledGrid grid = Corridor();
+  const double res = grid.resolution_m();
+  EXPECT_EQ(PathQueryProblem({{0.5, 0.55}, {4.5, 0.55}}, 0.2, res), "");
+  EXPECT_NE(PathQueryProblem({}, 0.2, res), "");
+  const double inf = std::numeric_limits<double>::infinity();
+  EXPECT_NE(PathQueryProblem({{0, 0}, {inf, 0}}, 0.2, res).find("finite"), std::string::npos);
+  EXPECT_NE(PathQueryProblem({{0, 0}, {std::nan(""), 0}}, 0.2, res).find("finite"),
+            std::string::npos);
+  EXPECT_NE(PathQueryProblem({{0, 0}, {2e8, 0}}, 0.2, res).find("within"), std::string::npos);
+  EXPECT_NE(PathQueryProblem({{0, 0}, {1e4, 1e4}}, 0.2, res).find("1e7 cells"), std::string::npos);
+  EXPECT_NE(PathQueryProblem({{0, 0}, {1, 0}}, -1.0, res).find("radius"), std::string::npos);
+  EXPECT_NE(PathQueryProblem({{0, 0}, {1, 0}}, inf, res).find("radius"), std::string::npos);
+  EXPECT_NE(PathQueryProblem(std::vector<Eigen::Vector2d>(kMaxPathPoints + 1, {1, 0}), 0.2, res)
+                .find("points"),
+            std::string::npos);
+  EXPECT_EQ(QueryPointProblem({1.0, 2.0}), "");
+  EXPECT_NE(QueryPointProblem({std::nan(""), 0.0}), "");
+  EXPECT_NE(QueryPointProblem({0.0, -2e6}), "");
+
+  // Unchecked, a path whose cells overflow the indices checks nothing: never "clear".
+  const PathClearance overflow = QueryPathClearance(grid, {{0.0, 0.0}, {inf, 0.0}}, 0.2);
+  EXPECT_NE(overflow.state, PathState::kClear);
 }
 
 }  // namespace

@@ -182,6 +182,12 @@ TEST(ServeTest, PublishesAnswersReloadsAndStops) {
   ASSERT_TRUE(path_reply->first_blocking_cell && clearance.first_blocking_cell);
   EXPECT_EQ(*path_reply->first_blocking_cell, *clearance.first_blocking_cell);
   EXPECT_NEAR(path_reply->blocking_distance_along_m, clearance.blocking_distance_along_m, 1e-9);
+  // A path far beyond what the cell indices hold is refused, not answered "clear".
+  path.path_m = {{0.0, 0.0}, {2e8, 0.0}};
+  const auto far_reply = client->Query(path, 5.0, &error);
+  ASSERT_TRUE(far_reply) << error;
+  EXPECT_FALSE(far_reply->ok);
+  EXPECT_NE(far_reply->error.find("within"), std::string::npos) << far_reply->error;
   interfaces::MapQueryRequest region;
   region.kind = interfaces::MapQueryRequest::Kind::kRegion;
   region.point_m = {2.0, -0.1};
