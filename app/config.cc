@@ -161,7 +161,8 @@ OptionTable::OptionTable(AppConfig* config) : config_(config) {
             "how samples are combined: none, median (neighbours) or segments (superpixels)");
   AddInt("classification", "median_radius", &c.median_radius,
          "median neighbourhood radius, samples (>= 1)");
-  AddDouble("classification", "segment_size_px", &c.segment_size_px, "superpixel side, px (>= 4)");
+  AddDouble("classification", "segment_size_px", &c.segment_size_px,
+            "superpixel side, px, [4, 128]");
   AddInt("classification", "segment_iterations", &c.segment_iterations, "SLIC iterations (>= 1)");
   AddInt("classification", "segment_level", &c.segment_level,
          "superpixels at 1/2^level of the search resolution (0 or 1)");
@@ -174,7 +175,8 @@ OptionTable::OptionTable(AppConfig* config) : config_(config) {
   AddDouble("classification", "fill_max_floor_gap_m", &c.fill_max_floor_gap_m,
             "longest floor gap filled as floor, m (>= 0)");
   LocalMapOptions& lm = d.local_map;
-  AddDouble("local_map", "resolution_m", &lm.resolution_m, "cell side, m (> 0)");
+  AddDouble("local_map", "resolution_m", &lm.resolution_m,
+            "cell side, m (> 0; at most 4000 cells along a side)");
   AddDouble("local_map", "min_x_m", &lm.min_x_m, "extent behind the base origin, m");
   AddDouble("local_map", "max_x_m", &lm.max_x_m, "extent ahead, m (> min_x_m)");
   AddDouble("local_map", "min_y_m", &lm.min_y_m, "extent to the right, m");
@@ -222,7 +224,8 @@ OptionTable::OptionTable(AppConfig* config) : config_(config) {
   FloorFeatureOptions& ff = d.floor_features;
   AddBool("floor_features", "enabled", &ff.enabled,
           "floor descriptors on every detected frame, for loop closure");
-  AddInt("floor_features", "max_features", &ff.max_features, "floor keypoints per frame (>= 1)");
+  AddInt("floor_features", "max_features", &ff.max_features,
+         "floor keypoints per frame, [1, 100000]");
   Mapper::Options& m = config->mapping;
   AddDouble("mapping", "keyframe_distance_m", &m.keyframe_distance_m,
             "travel that makes a keyframe, m (> 0)");
@@ -281,7 +284,7 @@ OptionTable::OptionTable(AppConfig* config) : config_(config) {
   AddDouble("mapping", "cull_min_travel_m", &m.cull_min_travel_m,
             "merge only into keyframes at least this much path back, m (>= 0)");
   AddDouble("mapping", "grid_resolution_m", &m.grid_resolution_m,
-            "global grid cell side, m (> 0; a saved map keeps its own)");
+            "global grid cell side, m, [0.005, 1] (a saved map keeps its own)");
   AddDouble("mapping", "footprint_radius_m", &m.footprint_radius_m,
             "the robot's footprint: cells it drove over are free, m (>= 0; 0 = off)");
   AddInt("mapping", "keyframe_free_min_frames", &m.keyframe_free_min_frames,
@@ -295,7 +298,7 @@ OptionTable::OptionTable(AppConfig* config) : config_(config) {
   AddFloat("mapping", "log_odds_max", &m.log_odds.max, "log-odds clamp above (> 0)");
   AddBool("mapping", "build_octree", &m.build_octree, "build the 3-D OctoMap");
   AddDouble("mapping", "octree_resolution_m", &m.octree.resolution_m,
-            "OctoMap voxel side, m (> 0)");
+            "OctoMap voxel side, m, [0.01, 1]");
   AddDouble("mapping", "octree_max_range_m", &m.octree.max_range_m,
             "longest ray inserted into the OctoMap, m (> 0)");
   AddDouble("mapping", "localization_window_m", &m.localization_match.linear_window_m,

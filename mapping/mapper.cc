@@ -142,7 +142,9 @@ bool Mapper::Options::IsValid(std::string* error) const {
   if (!(cull_max_error_rad > 0)) return fail("cull_max_error_rad", cull_max_error_rad, "> 0");
   if (cull_max_candidates < 1) return fail("cull_max_candidates", cull_max_candidates, ">= 1");
   if (!(cull_min_travel_m >= 0)) return fail("cull_min_travel_m", cull_min_travel_m, ">= 0");
-  if (!(grid_resolution_m > 0)) return fail("grid_resolution_m", grid_resolution_m, "> 0");
+  // Finer than 5 mm the grid's tiles (and a rebuild) grow beyond any memory a map can use.
+  if (!(grid_resolution_m >= 0.005 && grid_resolution_m <= 1.0))
+    return fail("grid_resolution_m", grid_resolution_m, "in [0.005, 1]");
   std::string sub;
   auto nested = [&](bool ok, const std::string& key) {
     if (!ok && error) *error = "Mapper::Options::" + key + ": " + sub;

@@ -641,6 +641,10 @@ TEST(Mapper, OptionsNameTheKey) {
   EXPECT_FALSE(o.IsValid(&error));
   EXPECT_NE(error.find("loop_match"), std::string::npos);
   EXPECT_NE(error.find("min_score"), std::string::npos);
+  o = Mapper::Options();
+  o.grid_resolution_m = 0.00001;  // passed validation once, then the run hung
+  EXPECT_FALSE(o.IsValid(&error));
+  EXPECT_NE(error.find("grid_resolution_m"), std::string::npos) << error;
 }
 
 }  // namespace

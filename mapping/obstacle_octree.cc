@@ -13,8 +13,10 @@ bool ObstacleOctree::Options::IsValid(std::string* error) const {
     if (error) *error = "ObstacleOctree::Options::" + m;
     return false;
   };
-  if (!(resolution_m > 0))
-    return fail("resolution_m = " + std::to_string(resolution_m) + ": must be > 0");
+  // OctoMap's 16-level keys span +-2^15 voxels: at 1 cm that is +-328 m; finer ones also make a
+  // run's tree grow without bound.
+  if (!(resolution_m >= 0.01 && resolution_m <= 1.0))
+    return fail("resolution_m = " + std::to_string(resolution_m) + ": must be in [0.01, 1]");
   if (!(max_range_m > 0))
     return fail("max_range_m = " + std::to_string(max_range_m) + ": must be > 0");
   if (!(prob_hit > 0.5 && prob_hit < 1)) {

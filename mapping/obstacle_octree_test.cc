@@ -87,6 +87,10 @@ TEST(ObstacleOctree, RaysCarveFreeSpaceAndOptionsValidate) {
   std::string error;
   EXPECT_FALSE(bad.IsValid(&error));
   EXPECT_NE(error.find("prob_hit"), std::string::npos);
+  bad = ObstacleOctree::Options();
+  bad.resolution_m = 1e-5;  // a tree without bound, keys beyond OctoMap's range
+  EXPECT_FALSE(bad.IsValid(&error));
+  EXPECT_NE(error.find("resolution_m"), std::string::npos);
 }
 
 }  // namespace

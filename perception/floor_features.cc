@@ -40,7 +40,8 @@ bool FloorFeatureOptions::IsValid(std::string* error) const {
     return fail("resolution_m", resolution_m,
                 "coarse enough for a top view of at most 4000 x 4000 cells");
   }
-  if (max_features < 1) return fail("max_features", max_features, ">= 1");
+  if (max_features < 1 || max_features > 100000)
+    return fail("max_features", max_features, "in [1, 100000]");
   if (fast_threshold < 1) return fail("fast_threshold", fast_threshold, ">= 1");
   if (num_levels < 1) return fail("num_levels", num_levels, ">= 1");
   if (!(scale_factor > 1)) return fail("scale_factor", scale_factor, "> 1");

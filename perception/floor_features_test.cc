@@ -135,6 +135,11 @@ TEST_F(FloorFeaturesTest, OptionsNameTheBadKey) {
   o.max_x_m = o.min_x_m;
   EXPECT_FALSE(o.IsValid(&error));
   EXPECT_NE(error.find("max_x_m"), std::string::npos) << error;
+  // Passed validation once and then failed allocating (std::length_error).
+  o = FloorFeatureOptions();
+  o.max_features = 2000000000;
+  EXPECT_FALSE(o.IsValid(&error));
+  EXPECT_NE(error.find("max_features"), std::string::npos) << error;
 }
 
 }  // namespace

@@ -90,7 +90,11 @@ cv::Mat Superpixels(const cv::Mat& current, const ClassificationOptions& co, dou
   cv::Mat small;
   cv::resize(current, small, cv::Size(), 1.0 / scale, 1.0 / scale, cv::INTER_AREA);
   cv::Ptr<cv::ximgproc::SuperpixelSLIC> slic = cv::ximgproc::createSuperpixelSLIC(
-      small, cv::ximgproc::SLICO, std::max(4, static_cast<int>(co.segment_size_px / scale)), 10.0f);
+      small, cv::ximgproc::SLICO,
+      // SLIC needs segments smaller than the image (a larger one crashes inside OpenCV).
+      std::clamp(static_cast<int>(co.segment_size_px / scale), 4,
+                 std::max(4, std::min(small.cols, small.rows) / 2)),
+      10.0f);
   slic->iterate(co.segment_iterations);
   cv::Mat labels_small, labels;
   slic->getLabels(labels_small);
@@ -514,7 +518,8 @@ bool ClassificationOptions::IsValid(std::string* error) const {
   if (!(moving_track_radius_px >= 0)) return fail("moving_track_radius_px: must be >= 0");
   if (!(max_range_m > 0)) return fail("max_range_m: must be > 0");
   if (median_radius < 1) return fail("median_radius: must be >= 1");
-  if (!(segment_size_px >= 4)) return fail("segment_size_px: must be >= 4");
+  if (!(segment_size_px >= 4 && segment_size_px <= 128))
+    return fail("segment_size_px: must be in [4, 128]");
   if (segment_iterations < 1) return fail("segment_iterations: must be >= 1");
   if (segment_level < 0 || segment_level > 1) return fail("segment_level: must be 0 or 1");
   if (segment_min_samples < 1) return fail("segment_min_samples: must be >= 1");
@@ -531,6 +536,12 @@ bool LocalMapOptions::IsValid(std::string* error) const {
   }
   if (!(min_x_m < max_x_m) || !(min_y_m < max_y_m)) {
     *error = "local_map.min_x_m/max_x_m/min_y_m/max_y_m: need min < max";
+    return false;
+  }
+  if (!((max_x_m - min_x_m) / resolution_m <= 4000 && (max_y_m - min_y_m) / resolution_m <= 4000)) {
+    *error = "local_map.resolution_m: " + std::to_string(resolution_m) +
+             " gives more than 4000 cells along a side of the extent; coarser cells or a smaller "
+             "extent";
     return false;
   }
   return true;

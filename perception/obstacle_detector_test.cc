@@ -1054,6 +1054,28 @@ TEST_F(DetectorOnSyntheticScene, BadImagesAreRejectedWithReasons) {
 
 // The detector works in undistorted pixels; its per-pixel results go back to the input image's
 // pixels for the outputs: an input pixel takes the value at its undistorted position.
+// Values that once passed validation and then crashed or exhausted memory in the run.
+TEST(ObstacleDetector, OptionsThatCannotRunAreRefused) {
+  std::string error;
+  DetectorOptions o;
+  EXPECT_TRUE(o.IsValid(&error)) << error;
+  o.classification.segment_size_px = 1000;  // SIGSEGV inside OpenCV's SLIC
+  EXPECT_FALSE(o.IsValid(&error));
+  EXPECT_NE(error.find("classification.segment_size_px"), std::string::npos) << error;
+  o = DetectorOptions();
+  o.local_map.resolution_m = 0.0001;  // 80,000 x 80,000 cells: std::bad_alloc
+  EXPECT_FALSE(o.IsValid(&error));
+  EXPECT_NE(error.find("local_map.resolution_m"), std::string::npos) << error;
+  o = DetectorOptions();
+  o.height_filter.min_inlier_ratio = 0.0;
+  EXPECT_FALSE(o.IsValid(&error));
+  EXPECT_NE(error.find("height_filter.min_inlier_ratio"), std::string::npos) << error;
+  o = DetectorOptions();
+  o.classification.fill_max_gap_samples = -1;
+  EXPECT_FALSE(o.IsValid(&error));
+  EXPECT_NE(error.find("classification.fill_max_gap_samples"), std::string::npos) << error;
+}
+
 TEST(ObstacleDetector, ResultsGoBackToTheInputPixels) {
   CameraCalibration calib = DefaultCalibration();
   const ObstacleDetector plain(calib, DetectorOptions{});
