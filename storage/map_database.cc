@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -173,6 +174,28 @@ CREATE TABLE floor_features (
 constexpr int kFloorFeaturesSchemaVersion = 2;
 
 static_assert(kMigrations.back().version == MapDatabase::kSchemaVersion);
+
+// `path` as an SQLite URI filename ("file:" + the path, percent-encoded where URIs need it).
+std::string SqliteUri(const std::string& path, const std::string& query) {
+  std::string uri = "file:";
+  for (const unsigned char c : path) {
+    if (std::isalnum(c) || std::strchr("/-._~", c) != nullptr) {
+      uri += static_cast<char>(c);
+    } else {
+      char hex[4];
+      std::snprintf(hex, sizeof(hex), "%%%02X", c);
+      uri += hex;
+    }
+  }
+  return uri + "?" + query;
+}
+
+// The folder a file lies in ("." for a bare name).
+std::string FolderOf(const std::string& path) {
+  const std::size_t slash = path.find_last_of('/');
+  if (slash == std::string::npos) return ".";
+  return slash == 0 ? "/" : path.substr(0, slash);
+}
 
 std::int64_t FileSize(const std::string& path) {
   struct stat st {};
@@ -550,7 +573,22 @@ StorageStatus MapDatabase::Open(const std::string& path, OpenMode mode,
   int flags = SQLITE_OPEN_NOMUTEX;
   flags |= mode == OpenMode::kReadOnly ? SQLITE_OPEN_READONLY : SQLITE_OPEN_READWRITE;
   if (mode == OpenMode::kCreate) flags |= SQLITE_OPEN_CREATE;
-  const int rc = sqlite3_open_v2(path.c_str(), &impl->db, flags, nullptr);
+  std::string open_name = path;
+  if (mode == OpenMode::kReadOnly && !in_memory && ::access(FolderOf(path).c_str(), W_OK) != 0) {
+    // A map in WAL mode needs its shared-memory file beside it, which a read-only folder cannot
+    // hold. Nobody can be writing a map there (no one can create its log either), so the file
+    // is read as it stands; a log left in that folder by an earlier writer would be ignored, so
+    // then the map cannot be read here.
+    if (FileSize(path + "-wal") > 0) {
+      return impl->Error(StorageErrorKind::kReadOnly,
+                         "the folder is read-only and the map's write-ahead log (" + path +
+                             "-wal) holds changes it cannot read there; copy the map with its "
+                             "-wal file to a writable folder");
+    }
+    open_name = SqliteUri(path, "immutable=1");
+    flags |= SQLITE_OPEN_URI;
+  }
+  const int rc = sqlite3_open_v2(open_name.c_str(), &impl->db, flags, nullptr);
   StorageStatus st = impl->Check(rc, "opening");
   if (!st.ok()) return st;
   sqlite3_extended_result_codes(impl->db, 1);

@@ -69,6 +69,41 @@ void MakeSmallMap(const std::string& path) {
   ASSERT_TRUE(db->EndRun(run, 99).ok());
 }
 
+// A map in a folder the reader cannot write (a shared or mounted read-only place) is read: info,
+// query, export and serve open maps read-only, and WAL mode would need a shared-memory file
+// beside it. Root may write anywhere, so as root the reading child runs as nobody.
+TEST(MapDatabase, AMapInAReadOnlyFolderCanBeRead) {
+  TempDir dir;
+  const std::string folder = dir.File("shared");
+  ASSERT_EQ(::mkdir(folder.c_str(), 0755), 0);
+  const std::string path = folder + "/map.db";
+  MakeSmallMap(path);
+  ASSERT_FALSE(std::filesystem::exists(path + "-wal")) << "closed cleanly: no log left";
+  ASSERT_EQ(::chmod(path.c_str(), 0444), 0);
+  ASSERT_EQ(::chmod(folder.c_str(), 0555), 0);
+  ASSERT_EQ(::chmod(dir.path().c_str(), 0755), 0);
+  const pid_t child = ::fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    if (::geteuid() == 0 && (::setgid(65534) != 0 || ::setuid(65534) != 0)) ::_exit(10);
+    if (::access(folder.c_str(), W_OK) == 0) ::_exit(11);  // the folder must not be writable
+    std::unique_ptr<MapDatabase> db;
+    if (!MapDatabase::Open(path, OpenMode::kReadOnly, &db).ok()) ::_exit(12);
+    TiledGrid grid;
+    if (!db->LoadTiledGrid(&grid).ok()) ::_exit(13);
+    if (!(grid.LogOdds({3, 4}) == 2.0f && grid.LogOdds({-300, 10}) == -2.0f)) ::_exit(14);
+    db.reset();
+    if (::access((path + "-shm").c_str(), F_OK) == 0) ::_exit(15);  // nothing written beside it
+    ::_exit(0);
+  }
+  int status = 0;
+  ASSERT_EQ(::waitpid(child, &status, 0), child);
+  ::chmod(folder.c_str(), 0755);  // let TempDir remove it
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 0) << "10 setuid, 11 folder writable, 12 open, 13 grid, "
+                                       "14 values, 15 wrote beside the map";
+}
+
 class MapDatabaseRoundTrip : public ::testing::TestWithParam<bool> {
  protected:
   std::string Path() { return GetParam() ? dir_.File("map.db") : ":memory:"; }
