@@ -1,12 +1,15 @@
 #include "storage/map_database.h"
 
+#include <fcntl.h>
 #include <sqlite3.h>
+#include <sys/file.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <array>
 #include <cctype>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -231,9 +234,11 @@ struct MapDatabase::Impl {
   int schema_version = 0;
   std::optional<double> grid_resolution_m;
   bool read_only = false;
+  int writer_lock_fd = -1;  // holds the map's one-writer lock (flock) while open for writing
 
   ~Impl() {
     if (db != nullptr) sqlite3_close_v2(db);
+    if (writer_lock_fd >= 0) ::close(writer_lock_fd);
   }
 
   // THE helper every sqlite3 return code goes through: ok for OK/ROW/DONE, otherwise an error that
@@ -573,6 +578,21 @@ StorageStatus MapDatabase::Open(const std::string& path, OpenMode mode,
   int flags = SQLITE_OPEN_NOMUTEX;
   flags |= mode == OpenMode::kReadOnly ? SQLITE_OPEN_READONLY : SQLITE_OPEN_READWRITE;
   if (mode == OpenMode::kCreate) flags |= SQLITE_OPEN_CREATE;
+  if (mode != OpenMode::kReadOnly && !in_memory) {
+    // One writer per map: two runs extending one map at once would overwrite each other's grid
+    // tiles. An advisory lock on the file for as long as it is open for writing; the kernel
+    // drops it when the process ends, however it ends. Readers take none.
+    impl->writer_lock_fd = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+    if (impl->writer_lock_fd < 0) {
+      return impl->Error(StorageErrorKind::kIo,
+                         std::string("cannot open for writing (") + std::strerror(errno) + ")");
+    }
+    if (::flock(impl->writer_lock_fd, LOCK_EX | LOCK_NB) != 0) {
+      return impl->Error(StorageErrorKind::kBusy,
+                         "another process is writing this map (one run per map at a time); "
+                         "wait for it to end");
+    }
+  }
   std::string open_name = path;
   if (mode == OpenMode::kReadOnly && !in_memory && ::access(FolderOf(path).c_str(), W_OK) != 0) {
     // A map in WAL mode needs its shared-memory file beside it, which a read-only folder cannot

@@ -104,6 +104,37 @@ TEST(MapDatabase, AMapInAReadOnlyFolderCanBeRead) {
                                        "14 values, 15 wrote beside the map";
 }
 
+// One writer per map: a second writer is refused while the first holds the map (two runs
+// extending one map at once overwrote each other's grid tiles); readers are not.
+TEST(MapDatabase, OneWriterPerMap) {
+  TempDir dir;
+  const std::string path = dir.File("map.db");
+  MakeSmallMap(path);
+  std::unique_ptr<MapDatabase> first, second, reader;
+  ASSERT_TRUE(MapDatabase::Open(path, OpenMode::kReadWrite, &first).ok());
+  const StorageStatus busy = MapDatabase::Open(path, OpenMode::kCreate, &second);
+  EXPECT_EQ(busy.kind(), StorageErrorKind::kBusy);
+  EXPECT_NE(busy.message().find("another process is writing this map"), std::string::npos)
+      << busy.message();
+  EXPECT_EQ(busy.message().rfind(path, 0), 0u) << busy.message();
+  EXPECT_FALSE(second);
+  EXPECT_TRUE(MapDatabase::Open(path, OpenMode::kReadOnly, &reader).ok());
+  // A writer in another process that dies holds nothing.
+  const pid_t child = ::fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    std::unique_ptr<MapDatabase> db;
+    ::_exit(MapDatabase::Open(path, OpenMode::kReadWrite, &db).kind() == StorageErrorKind::kBusy
+                ? 0
+                : 1);
+  }
+  int status = 0;
+  ASSERT_EQ(::waitpid(child, &status, 0), child);
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << "the other process was not refused";
+  first.reset();
+  EXPECT_TRUE(MapDatabase::Open(path, OpenMode::kReadWrite, &second).ok());
+}
+
 class MapDatabaseRoundTrip : public ::testing::TestWithParam<bool> {
  protected:
   std::string Path() { return GetParam() ? dir_.File("map.db") : ":memory:"; }
