@@ -125,15 +125,18 @@ int RunCommand(RunCli* cli) {
   if (cli->request.input_path.empty()) return RunDemo(cli);
   RunSummary summary;
   const int code = Run(cli->request, &summary);
-  if (code == kExitOk || code == kExitInterrupted) PrintSummary(cli->request, summary);
+  if (code == kExitOk || code == kExitInterrupted || code == kExitTerminated) {
+    PrintSummary(cli->request, summary);
+  }
   return code;
 }
 
 }  // namespace
 
 void PrintSummary(const RunRequest& request, const RunSummary& s) {
-  std::printf("\nmonoplane run: %s\n",
-              s.interrupted ? "interrupted (Ctrl-C), map closed cleanly" : "done");
+  std::printf("\nmonoplane run: %s\n", s.terminated    ? "terminated (SIGTERM), map closed cleanly"
+                                       : s.interrupted ? "interrupted (Ctrl-C), map closed cleanly"
+                                                       : "done");
   std::printf("  frames read %d, processed %d, skipped %zu", s.frames_read, s.frames_processed,
               s.skipped.size());
   if (s.dropped_live_frames > 0) std::printf(", dropped (live, behind) %zu", s.dropped_live_frames);

@@ -25,7 +25,11 @@ namespace monoplane::app {
 namespace {
 
 std::atomic<bool> g_interrupted{false};
-extern "C" void OnSigint(int) { g_interrupted = true; }
+std::atomic<int> g_signal{0};  // the signal that ended the run (SIGINT or SIGTERM)
+extern "C" void OnSignal(int signal) {
+  g_signal = signal;
+  g_interrupted = true;
+}
 
 using Clock = std::chrono::steady_clock;
 double MsSince(Clock::time_point t0) {
@@ -79,7 +83,11 @@ class Progress {
 int Run(const RunRequest& request, RunSummary* summary) {
   const auto run_start = Clock::now();
   g_interrupted = false;
-  std::signal(SIGINT, OnSigint);
+  g_signal = 0;
+  // Ctrl-C, and SIGTERM as systemd, docker and ROS launch send it: the run ends as at the end of
+  // its input (the frames read are mapped, the map is closed, the summary printed).
+  std::signal(SIGINT, OnSignal);
+  std::signal(SIGTERM, OnSignal);
   std::string error;
   auto source = OpenInput(request.input_path, request.config.input, &error);
   if (!source) {
@@ -251,9 +259,12 @@ int Run(const RunRequest& request, RunSummary* summary) {
     sink_failed = true;
   }
   std::signal(SIGINT, SIG_DFL);
+  std::signal(SIGTERM, SIG_DFL);
   summary->wall_s = MsSince(run_start) / 1000.0;
   summary->interrupted = g_interrupted && !sink_failed;
+  summary->terminated = summary->interrupted && g_signal == SIGTERM;
   if (sink_failed) return kExitBadInput;
+  if (summary->terminated) return kExitTerminated;
   return summary->interrupted ? kExitInterrupted : kExitOk;
 }
 

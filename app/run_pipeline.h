@@ -35,7 +35,8 @@ struct RunSummary {
   std::vector<std::string> skipped;    // "name: reason" of every frame that could not be used
   std::array<int, 4> status_counts{};  // per PairStatus
   std::size_t dropped_live_frames = 0;
-  bool interrupted = false;
+  bool interrupted = false;  // by Ctrl-C (SIGINT) or SIGTERM
+  bool terminated = false;   // ... by SIGTERM
   double read_ms = 0, perception_ms = 0, frame_outputs_ms = 0, mapping_ms = 0, storage_ms = 0;
   double wall_s = 0;
   double distance_m = 0;
