@@ -2,9 +2,11 @@
 #include <spdlog/spdlog.h>
 
 #include <CLI/CLI.hpp>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
+#include <limits>
 
 #include "app/commands.h"
 #include "app/config.h"
@@ -23,7 +25,9 @@ struct RunCli {
   RunRequest request;
   std::string config_path;
   bool verbose = false;
-  double fps = 0.0;
+  // As given on the command line; unset (NaN, the lowest value) when not given.
+  double fps = std::numeric_limits<double>::quiet_NaN();
+  long long max_frames = std::numeric_limits<long long>::min();
 };
 
 void PrintPercent(const char* name, const std::optional<double>& v) {
@@ -112,7 +116,31 @@ int RunCommand(RunCli* cli) {
                     : cli->request.quiet ? spdlog::level::warn
                                          : spdlog::level::info);
   std::string error;
-  if (cli->fps > 0) cli->request.config.input.fps = cli->fps;
+  // Values given on the command line are checked, never silently ignored.
+  if (!std::isnan(cli->fps)) {
+    if (!(cli->fps > 0 && cli->fps <= 1000)) {
+      std::cerr << "monoplane run: --fps " << cli->fps << ": must be in (0, 1000] frames/s\n";
+      return kExitBadInput;
+    }
+    cli->request.config.input.fps = cli->fps;
+  }
+  if (cli->max_frames != std::numeric_limits<long long>::min()) {
+    if (cli->max_frames < 1 || cli->max_frames > std::numeric_limits<int>::max()) {
+      std::cerr << "monoplane run: --max-frames " << cli->max_frames << ": must be >= 1\n";
+      return kExitBadInput;
+    }
+    cli->request.max_frames = static_cast<int>(cli->max_frames);
+  }
+  if (!cli->config_path.empty()) {
+    std::error_code ec;
+    if (!std::filesystem::is_regular_file(cli->config_path, ec)) {
+      std::cerr << "monoplane run: --config " << cli->config_path
+                << (std::filesystem::exists(cli->config_path, ec) ? ": not a file (a folder?)"
+                                                                  : ": no such file")
+                << "\n";
+      return kExitBadInput;
+    }
+  }
   if (!cli->config_path.empty() &&
       !LoadConfigFile(cli->config_path, &cli->request.config, &error)) {
     std::cerr << "monoplane run: " << error << "\n";
@@ -200,7 +228,7 @@ void RegisterRunCommand(CLI::App* app, int* exit_code) {
                   "Folder for per-frame labels, heights, local maps and panels");
   cmd->add_option("--config", cli.config_path, "YAML options (monoplane config --dump)");
   cmd->add_option("--fps", cli.fps, "Frame rate for inputs without timestamps (default 15)");
-  cmd->add_option("--max-frames", cli.request.max_frames, "Stop after N frames");
+  cmd->add_option("--max-frames", cli.max_frames, "Stop after N frames (>= 1)");
   cmd->add_flag("--scale-calibration", cli.request.scale_calibration,
                 "Scale the intrinsics when the images are another size than the calibration");
   cmd->add_flag("--publish", cli.request.publish, "Publish over DDS while mapping");
