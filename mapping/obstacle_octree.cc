@@ -87,9 +87,17 @@ void ObstacleOctree::Clear() { impl_->tree.clear(); }
 
 std::string ObstacleOctree::ToBinary() const {
   std::ostringstream out;
-  // writeBinaryConst writes the same .bt format as writeBinary without pruning the live tree
-  // to its maximum-likelihood values (which would change later updates).
-  impl_->tree.writeBinaryConst(out);
+  // The .bt format of OcTree::writeBinaryConst (which, unlike writeBinary, does not prune the live
+  // tree to its maximum-likelihood values and so change later updates): its header, then the
+  // nodes from the root. Written here because writeBinaryConst prints " done." on stderr.
+  const octomap::OcTree& tree = impl_->tree;
+  out << "# Octomap OcTree binary file"  // AbstractOccupancyOcTree::binaryFileHeader (protected)
+      << "\n# (feel free to add / change comments, but leave the first line as it is!)\n#\n"
+      << "id " << tree.getTreeType() << std::endl
+      << "size " << tree.size() << std::endl
+      << "res " << tree.getResolution() << std::endl
+      << "data" << std::endl;
+  if (tree.getRoot() != nullptr) tree.writeBinaryNode(out, tree.getRoot());
   return out.str();
 }
 

@@ -30,7 +30,10 @@ TEST(ObstacleOctree, BoxHeightsSurviveTheBtRoundTrip) {
   }
   EXPECT_GT(octree.NumOccupiedLeaves(), 100u);
 
+  ::testing::internal::CaptureStderr();
   const std::string bytes = octree.ToBinary();
+  // OctoMap's own writer printed " done." on stderr at every save (also with --quiet).
+  EXPECT_EQ(::testing::internal::GetCapturedStderr(), "");
   ASSERT_FALSE(bytes.empty());
   std::istringstream in(bytes);
   octomap::OcTree tree(0.1);
