@@ -693,6 +693,13 @@ StorageStatus MapDatabase::Open(const std::string& path, OpenMode mode,
     }
     st = impl->Exec("PRAGMA foreign_keys = ON", "enabling foreign keys");
     if (!st.ok()) return st;
+    // This process holds the one-writer lock: a run still marked running was ended by its
+    // process dying (SIGKILL, power loss) and never will finish. Its frames stay as written.
+    if (!in_memory) {
+      st = impl->Exec("UPDATE runs SET status = 'failed' WHERE status = 'running'",
+                      "marking runs whose process died");
+      if (!st.ok()) return st;
+    }
   }
   // Read-only, an older map stays as it is: the reads of what its schema lacks find nothing.
   impl->schema_version = static_cast<int>(version);
