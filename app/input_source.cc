@@ -114,12 +114,25 @@ bool ReadTimesFile(const fs::path& file, const fs::path& base,
     std::istringstream fields(line);
     double seconds = 0;
     std::string path;
+    const std::string where = file.string() + ":" + std::to_string(line_number);
     if (!(fields >> seconds >> path)) {
-      *error =
-          file.string() + ":" + std::to_string(line_number) + ": expected '<seconds> <image path>'";
+      *error = where + ": expected '<seconds> <image path>'";
       return false;
     }
-    frames->emplace_back(SecondsToNs(seconds), (base / path).string());
+    // Stamps become int64 nanoseconds (up to 9.2e9 s) and order the frames: each must be a time
+    // and come after the one before.
+    if (!(seconds >= 0.0 && seconds <= 9e9)) {
+      *error = where + ": time " + line.substr(0, line.find_first_of(" \t")) +
+               " s: must be in [0, 9e9] seconds";
+      return false;
+    }
+    const TimestampNs stamp = SecondsToNs(seconds);
+    if (!frames->empty() && stamp <= frames->back().first) {
+      *error = where + ": time " + std::to_string(seconds) +
+               " s does not come after the previous frame's (times must increase)";
+      return false;
+    }
+    frames->emplace_back(stamp, (base / path).string());
   }
   return true;
 }
