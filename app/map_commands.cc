@@ -2,6 +2,7 @@
 // print, answer or convert. Exit 2 with one line naming the file and the cause on bad input.
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <iostream>
 #include <memory>
 #include <sstream>
@@ -342,30 +343,47 @@ int ExportCommand(const ExportArgs& args) {
     st = db->ReadTrajectory(std::nullopt, source, &trajectory);
     if (!st.ok()) return Fail("export", st.message(), ExitFor(st));
   }
-  if (!args.grid_yaml.empty()) {
-    if (!WriteMapServerFiles(occupancy, args.grid_yaml, &error)) return Fail("export", error);
-    std::cout << "grid: " << args.grid_yaml << " + " << MapServerImagePath(args.grid_yaml) << " ("
-              << occupancy.geometry.width << " x " << occupancy.geometry.height << " cells)\n";
-  }
-  if (!args.trajectory_txt.empty()) {
-    if (!WriteTumTrajectory(trajectory, args.trajectory_txt, &error)) return Fail("export", error);
-    std::cout << "trajectory: " << args.trajectory_txt << " (" << trajectory.size() << " poses)\n";
-  }
+  StoredOctomap octomap;
   if (!args.octomap_bt.empty()) {
-    StoredOctomap octomap;
     st = db->ReadOctomap(&octomap);
     if (!st.ok()) return Fail("export", st.message(), ExitFor(st));
-    if (!WriteBytesFile(octomap.bytes, args.octomap_bt, &error)) return Fail("export", error);
-    std::cout << "octomap: " << args.octomap_bt << " (" << octomap.bytes.size() << " bytes)\n";
+  }
+  // Everything is read; now the files. A write that fails removes the files this export wrote
+  // before it: an export is whole or absent, never partial.
+  std::vector<std::string> written;
+  std::ostringstream report;
+  const auto fail_and_clean_up = [&](const std::string& message) {
+    std::error_code ec;
+    for (const std::string& path : written) std::filesystem::remove(path, ec);
+    return Fail("export", message);
+  };
+  if (!args.grid_yaml.empty()) {
+    if (!WriteMapServerFiles(occupancy, args.grid_yaml, &error)) return fail_and_clean_up(error);
+    written.push_back(args.grid_yaml);
+    written.push_back(MapServerImagePath(args.grid_yaml));
+    report << "grid: " << args.grid_yaml << " + " << MapServerImagePath(args.grid_yaml) << " ("
+           << occupancy.geometry.width << " x " << occupancy.geometry.height << " cells)\n";
+  }
+  if (!args.trajectory_txt.empty()) {
+    if (!WriteTumTrajectory(trajectory, args.trajectory_txt, &error))
+      return fail_and_clean_up(error);
+    written.push_back(args.trajectory_txt);
+    report << "trajectory: " << args.trajectory_txt << " (" << trajectory.size() << " poses)\n";
+  }
+  if (!args.octomap_bt.empty()) {
+    if (!WriteBytesFile(octomap.bytes, args.octomap_bt, &error)) return fail_and_clean_up(error);
+    written.push_back(args.octomap_bt);
+    report << "octomap: " << args.octomap_bt << " (" << octomap.bytes.size() << " bytes)\n";
   }
   if (!args.png.empty()) {
     MapPictureOptions options;
     options.pixels_per_cell = args.pixels_per_cell;
     if (!WriteMapPicture(occupancy, trajectory, options, args.png, &error)) {
-      return Fail("export", error);
+      return fail_and_clean_up(error);
     }
-    std::cout << "picture: " << args.png << "\n";
+    report << "picture: " << args.png << "\n";
   }
+  std::cout << report.str();
   return kExitOk;
 }
 
