@@ -298,6 +298,13 @@ struct MapDatabase::Impl {
     }
     const char* detail =
         db != nullptr && sqlite3_errcode(db) == rc ? sqlite3_errmsg(db) : sqlite3_errstr(rc);
+    // A table or column of our schema missing from a map that says it has the schema: the file
+    // was damaged (or edited), not misused by this program.
+    if ((rc & 0xFF) == SQLITE_ERROR &&
+        (std::strstr(detail, "no such table") || std::strstr(detail, "no such column"))) {
+      kind = StorageErrorKind::kCorrupt;
+      cause = "the map lacks part of its schema";
+    }
     return {kind, path + ": " + cause + " (" + context + ": " + detail + ")"};
   }
 

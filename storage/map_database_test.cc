@@ -104,6 +104,23 @@ TEST(MapDatabase, AMapInAReadOnlyFolderCanBeRead) {
                                        "14 values, 15 wrote beside the map";
 }
 
+// A map missing one of its tables is a damaged file (bad input, exit 2), not an internal error.
+TEST(MapDatabase, AMissingTableIsCorruption) {
+  TempDir dir;
+  const std::string path = dir.File("map.db");
+  MakeSmallMap(path);
+  sqlite3* raw = nullptr;
+  ASSERT_EQ(sqlite3_open(path.c_str(), &raw), SQLITE_OK);
+  ASSERT_EQ(sqlite3_exec(raw, "DROP TABLE grid_tiles", nullptr, nullptr, nullptr), SQLITE_OK);
+  sqlite3_close(raw);
+  std::unique_ptr<MapDatabase> db;
+  const StorageStatus open = MapDatabase::Open(path, OpenMode::kReadOnly, &db);
+  TiledGrid grid;
+  const StorageStatus st = open.ok() ? db->LoadTiledGrid(&grid) : open;
+  EXPECT_EQ(st.kind(), StorageErrorKind::kCorrupt) << st.message();
+  EXPECT_NE(st.message().find("lacks part of its schema"), std::string::npos) << st.message();
+}
+
 // One writer per map: a second writer is refused while the first holds the map (two runs
 // extending one map at once overwrote each other's grid tiles); readers are not.
 TEST(MapDatabase, OneWriterPerMap) {
