@@ -2,7 +2,6 @@
 // map_server does) and answers map queries on rt/monoplane/map_query/{request,reply} until Ctrl-C.
 // When another process extends the map file, the new map is loaded and published.
 #include <chrono>
-#include <cmath>
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
@@ -33,18 +32,12 @@ interfaces::MapQueryReply Answer(const TiledGrid& grid, const interfaces::MapQue
   using Kind = interfaces::MapQueryRequest::Kind;
   interfaces::MapQueryReply reply;
   // The same limits as `monoplane query`: every answer comes from cells actually checked.
-  std::string problem;
-  if (q.kind == Kind::kPathClearance) {
-    problem = PathQueryProblem(q.path_m, q.robot_radius_m, grid.resolution_m());
-  } else {
-    problem = QueryPointProblem(q.point_m);
-    if (problem.empty() && q.kind == Kind::kRegion) problem = QueryPointProblem(q.corner_b_m);
-    const Eigen::Vector2d size = (q.point_m - q.corner_b_m) / grid.resolution_m();
-    if (problem.empty() && q.kind == Kind::kRegion && std::abs(size.x() * size.y()) > 4e8)
-      problem = "region: more than 4e8 cells; ask for a smaller region";
-    if (problem.empty() && q.kind == Kind::kNearestObstacle && !(q.max_radius_m <= 1000.0))
-      problem = "nearest: max_radius_m must be in (0, 1000] metres";
-  }
+  const std::string problem =
+      q.kind == Kind::kPathClearance
+          ? PathQueryProblem(q.path_m, q.robot_radius_m, grid.resolution_m())
+      : q.kind == Kind::kRegion ? RegionQueryProblem(q.point_m, q.corner_b_m, grid.resolution_m())
+      : q.kind == Kind::kNearestObstacle ? NearestQueryProblem(q.point_m, q.max_radius_m)
+                                         : QueryPointProblem(q.point_m);
   if (!problem.empty()) {
     reply.ok = false;
     reply.error = problem;

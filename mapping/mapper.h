@@ -34,8 +34,8 @@ class Mapper {
     double keyframe_min_shared_tracks = 0.5;
     double keyframe_min_distance_m = 0.05;  // >= 0
     // A frame whose result comes from a turning pair (FrameResult::turn_pair) becomes a keyframe
-    // only when this is set: such local maps are noisier. Measured with it set: office ATE 0.007 ->
-    // 0.035 m and grid precision 33.5 -> 29.6 %, loop ATE 0.020 -> 0.012 m.
+    // only when this is set: a narrow-baseline pair's local map is noisier, and the keyframe's
+    // pose is fixed by it (measurements: docs/experiments.md).
     bool turn_pair_keyframes = false;
 
     // Odometry factor noise per frame step, summed (as variances) between keyframes.

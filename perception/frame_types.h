@@ -106,7 +106,8 @@ struct FrameResult {
   // been computed from; ObstacleDetector::ComputeFloorFeatures turns it into them.
   FloorFeatureSource floor_feature_source;
   // The height estimates after this frame (HeightFilterOptions), one per sample that has one,
-  // their points in this frame's base frame. Empty when the filter is off.
+  // their points in this frame's base frame. Empty when the filter is off; SequenceDetector keeps
+  // them for its next frame (its outputs carry none).
   std::vector<HeightSeed> height_seeds;
   // Counts of labelled pixels (full resolution).
   int num_floor = 0, num_obstacle = 0, num_drop_off = 0, num_moving = 0, num_unknown = 0;

@@ -1118,38 +1118,29 @@ void SequenceDetector::Finish(Output* output) {
   if (!output->pending) return;
   const Output::PendingDetection& p = *output->pending;
   const bool fuse = detector_.options().height_filter.enabled;
-  std::vector<HeightSeed> prior;
-  if (fuse) {
-    // The estimates move into this frame through the odometry between the detected frames.
-    const Pose2 base_from_odom = p.odom_from_base.Inverse();
-    const Eigen::Matrix2f rotation = base_from_odom.Rotation().cast<float>();
-    const Eigen::Vector2f translation = base_from_odom.Translation().cast<float>();
-    prior = std::move(seeds_in_odom_);
-    for (HeightSeed& seed : prior) {
+  // Moves the estimates' points by a planar pose (odometry frame <-> this frame's base frame).
+  const auto move = [](const Pose2& target_from_source, std::vector<HeightSeed>* seeds) {
+    const Eigen::Matrix2f rotation = target_from_source.Rotation().cast<float>();
+    const Eigen::Vector2f translation = target_from_source.Translation().cast<float>();
+    for (HeightSeed& seed : *seeds) {
       seed.point_in_base.head<2>() = rotation * seed.point_in_base.head<2>() + translation;
     }
+  };
+  std::vector<HeightSeed> prior;
+  if (fuse) {
+    prior = std::move(seeds_in_odom_);
+    move(p.odom_from_base.Inverse(), &prior);
   }
   output->result = detector_.Detect(p.reference, p.current, p.motion, p.moving_pixels,
                                     p.current_alignment, fuse ? &prior : nullptr);
   output->result->turn_pair = p.turn_pair;
   if (fuse) {
-    if (output->result->status == PairStatus::kOk) {
-      seeds_in_odom_ = std::move(output->result->height_seeds);
-      const Eigen::Matrix2f rotation = p.odom_from_base.Rotation().cast<float>();
-      const Eigen::Vector2f translation = p.odom_from_base.Translation().cast<float>();
-      for (HeightSeed& seed : seeds_in_odom_) {
-        seed.point_in_base.head<2>() = rotation * seed.point_in_base.head<2>() + translation;
-      }
-      output->result->height_seeds.clear();
-    } else {
-      // No pair, no measurement: what was seen is kept, in the odometry frame.
-      const Eigen::Matrix2f rotation = p.odom_from_base.Rotation().cast<float>();
-      const Eigen::Vector2f translation = p.odom_from_base.Translation().cast<float>();
-      for (HeightSeed& seed : prior) {
-        seed.point_in_base.head<2>() = rotation * seed.point_in_base.head<2>() + translation;
-      }
-      seeds_in_odom_ = std::move(prior);
-    }
+    // Without a pair nothing was measured: what was seen is kept.
+    seeds_in_odom_ = output->result->status == PairStatus::kOk
+                         ? std::move(output->result->height_seeds)
+                         : std::move(prior);
+    output->result->height_seeds.clear();
+    move(p.odom_from_base, &seeds_in_odom_);
   }
   output->pending.reset();
 }

@@ -104,10 +104,9 @@ struct ClassificationOptions {
   // meets that height. The others are not placed; their cells are not free. A shorter run is too
   // short to show a surface: its obstacle samples keep their own footprints (a small obstacle;
   // leaving it out lets the floor around clear its cell), its drop-off samples are not placed
-  // (lone false drop-offs were most of the phantom cells on low_obstacles and effects). One
-  // sample's range scatters by several cells at 1-3 m; the run's median much less (office grid
-  // precision 33.6 -> 46.5 %, recall 46.9 -> 36.7 %). 0 = off (every sample at its own
-  // triangulated footprint), >= 0.
+  // (lone false drop-offs are phantom cells). One sample's range scatters by several cells at
+  // 1-3 m, the run's median much less: fewer phantom cells, at some recall (measurements:
+  // docs/experiments.md). 0 = off (every sample at its own triangulated footprint), >= 0.
   int column_min_samples = 3;
   double column_max_sigmas = 2.0;  // >= 0
   // Top view: cells within this many cells (a square) of a placed obstacle point are not free in

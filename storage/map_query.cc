@@ -199,6 +199,28 @@ std::string QueryPointProblem(const Eigen::Vector2d& point_m) {
   return "";
 }
 
+std::string RegionQueryProblem(const Eigen::Vector2d& corner_a_m, const Eigen::Vector2d& corner_b_m,
+                               double resolution_m) {
+  for (const Eigen::Vector2d& p : {corner_a_m, corner_b_m}) {
+    const std::string problem = QueryPointProblem(p);
+    if (!problem.empty()) return problem;
+  }
+  const Eigen::Vector2d size = (corner_a_m - corner_b_m) / resolution_m;
+  if (std::abs(size.x() * size.y()) > kMaxRegionCells) {
+    return "more than 4e8 cells; ask for a smaller region";
+  }
+  return "";
+}
+
+std::string NearestQueryProblem(const Eigen::Vector2d& point_m, double max_radius_m) {
+  const std::string problem = QueryPointProblem(point_m);
+  if (!problem.empty()) return problem;
+  if (!(max_radius_m > 0.0 && max_radius_m <= kMaxNearestRadiusM)) {
+    return "max radius must be in (0, 1000] metres";
+  }
+  return "";
+}
+
 std::string PathQueryProblem(const std::vector<Eigen::Vector2d>& path_m, double robot_radius_m,
                              double resolution_m) {
   if (path_m.empty()) return "path needs at least one point";
@@ -208,7 +230,7 @@ std::string PathQueryProblem(const std::vector<Eigen::Vector2d>& path_m, double 
   }
   for (const Eigen::Vector2d& p : path_m) {
     const std::string problem = QueryPointProblem(p);
-    if (!problem.empty()) return "path " + problem;
+    if (!problem.empty()) return problem;
   }
   if (!(robot_radius_m >= 0.0 && robot_radius_m <= kMaxQueryRadiusM)) {
     return "radius must be in [0, " + std::to_string(static_cast<int>(kMaxQueryRadiusM)) +

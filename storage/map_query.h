@@ -93,6 +93,12 @@ inline constexpr double kMaxQueryRadiusM = 100.0;
 inline constexpr std::size_t kMaxPathPoints = 10000;
 inline constexpr double kMaxPathQueryCells = 1e7;
 std::string QueryPointProblem(const Eigen::Vector2d& point_m);
+// Regions up to kMaxRegionCells cells; nearest-obstacle searches up to kMaxNearestRadiusM.
+inline constexpr double kMaxRegionCells = 4e8;
+inline constexpr double kMaxNearestRadiusM = 1000.0;
+std::string RegionQueryProblem(const Eigen::Vector2d& corner_a_m, const Eigen::Vector2d& corner_b_m,
+                               double resolution_m);
+std::string NearestQueryProblem(const Eigen::Vector2d& point_m, double max_radius_m);
 std::string PathQueryProblem(const std::vector<Eigen::Vector2d>& path_m, double robot_radius_m,
                              double resolution_m);
 
