@@ -103,7 +103,7 @@ cv::Mat Superpixels(const cv::Mat& current, const ClassificationOptions& co, dou
 }
 
 // Evidence over frames (HeightFilterOptions): each sample's measurement is fused with the earlier
-// estimate that projects into it nearest the camera (occluded ones lose), or starts a new one;
+// estimate in front of the others that project into it (occluded ones lose), or starts a new one;
 // estimates not measured again are carried while they match what is seen. The samples then carry
 // the fused height (and its sigma, footprint and significance) for the labels; estimates that
 // still rest on this pair alone leave their sample as it is. `posterior` gets every estimate
@@ -153,12 +153,12 @@ void FuseHeights(const CameraModel& camera, const ClassificationOptions& co,
       const HeightSeed* earlier = nearest[k] >= 0 && s.raw != PixelLabel::kMoving && !s.mismatched
                                       ? &prior[nearest[k]]
                                       : nullptr;
-      // A measurement far off the earlier estimate is of another point (the estimate projected
-      // across an occluding edge, or the scene changed): it starts its own.
       // The measurement's error for fusion: its own, and at least that of min_sigma_px of zero
       // disparity, the part the pairs share (their motion's and the calibration's error).
       const double tau =
           s.measured ? std::max(s.height_sigma_m, s.height_m_per_px * hf.min_sigma_px) : NAN;
+      // A measurement far off the earlier estimate is of another point (the estimate projected
+      // across an occluding edge, or the scene changed): it starts its own.
       if (earlier && s.measured) {
         const double d = s.height_m - earlier->mean_m;
         const double var = earlier->var_m2 + tau * tau;
@@ -199,9 +199,8 @@ void FuseHeights(const CameraModel& camera, const ClassificationOptions& co,
       double sigma = std::sqrt(static_cast<double>(seed.var_m2));
       if (sigma <= hf.max_carry_sigma_m) posterior->push_back(seed);
       if (own_pair_only) continue;
-      if (seed.InlierRatio() < hf.min_inlier_ratio)
-        continue;  // carried, but disputed      // Not measured in this pair. Where it had texture,
-                   // something kept the pair from measuring
+      if (seed.InlierRatio() < hf.min_inlier_ratio) continue;  // carried, but disputed
+      // Not measured in this pair. Where it had texture, something kept the pair from measuring
       // it (no triangulation, a match far off): no earlier estimate overrules that. Where it had
       // none, the estimate may be of a point that something without texture now hides (the
       // floor behind a plain box): only what stands above or below the floor is carried onto
