@@ -221,6 +221,10 @@ OptionTable::OptionTable(AppConfig* config) : config_(config) {
          "detected frames an estimate is kept without a new measurement (0..1000)");
   AddInt("height_filter", "min_measurements_to_carry", &hf.min_measurements_to_carry,
          "measurements an estimate needs to label a sample this pair did not measure (>= 1)");
+  AddInt("height_filter", "floor_min_measurements", &hf.floor_min_measurements,
+         "measurements a fused estimate needs to call a sample floor (0..1000, 0 = off)");
+  AddDouble("height_filter", "shared_sigma_px", &hf.shared_sigma_px,
+            "error all pairs of a point share, px of zero disparity (>= 0)");
   FloorFeatureOptions& ff = d.floor_features;
   AddBool("floor_features", "enabled", &ff.enabled,
           "floor descriptors on every detected frame, for loop closure");

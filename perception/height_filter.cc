@@ -44,6 +44,14 @@ bool HeightFilterOptions::IsValid(std::string* error) const {
     *error = "height_filter.min_measurements_to_carry: need 1..1000";
     return false;
   }
+  if (floor_min_measurements < 0 || floor_min_measurements > 1000) {
+    *error = "height_filter.floor_min_measurements: need 0..1000";
+    return false;
+  }
+  if (!(shared_sigma_px >= 0 && shared_sigma_px <= 10)) {
+    *error = "height_filter.shared_sigma_px: need 0 <= value <= 10";
+    return false;
+  }
   return true;
 }
 

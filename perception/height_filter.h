@@ -45,6 +45,15 @@ struct HeightFilterOptions {
   // Measurements an estimate needs before it labels a sample that this pair did not measure
   // (>= 1): one pair's outlier is not kept alive.
   int min_measurements_to_carry = 2;
+  // Floor from the fused estimate: a sample this pair measured is floor when its estimate, fused
+  // from at least floor_min_measurements measurements (>= 1; 0 = off: floor only as one pair
+  // sees it), says so with the fused standard deviation plus shared_sigma_px of zero disparity
+  // (input pixels, >= 0: the error the pairs of a point share, the calibration's, which fusing
+  // does not average away). One pair cannot tell far floor from a low obstacle (its parallax is
+  // a fraction of a pixel); many pairs, with their independent motion and matching errors, can.
+  // Obstacles are not made this way: fusion never creates significance (FuseHeights).
+  int floor_min_measurements = 4;
+  double shared_sigma_px = 0.1;
 
   bool IsValid(std::string* error) const;
 };

@@ -62,6 +62,14 @@ TEST(HeightFilter, OptionsAreChecked) {
   bad = HeightFilterOptions();
   bad.min_measurements_to_carry = 0;
   EXPECT_FALSE(bad.IsValid(&error));
+  bad = HeightFilterOptions();
+  bad.floor_min_measurements = -1;
+  EXPECT_FALSE(bad.IsValid(&error));
+  EXPECT_NE(error.find("height_filter.floor_min_measurements"), std::string::npos) << error;
+  bad = HeightFilterOptions();
+  bad.shared_sigma_px = -0.1;
+  EXPECT_FALSE(bad.IsValid(&error));
+  EXPECT_NE(error.find("height_filter.shared_sigma_px"), std::string::npos) << error;
 }
 
 }  // namespace

@@ -213,9 +213,26 @@ void FuseHeights(const CameraModel& camera, const ClassificationOptions& co,
       s.carried = carried_only;
       // Judged with at least the uncertainty of this pair's measurement (carried: of the best
       // single one, HeightSeed::best_sigma_m): fusion gives the better mean and keeps it known,
-      // not more confidence than one pair had.
+      // not more confidence than one pair had. The one exception is floor, below.
       sigma = std::max({sigma, hf.min_sigma_m,
                         carried_only ? static_cast<double>(seed.best_sigma_m) : s.height_sigma_m});
+      // Floor from the estimate (HeightFilterOptions::floor_min_measurements): judged with the
+      // fused sigma and the error the pairs share, only where this pair measured the point. The
+      // dangerous error, an obstacle called floor, needs many pairs agreeing on a height near
+      // zero; a systematic error that lifts the floor (the far floor measured high) only keeps it
+      // unknown.
+      if (!carried_only && hf.floor_min_measurements > 0 &&
+          seed.measurements >= hf.floor_min_measurements) {
+        const double shared_m = s.height_m_per_px * hf.shared_sigma_px;
+        const double floor_sigma = std::max(
+            hf.min_sigma_m, std::sqrt(static_cast<double>(seed.var_m2) + shared_m * shared_m));
+        if (std::abs(seed.mean_m) + co.floor_max_height_sigmas * floor_sigma <
+                co.obstacle_min_height_m &&
+            floor_sigma < sigma) {
+          sigma = floor_sigma;
+          s.significant = false;
+        }
+      }
       s.height_m = seed.mean_m;
       s.height_sigma_m = sigma;
       s.footprint_sigma_m = sigma * ray.head<2>().norm() / std::max(1e-9, std::abs(ray.z()));
