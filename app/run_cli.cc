@@ -173,8 +173,11 @@ void PrintSummary(const RunRequest& request, const RunSummary& s) {
     std::printf("    skipped %s\n", s.skipped[i].c_str());
   }
   if (s.skipped.size() > 10) std::printf("    ... and %zu more\n", s.skipped.size() - 10);
-  std::printf("  pairs: %d with heights, %d no parallax, %d no motion, %d bad image\n",
+  std::printf("  pairs: %d with heights, %d no parallax, %d no motion, %d bad image",
               s.status_counts[0], s.status_counts[1], s.status_counts[2], s.status_counts[3]);
+  if (s.frames_carried > 0)
+    std::printf("; %d frames between them carried the last one's labels", s.frames_carried);
+  std::printf("\n");
   std::printf("  keyframes %d, loop closures %d (of %d attempts), distance travelled %.2f m\n",
               s.keyframes, s.loop_closures, s.loop_closure_attempts, s.distance_m);
   if (s.keyframes_culled > 0) {

@@ -220,7 +220,11 @@ int Run(const RunRequest& request, RunSummary* summary) {
         p->output.result ? std::string(", ") + p->output.result->message : "");
     if (p->output.result) {
       const FrameResult& r = *p->output.result;
-      ++summary->status_counts[static_cast<int>(r.status)];
+      if (r.predicted) {
+        ++summary->frames_carried;
+      } else {
+        ++summary->status_counts[static_cast<int>(r.status)];
+      }
       if (!request.frames_out.empty()) {
         const auto t0 = Clock::now();
         // Every N-th frame, or the first one after it with heights: a panel of a frame turning

@@ -33,7 +33,8 @@ struct RunSummary {
   int frames_read = 0;
   int frames_processed = 0;
   std::vector<std::string> skipped;    // "name: reason" of every frame that could not be used
-  std::array<int, 4> status_counts{};  // per PairStatus
+  std::array<int, 4> status_counts{};  // per PairStatus, of the detected frames
+  int frames_carried = 0;              // results carried from the last detected frame
   std::size_t dropped_live_frames = 0;
   bool interrupted = false;  // by Ctrl-C (SIGINT) or SIGTERM
   bool terminated = false;   // ... by SIGTERM

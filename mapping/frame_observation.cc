@@ -9,7 +9,8 @@ FrameObservation MakeFrameObservation(const SequenceDetector::Output& output,
   frame.odom_from_base = output.odom_from_base;
   frame.step = output.step;
   frame.features = output.features;
-  if (output.result && output.result->status == PairStatus::kOk) {
+  // A result carried from the last detected frame measured nothing new.
+  if (output.result && output.result->status == PairStatus::kOk && !output.result->predicted) {
     frame.has_result = true;
     frame.turn_pair = output.result->turn_pair;
     frame.local_map = output.result->local_map;

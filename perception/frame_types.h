@@ -88,6 +88,12 @@ struct FrameResult {
   // The pair was chosen by the turning rule (PairSelectionOptions::turn_max_rotation_rad): a
   // narrow baseline and a large rotation, for the labels and the local map of this frame.
   bool turn_pair = false;
+  // No pair was detected for this frame (PairSelectionOptions::detect_every): labels, heights and
+  // the local map are the last detected frame's, carried to this one through the motion since
+  // (SequenceDetector::Finish). The floor moves exactly with it and stays floor only where this
+  // image still shows what the last one did; what stands on the floor is placed approximately
+  // (its parallax over one step). Nothing new was measured: a map takes no observation from it.
+  bool predicted = false;
   // Full input resolution:
   cv::Mat labels;     // CV_8U, PixelLabel values
   cv::Mat height_mm;  // CV_16U, height above the floor in mm + 32768; 0 = unknown

@@ -1130,8 +1130,95 @@ SequenceDetector::SequenceDetector(const CameraCalibration& calibration,
                                    const DetectorOptions& options)
     : detector_(calibration, options) {}
 
+namespace {
+
+// The last detected frame's result seen from a frame `base_now_from_base_last` away, in its image
+// `now` (FrameResult::predicted).
+FrameResult CarryResult(const CameraModel& camera, const ClassificationOptions& co,
+                        const FrameResult& last, const cv::Mat& last_image, const cv::Mat& now,
+                        const Pose2& base_now_from_base_last) {
+  FrameResult r;
+  r.status = PairStatus::kOk;
+  r.predicted = true;
+  r.message = "carried from the last detected frame";
+  r.motion.status = GroundMotion::Status::kOk;
+  r.motion.base2_from_base1 = base_now_from_base_last;
+  cv::Mat h;
+  cv::eigen2cv(FloorHomography(camera, base_now_from_base_last), h);
+  const cv::Size size = now.size();
+  cv::warpPerspective(last.labels, r.labels, h, size, cv::INTER_NEAREST, cv::BORDER_CONSTANT,
+                      cv::Scalar(0));
+  cv::warpPerspective(last.height_mm, r.height_mm, h, size, cv::INTER_NEAREST, cv::BORDER_CONSTANT,
+                      cv::Scalar(0));
+  // Floor stays floor where this image still shows what the last one did under the floor's
+  // motion (something that came in, or moved, does not): the mean |difference| over the
+  // neighbourhood within max_residual, as the detector's own match test.
+  cv::Mat warped, difference;
+  cv::warpPerspective(last_image, warped, h, size, cv::INTER_LINEAR, cv::BORDER_CONSTANT,
+                      cv::Scalar(0));
+  cv::absdiff(warped, now, difference);
+  cv::blur(difference, difference, cv::Size(5, 5));
+  for (int y = 0; y < size.height; ++y) {
+    std::uint8_t* label = r.labels.ptr<std::uint8_t>(y);
+    std::uint16_t* height = r.height_mm.ptr<std::uint16_t>(y);
+    const std::uint8_t* d = difference.ptr<std::uint8_t>(y);
+    for (int x = 0; x < size.width; ++x) {
+      if (label[x] == static_cast<std::uint8_t>(PixelLabel::kFloor) && d[x] > co.max_residual) {
+        label[x] = static_cast<std::uint8_t>(PixelLabel::kUnknown);
+        height[x] = 0;
+      }
+    }
+  }
+  // The top view in this frame's base frame: each cell takes the last map's cell it was.
+  const GridGeometry& g = last.local_map.geometry;
+  r.local_map = OccupancyGrid(g, kCellUnknown);
+  if (last.local_map.cells.size() == g.NumCells()) {
+    const Pose2 last_from_now = base_now_from_base_last.Inverse();
+    for (int row = 0; row < g.height; ++row) {
+      for (int col = 0; col < g.width; ++col) {
+        if (const auto cell = g.CellOf(last_from_now * g.CellCenter(col, row)))
+          r.local_map.At(col, row) = last.local_map.At(cell->x(), cell->y());
+      }
+    }
+  }
+  const Eigen::Matrix2f rotation = base_now_from_base_last.Rotation().cast<float>();
+  const Eigen::Vector2f translation = base_now_from_base_last.Translation().cast<float>();
+  r.obstacle_points_in_base.reserve(last.obstacle_points_in_base.size());
+  for (const Eigen::Vector3f& p : last.obstacle_points_in_base) {
+    r.obstacle_points_in_base.emplace_back(0.0f, 0.0f, p.z());
+    r.obstacle_points_in_base.back().head<2>() = rotation * p.head<2>() + translation;
+  }
+  const auto of = [&](PixelLabel l) {
+    return cv::countNonZero(r.labels == static_cast<std::uint8_t>(l));
+  };
+  r.num_floor = of(PixelLabel::kFloor);
+  r.num_obstacle = of(PixelLabel::kObstacle);
+  r.num_drop_off = of(PixelLabel::kDropOff);
+  r.num_moving = of(PixelLabel::kMoving);
+  r.num_unknown = of(PixelLabel::kUnknown);
+  return r;
+}
+
+}  // namespace
+
 void SequenceDetector::Finish(Output* output) {
-  if (!output->pending) return;
+  if (!output->pending) {
+    if (!output->result && !output->undetected_image.empty() && last_detected_) {
+      const PairSelectionOptions& ps = detector_.options().pair_selection;
+      const Pose2 now_from_last = output->odom_from_base.Inverse() * last_detected_->odom_from_base;
+      if (now_from_last.TranslationNorm() <= 2.0 * ps.min_baseline_m &&
+          std::abs(now_from_last.yaw) <= ps.max_rotation_rad) {
+        output->result = CarryResult(detector_.camera(), detector_.options().classification,
+                                     last_detected_->result, last_detected_->image,
+                                     output->undetected_image, now_from_last);
+      }
+    }
+    // A frame without motion or parallax: what follows is not carried across it.
+    if (output->result && !output->result->predicted && output->result->status != PairStatus::kOk)
+      last_detected_.reset();
+    output->undetected_image.release();
+    return;
+  }
   const Output::PendingDetection& p = *output->pending;
   const bool fuse = detector_.options().height_filter.enabled;
   // Moves the estimates' points by a planar pose (odometry frame <-> this frame's base frame).
@@ -1157,6 +1244,16 @@ void SequenceDetector::Finish(Output* output) {
                          : std::move(prior);
     output->result->height_seeds.clear();
     move(p.odom_from_base, &seeds_in_odom_);
+  }
+  if (output->result->status == PairStatus::kOk) {
+    FrameResult kept;  // what CarryResult reads
+    kept.labels = output->result->labels;
+    kept.height_mm = output->result->height_mm;
+    kept.local_map = output->result->local_map;
+    kept.obstacle_points_in_base = output->result->obstacle_points_in_base;
+    last_detected_ = Detected{std::move(kept), p.current, p.odom_from_base};
+  } else {
+    last_detected_.reset();
   }
   output->pending.reset();
 }
@@ -1233,7 +1330,10 @@ SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, Timesta
   ++frames_since_detection_;
   if (out.step.status != GroundMotion::Status::kFailed &&
       frames_since_detection_ < options.pair_selection.detect_every) {
-    // Tracked only (see PairSelectionOptions::detect_every).
+    // Tracked only (see PairSelectionOptions::detect_every); Finish carries the last detected
+    // frame's result to it.
+    out.undetected_image = prepared;
+    if (!defer_detection) Finish(&out);
   } else if (out.step.status == GroundMotion::Status::kFailed) {
     out.result = UnknownResult(size, options.local_map, PairStatus::kNoMotion,
                                "no floor motion from the previous frame");

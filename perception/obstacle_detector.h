@@ -272,12 +272,17 @@ class SequenceDetector {
       Pose2 odom_from_base;  // of the current frame, to carry the height estimates
     };
     std::optional<PendingDetection> pending;
+    // A frame tracked but not detected: its image, for Finish to carry the last detected frame's
+    // labels to it (FrameResult::predicted).
+    cv::Mat undetected_image;
   };
   // Tracks the frame and, unless defer_detection, runs the dense detection of its pair.
   Output Process(const cv::Mat& image, TimestampNs stamp_ns, bool defer_detection = false);
-  // Runs a deferred detection into output->result (no-op when nothing is pending), fusing it with
-  // the height estimates of the frames detected before. A second thread can detect frame k while
-  // Process tracks frame k + 1; detections must be finished in frame order, on one thread.
+  // Runs a deferred detection into output->result, fusing it with the height estimates of the
+  // frames detected before; for a frame tracked but not detected, carries the last detected
+  // frame's result to it (FrameResult::predicted) when that frame is at most
+  // 2 * min_baseline_m and max_rotation_rad away. A second thread can detect frame k while
+  // Process tracks frame k + 1; every output must be finished in frame order, on one thread.
   void Finish(Output* output);
 
   const ObstacleDetector& detector() const { return detector_; }
@@ -307,6 +312,14 @@ class SequenceDetector {
   // The height estimates after the last detected frame, points in the odometry frame. Only
   // Finish reads and writes them.
   std::vector<HeightSeed> seeds_in_odom_;
+  // The last detected frame (kOk), for the frames after it that are not detected. Only Finish
+  // reads and writes it.
+  struct Detected {
+    FrameResult result;
+    cv::Mat image;  // prepared
+    Pose2 odom_from_base;
+  };
+  std::optional<Detected> last_detected_;
   std::deque<Frame> history_;
   std::optional<Pose2> last_step_;
   double last_step_dt_s_ = 0.0;  // time the last step took (0: unknown)

@@ -997,6 +997,55 @@ TEST_F(DetectorOnSyntheticScene, FusedHeightsKnowMoreOfTheFloor) {
   EXPECT_LE(c.floor_obstacle, c0.floor_obstacle + c.floor / 1000);
 }
 
+// With detection on every second frame, the frames between carry the last detected frame's result
+// (FrameResult::predicted): every frame after the first detection has labels, the floor and the
+// box where they are now; floor that this image no longer shows as the last one did (here a patch
+// that changed) is unknown, not floor.
+TEST_F(DetectorOnSyntheticScene, FramesBetweenDetectionsCarryTheLastResult) {
+  Scene scene;
+  scene.boxes.push_back({{1.3, -0.3, 0.0}, {1.6, 0.3, 0.25}});
+  DetectorOptions options = options_;
+  options.pair_selection.detect_every = 2;
+  SequenceDetector sequence(calib_, options);
+  const cv::Rect changed(300, 380, 60, 40);  // floor in front of the robot
+  int detected = 0, carried = 0;
+  for (int k = 0; k <= 13; ++k) {  // frames 2, 4, ..., 12 are detected
+    Rendered b = Render(scene, sequence.detector().camera(), {0.03 * k, 0.0, 0.0});
+    const bool last = k == 13;
+    if (last) b.image(changed) = 255 - b.image(changed);
+    SequenceDetector::Output out = sequence.Process(b.image, static_cast<TimestampNs>(k) * kFrameNs,
+                                                    /*defer_detection=*/true);
+    sequence.Finish(&out);
+    if (!out.result || out.result->status != PairStatus::kOk) continue;
+    const FrameResult& r = *out.result;
+    (r.predicted ? carried : detected) += 1;
+    const BoxFloorCounts c = CountBoxAndFloor(b, r.labels);
+    int floor_as_floor = 0;
+    for (int y = 0; y < r.labels.rows; ++y) {
+      for (int x = 0; x < r.labels.cols; ++x) {
+        floor_as_floor +=
+            b.height_m.at<float>(y, x) == 0.0f &&
+            static_cast<PixelLabel>(r.labels.at<std::uint8_t>(y, x)) == PixelLabel::kFloor;
+      }
+    }
+    EXPECT_GT(floor_as_floor, c.floor / 3) << "frame " << k;
+    EXPECT_GT(c.box_obstacle, c.box / 4) << "frame " << k;
+    EXPECT_LT(c.box_floor, c.box / 200 + 10) << "frame " << k;
+    EXPECT_LT(c.floor_obstacle, c.floor / 50) << "frame " << k;
+    if (r.predicted) {
+      EXPECT_EQ(r.local_map.cells.size(), r.local_map.geometry.NumCells());
+      EXPECT_FALSE(r.obstacle_points_in_base.empty());
+    }
+    if (last) {
+      ASSERT_TRUE(r.predicted);
+      const cv::Mat floor_in_changed = r.labels(changed) == static_cast<int>(PixelLabel::kFloor);
+      EXPECT_LT(cv::countNonZero(floor_in_changed), changed.area() / 20);
+    }
+  }
+  EXPECT_GE(detected, 4);
+  EXPECT_GE(carried, 4);
+}
+
 // Creeping after driving (8 mm a frame: too slow for a new reference among 4 frames) keeps the
 // last reference only while it lies within twice the minimum baseline; then the frames are "no
 // parallax" again, rather than paired with an ever older, ever wider frame.
@@ -1056,18 +1105,22 @@ TEST_F(DetectorOnSyntheticScene, DetectEveryNthFrameTracksTheOthers) {
   options.pair_selection.detect_every = 3;
   SequenceDetector sequence(calib_, options);
   Scene scene;
-  std::vector<bool> has_result;
+  std::vector<bool> detected, carried;
   for (int i = 0; i < 10; ++i) {
     const Pose2 pose{0.05 * i, 0.0, 0.0};
     const auto out =
         sequence.Process(Render(scene, sequence.detector().camera(), pose).image, i * kFrameNs);
     ASSERT_TRUE(out.image_ok);
     EXPECT_NEAR(out.odom_from_base.x, pose.x, 0.01) << "frame " << i;  // every frame is tracked
-    has_result.push_back(out.result.has_value());
+    detected.push_back(out.result.has_value() && !out.result->predicted);
+    carried.push_back(out.result.has_value() && out.result->predicted);
   }
-  // Frame 0 has no pair; frames 1 and 2 are tracked only; then every 3rd frame is detected.
-  EXPECT_EQ(has_result,
+  // Frame 0 has no pair; frames 1 and 2 are tracked only, with nothing detected to carry; then
+  // every 3rd frame is detected and the two after it carry its result.
+  EXPECT_EQ(detected,
             (std::vector<bool>{false, false, false, true, false, false, true, false, false, true}));
+  EXPECT_EQ(carried,
+            (std::vector<bool>{false, false, false, false, true, true, false, true, true, false}));
 }
 
 TEST_F(DetectorOnSyntheticScene, BadImagesAreRejectedWithReasons) {
