@@ -1203,7 +1203,9 @@ FrameResult CarryResult(const CameraModel& camera, const ClassificationOptions& 
 
 void SequenceDetector::Finish(Output* output) {
   if (!output->pending) {
-    if (!output->result && !output->undetected_image.empty() && last_detected_) {
+    // Tracked only, or standing still / turning without a pair: what was seen is kept.
+    const bool carry = !output->result || output->result->status == PairStatus::kNoParallax;
+    if (carry && !output->undetected_image.empty() && last_detected_) {
       const PairSelectionOptions& ps = detector_.options().pair_selection;
       const Pose2 now_from_last = output->odom_from_base.Inverse() * last_detected_->odom_from_base;
       if (now_from_last.TranslationNorm() <= 2.0 * ps.min_baseline_m &&
@@ -1213,7 +1215,8 @@ void SequenceDetector::Finish(Output* output) {
                                      output->undetected_image, now_from_last);
       }
     }
-    // A frame without motion or parallax: what follows is not carried across it.
+    // A frame without motion, or too far from the last detected one: what follows is not
+    // carried across it.
     if (output->result && !output->result->predicted && output->result->status != PairStatus::kOk)
       last_detected_.reset();
     output->undetected_image.release();
@@ -1363,6 +1366,8 @@ SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, Timesta
       out.result = UnknownResult(size, options.local_map, PairStatus::kNoParallax,
                                  "the camera has not moved enough for parallax");
       out.result->motion = out.step;
+      out.undetected_image = prepared;  // Finish carries the last detected frame's result to it
+      if (!defer_detection) Finish(&out);
     } else {
       // 3. The pair's motion, fitted directly to the tracks both frames share (no drift from
       //    chaining); the chained odometry is the prior and the fallback.

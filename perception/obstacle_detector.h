@@ -272,16 +272,17 @@ class SequenceDetector {
       Pose2 odom_from_base;  // of the current frame, to carry the height estimates
     };
     std::optional<PendingDetection> pending;
-    // A frame tracked but not detected: its image, for Finish to carry the last detected frame's
-    // labels to it (FrameResult::predicted).
+    // A frame tracked but not detected, or without parallax: its image, for Finish to carry the
+    // last detected frame's labels to it (FrameResult::predicted).
     cv::Mat undetected_image;
   };
   // Tracks the frame and, unless defer_detection, runs the dense detection of its pair.
   Output Process(const cv::Mat& image, TimestampNs stamp_ns, bool defer_detection = false);
   // Runs a deferred detection into output->result, fusing it with the height estimates of the
-  // frames detected before; for a frame tracked but not detected, carries the last detected
-  // frame's result to it (FrameResult::predicted) when that frame is at most
-  // 2 * min_baseline_m and max_rotation_rad away. A second thread can detect frame k while
+  // frames detected before; for a frame tracked but not detected, or without parallax (standing
+  // still, turning on the spot), carries the last detected frame's result to it
+  // (FrameResult::predicted) when that frame is at most 2 * min_baseline_m and max_rotation_rad
+  // away. A second thread can detect frame k while
   // Process tracks frame k + 1; every output must be finished in frame order, on one thread.
   void Finish(Output* output);
 
