@@ -1133,9 +1133,20 @@ SequenceDetector::SequenceDetector(const CameraCalibration& calibration,
 namespace {
 
 // The last detected frame's result seen from a frame `base_now_from_base_last` away, in its image
-// `now` (FrameResult::predicted).
+// `now` (FrameResult::predicted). `last_half` is the last frame's image at half resolution
+// (HalfImage). Labels and heights are carried per block of kCarryBlockPx pixels (the detector
+// labels blocks of its sample spacing, 4 pixels at 640 x 480), the image match at half resolution.
+constexpr int kCarryBlockPx = 4;
+
+cv::Mat HalfImage(const cv::Mat& image) {
+  cv::Mat half;
+  cv::resize(image, half, cv::Size((image.cols + 1) / 2, (image.rows + 1) / 2), 0, 0,
+             cv::INTER_AREA);
+  return half;
+}
+
 FrameResult CarryResult(const CameraModel& camera, const ClassificationOptions& co,
-                        const FrameResult& last, const cv::Mat& last_image, const cv::Mat& now,
+                        const FrameResult& last, const cv::Mat& last_half, const cv::Mat& now,
                         const Pose2& base_now_from_base_last) {
   FrameResult r;
   r.status = PairStatus::kOk;
@@ -1143,41 +1154,70 @@ FrameResult CarryResult(const CameraModel& camera, const ClassificationOptions& 
   r.message = "carried from the last detected frame";
   r.motion.status = GroundMotion::Status::kOk;
   r.motion.base2_from_base1 = base_now_from_base_last;
-  cv::Mat h;
-  cv::eigen2cv(FloorHomography(camera, base_now_from_base_last), h);
+  const Eigen::Matrix3d h = FloorHomography(camera, base_now_from_base_last);  // last -> now
+  const Eigen::Matrix3d h_inv = h.inverse();
+  // Where this image still shows what the last one did under the floor's motion (something that
+  // came in, or moved, does not): the mean |difference| over a 6 x 6 pixel neighbourhood, at half
+  // resolution, within max_residual (the detector's own match test).
+  Eigen::Matrix3d half = Eigen::Matrix3d::Identity();
+  half(0, 0) = half(1, 1) = 0.5;
+  cv::Mat h_half, warped, difference;
+  cv::eigen2cv(Eigen::Matrix3d(half * h * half.inverse()), h_half);
+  const cv::Mat now_half = HalfImage(now);
+  cv::warpPerspective(last_half, warped, h_half, now_half.size(), cv::INTER_LINEAR,
+                      cv::BORDER_CONSTANT, cv::Scalar(0));
+  cv::absdiff(warped, now_half, difference);
+  cv::blur(difference, difference, cv::Size(3, 3));
+  // Each block takes the label and height at the last image's pixel its centre was.
   const cv::Size size = now.size();
-  cv::warpPerspective(last.labels, r.labels, h, size, cv::INTER_NEAREST, cv::BORDER_CONSTANT,
-                      cv::Scalar(0));
-  cv::warpPerspective(last.height_mm, r.height_mm, h, size, cv::INTER_NEAREST, cv::BORDER_CONSTANT,
-                      cv::Scalar(0));
-  // Floor stays floor where this image still shows what the last one did under the floor's
-  // motion (something that came in, or moved, does not): the mean |difference| over the
-  // neighbourhood within max_residual, as the detector's own match test.
-  cv::Mat warped, difference;
-  cv::warpPerspective(last_image, warped, h, size, cv::INTER_LINEAR, cv::BORDER_CONSTANT,
-                      cv::Scalar(0));
-  cv::absdiff(warped, now, difference);
-  cv::blur(difference, difference, cv::Size(5, 5));
-  for (int y = 0; y < size.height; ++y) {
-    std::uint8_t* label = r.labels.ptr<std::uint8_t>(y);
-    std::uint16_t* height = r.height_mm.ptr<std::uint16_t>(y);
-    const std::uint8_t* d = difference.ptr<std::uint8_t>(y);
-    for (int x = 0; x < size.width; ++x) {
-      if (label[x] == static_cast<std::uint8_t>(PixelLabel::kFloor) && d[x] > co.max_residual) {
-        label[x] = static_cast<std::uint8_t>(PixelLabel::kUnknown);
-        height[x] = 0;
+  const int block_rows = (size.height + kCarryBlockPx - 1) / kCarryBlockPx;
+  const int block_cols = (size.width + kCarryBlockPx - 1) / kCarryBlockPx;
+  cv::Mat labels(block_rows, block_cols, CV_8U, cv::Scalar(0));
+  cv::Mat heights(block_rows, block_cols, CV_16U, cv::Scalar(0));
+  for (int bi = 0; bi < block_rows; ++bi) {
+    for (int bj = 0; bj < block_cols; ++bj) {
+      const double x = std::min(bj * kCarryBlockPx + kCarryBlockPx / 2, size.width - 1);
+      const double y = std::min(bi * kCarryBlockPx + kCarryBlockPx / 2, size.height - 1);
+      const Eigen::Vector3d q = h_inv * Eigen::Vector3d(x, y, 1.0);
+      if (!(q.z() > 0)) continue;
+      const int sx = static_cast<int>(std::lround(q.x() / q.z()));
+      const int sy = static_cast<int>(std::lround(q.y() / q.z()));
+      if (sx < 0 || sy < 0 || sx >= last.labels.cols || sy >= last.labels.rows) continue;
+      const std::uint8_t label = last.labels.at<std::uint8_t>(sy, sx);
+      if (label == static_cast<std::uint8_t>(PixelLabel::kFloor) &&
+          difference.at<std::uint8_t>(static_cast<int>(y) / 2, static_cast<int>(x) / 2) >
+              co.max_residual) {
+        continue;  // unknown
       }
+      labels.at<std::uint8_t>(bi, bj) = label;
+      heights.at<std::uint16_t>(bi, bj) = last.height_mm.at<std::uint16_t>(sy, sx);
     }
   }
-  // The top view in this frame's base frame: each cell takes the last map's cell it was.
+  const cv::Rect roi(0, 0, size.width, size.height);
+  cv::Mat labels_full, heights_full;
+  cv::resize(labels, labels_full, cv::Size(block_cols, block_rows) * kCarryBlockPx, 0, 0,
+             cv::INTER_NEAREST);
+  cv::resize(heights, heights_full, cv::Size(block_cols, block_rows) * kCarryBlockPx, 0, 0,
+             cv::INTER_NEAREST);
+  r.labels = labels_full(roi).clone();
+  r.height_mm = heights_full(roi).clone();
+  // The top view in this frame's base frame: each cell takes the last map's cell it was (an
+  // affine map of the cell indices).
   const GridGeometry& g = last.local_map.geometry;
   r.local_map = OccupancyGrid(g, kCellUnknown);
-  if (last.local_map.cells.size() == g.NumCells()) {
+  if (last.local_map.cells.size() == g.NumCells() && g.NumCells() > 0) {
     const Pose2 last_from_now = base_now_from_base_last.Inverse();
+    const Eigen::Vector2d origin = last_from_now * g.CellCenter(0, 0);
+    const Eigen::Vector2d step_col = last_from_now.Rotation() * Eigen::Vector2d(g.resolution_m, 0);
+    const Eigen::Vector2d step_row = last_from_now.Rotation() * Eigen::Vector2d(0, g.resolution_m);
+    const Eigen::Vector2d corner(g.origin_x_m, g.origin_y_m);
     for (int row = 0; row < g.height; ++row) {
-      for (int col = 0; col < g.width; ++col) {
-        if (const auto cell = g.CellOf(last_from_now * g.CellCenter(col, row)))
-          r.local_map.At(col, row) = last.local_map.At(cell->x(), cell->y());
+      Eigen::Vector2d p = (origin + row * step_row - corner) / g.resolution_m;
+      const Eigen::Vector2d step = step_col / g.resolution_m;
+      for (int col = 0; col < g.width; ++col, p += step) {
+        const int c = static_cast<int>(std::floor(p.x())), rr = static_cast<int>(std::floor(p.y()));
+        if (c >= 0 && rr >= 0 && c < g.width && rr < g.height)
+          r.local_map.At(col, row) = last.local_map.At(c, rr);
       }
     }
   }
@@ -1188,14 +1228,16 @@ FrameResult CarryResult(const CameraModel& camera, const ClassificationOptions& 
     r.obstacle_points_in_base.emplace_back(0.0f, 0.0f, p.z());
     r.obstacle_points_in_base.back().head<2>() = rotation * p.head<2>() + translation;
   }
-  const auto of = [&](PixelLabel l) {
-    return cv::countNonZero(r.labels == static_cast<std::uint8_t>(l));
-  };
-  r.num_floor = of(PixelLabel::kFloor);
-  r.num_obstacle = of(PixelLabel::kObstacle);
-  r.num_drop_off = of(PixelLabel::kDropOff);
-  r.num_moving = of(PixelLabel::kMoving);
-  r.num_unknown = of(PixelLabel::kUnknown);
+  int counts[5] = {0, 0, 0, 0, 0};
+  for (int y = 0; y < r.labels.rows; ++y) {
+    const std::uint8_t* row = r.labels.ptr<std::uint8_t>(y);
+    for (int x = 0; x < r.labels.cols; ++x) ++counts[std::min<int>(row[x], 4)];
+  }
+  r.num_unknown = counts[static_cast<int>(PixelLabel::kUnknown)];
+  r.num_floor = counts[static_cast<int>(PixelLabel::kFloor)];
+  r.num_obstacle = counts[static_cast<int>(PixelLabel::kObstacle)];
+  r.num_drop_off = counts[static_cast<int>(PixelLabel::kDropOff)];
+  r.num_moving = counts[static_cast<int>(PixelLabel::kMoving)];
   return r;
 }
 
@@ -1211,7 +1253,7 @@ void SequenceDetector::Finish(Output* output) {
       if (now_from_last.TranslationNorm() <= 2.0 * ps.min_baseline_m &&
           std::abs(now_from_last.yaw) <= ps.max_rotation_rad) {
         output->result = CarryResult(detector_.camera(), detector_.options().classification,
-                                     last_detected_->result, last_detected_->image,
+                                     last_detected_->result, last_detected_->image_half,
                                      output->undetected_image, now_from_last);
       }
     }
@@ -1254,7 +1296,7 @@ void SequenceDetector::Finish(Output* output) {
     kept.height_mm = output->result->height_mm;
     kept.local_map = output->result->local_map;
     kept.obstacle_points_in_base = output->result->obstacle_points_in_base;
-    last_detected_ = Detected{std::move(kept), p.current, p.odom_from_base};
+    last_detected_ = Detected{std::move(kept), HalfImage(p.current), p.odom_from_base};
   } else {
     last_detected_.reset();
   }

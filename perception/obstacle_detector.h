@@ -317,7 +317,7 @@ class SequenceDetector {
   // reads and writes it.
   struct Detected {
     FrameResult result;
-    cv::Mat image;  // prepared
+    cv::Mat image_half;  // prepared, at half resolution
     Pose2 odom_from_base;
   };
   std::optional<Detected> last_detected_;
