@@ -6,6 +6,8 @@
 #include <sstream>
 #include <type_traits>
 
+#include "perception/geometry/yaml_keys.h"
+
 namespace monoplane::app {
 namespace {
 
@@ -453,6 +455,10 @@ bool OptionTable::Apply(const std::string& yaml_text, std::string* error) {
   if (root.IsNull()) return true;  // an empty file changes nothing
   if (!root.IsMap()) {
     *error = "the config must be a YAML map of sections";
+    return false;
+  }
+  if (std::string duplicate = DuplicateYamlKey(yaml_text); !duplicate.empty()) {
+    *error = std::move(duplicate);
     return false;
   }
   for (const auto& section : root) {

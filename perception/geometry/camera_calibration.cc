@@ -9,6 +9,8 @@
 #include <sstream>
 #include <vector>
 
+#include "perception/geometry/yaml_keys.h"
+
 namespace monoplane {
 namespace {
 
@@ -372,6 +374,10 @@ bool ParseCalibrationYaml(const std::string& yaml_text, CameraCalibration* calib
     *error = "camera: missing key (the file is not a YAML map with camera: and mount:)";
     return false;
   }
+  if (std::string duplicate = DuplicateYamlKey(yaml_text); !duplicate.empty()) {
+    *error = std::move(duplicate);
+    return false;
+  }
   MapReader reader(root, "");
   reader.RejectUnknown({"camera", "mount"});
   const YAML::Node camera = reader.Map("camera");
@@ -455,6 +461,10 @@ bool LoadIntrinsicsFile(const std::string& path, CameraIntrinsics* intrinsics, s
     }
     if (!root.IsMap()) {
       *error = path + ": not a calibration file (expected a YAML map)";
+      return false;
+    }
+    if (std::string duplicate = DuplicateYamlKey(text); !duplicate.empty()) {
+      *error = path + ": " + duplicate;
       return false;
     }
     // monoplane's own file: take its camera: section; ROS's file: the root is the camera section.

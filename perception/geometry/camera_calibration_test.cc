@@ -166,6 +166,7 @@ INSTANTIATE_TEST_SUITE_P(
                       BadCase{"distortion_string.yaml", "camera.distortion:", "element 1"},
                       BadCase{"mount_list.yaml", "mount:", "must be a map"},
                       BadCase{"syntax_error.yaml", "YAML syntax error", "line"},
+                      BadCase{"duplicate_key.yaml", "mount.pitch_deg:", "written twice (line 14)"},
                       BadCase{"ros_matrix_shape.yaml", "camera.camera_matrix.rows:", "3x3"}),
     [](const ::testing::TestParamInfo<BadCase>& param_info) {
       std::string name = param_info.param.file;
