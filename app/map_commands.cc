@@ -2,6 +2,7 @@
 // print, answer or convert. Exit 2 with one line naming the file and the cause on bad input.
 #include <cmath>
 #include <cstdio>
+#include <ctime>
 #include <filesystem>
 #include <iostream>
 #include <memory>
@@ -55,6 +56,17 @@ std::string Cell(const Eigen::Vector2i& c) {
 }
 
 std::string Seconds(TimestampNs ns) { return Num(NsToSeconds(ns), 9); }
+
+// A run's wall-clock time for people: "2026-12-02 07:09:55 UTC".
+std::string UtcTime(TimestampNs ns) {
+  const std::time_t t = static_cast<std::time_t>(ns / 1'000'000'000LL);
+  std::tm tm{};
+  char text[64];
+  if (gmtime_r(&t, &tm) == nullptr ||
+      std::strftime(text, sizeof(text), "%Y-%m-%d %H:%M:%S UTC", &tm) == 0)
+    return Seconds(ns) + " s";
+  return text;
+}
 
 StorageStatus OpenMap(const std::string& path, std::unique_ptr<MapDatabase>* db) {
   return MapDatabase::Open(path, OpenMode::kReadOnly, db);
@@ -119,10 +131,12 @@ int InfoCommand(const InfoArgs& args) {
         << "runs: " << runs.size() << "\n";
     for (const RunInfo& r : runs) {
       out << "  run " << r.id << ": " << RunStatusName(r.status) << ", started "
-          << Seconds(r.started_ns) << " s"
-          << (r.ended_ns ? ", ended " + Seconds(*r.ended_ns) + " s" : std::string()) << ", program "
-          << r.program_version << ", " << per_run[r.id].first << " frames (" << per_run[r.id].second
-          << " keyframes)\n";
+          << UtcTime(r.started_ns)
+          << (r.ended_ns ? ", ended " + UtcTime(*r.ended_ns) + " (" +
+                               Num(NsToSeconds(*r.ended_ns - r.started_ns), 1) + " s)"
+                         : std::string())
+          << ", program " << r.program_version << ", " << per_run[r.id].first << " frames ("
+          << per_run[r.id].second << " keyframes)\n";
     }
     out << "frames: " << info.frames << " (" << info.keyframes << " keyframes, " << info.local_maps
         << " local maps, " << info.floor_feature_sets
