@@ -2,10 +2,12 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdlib>
 #include <ctime>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
+#include <opencv2/core/utils/logger.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/videoio.hpp>
 #include <sstream>
@@ -70,9 +72,23 @@ class VideoSource : public InputSource {
   }
   std::optional<InputFrame> Next() override {
     InputFrame f;
-    if (!capture_->read(f.image)) {
-      // A file ends; a camera that stops delivering ends the run too.
-      return std::nullopt;
+    bool read = false;
+    try {
+      read = capture_->read(f.image);
+    } catch (const cv::Exception&) {
+      read = false;
+    }
+    if (!read || f.image.empty()) {
+      // A camera that stops delivering ends the run, as does a file at its end. A file that
+      // said it holds more frames is truncated or corrupt: every frame it does not deliver is
+      // counted as skipped, with the reason.
+      if (live_ || size_ < 0 || index_ >= size_) return std::nullopt;
+      f.index = index_++;
+      f.name = "frame " + std::to_string(f.index);
+      f.image.release();
+      f.error = "cannot decode (the video holds " + std::to_string(size_) +
+                " frames by its header: truncated or corrupt)";
+      return f;
     }
     f.index = index_++;
     f.name = "frame " + std::to_string(f.index);
@@ -179,13 +195,21 @@ std::unique_ptr<InputSource> OpenInput(const std::string& path, const InputOptio
     return nullptr;
   }
   if (fs::is_regular_file(p, ec)) {
+    // FFmpeg reads every video format Debian's OpenCV can; the other backends OpenCV would try on
+    // a file it cannot read (GStreamer, image sequences) print a dozen lines before our one-line
+    // error, and FFmpeg's own decoder warnings would too (OPENCV_FFMPEG_LOGLEVEL 0: only
+    // panics; a user's own setting is kept).
+    setenv("OPENCV_FFMPEG_LOGLEVEL", "0", /*overwrite=*/0);
     auto capture = std::make_unique<cv::VideoCapture>();
     bool opened = false;
+    const cv::utils::logging::LogLevel level =
+        cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_SILENT);
     try {
-      opened = capture->open(path);
+      opened = capture->open(path, cv::CAP_FFMPEG);
     } catch (const cv::Exception&) {
       opened = false;
     }
+    cv::utils::logging::setLogLevel(level);
     if (!opened || !capture->isOpened()) {
       *error = path + ": not a video OpenCV can open";
       return nullptr;
