@@ -28,8 +28,11 @@ int CheckCalib(const std::string& path) {
       m.x_m, m.y_m, m.height_m, m.pitch_deg, m.roll_deg, m.yaw_deg);
   const FloorCoverage coverage = ComputeFloorCoverage(camera);
   if (coverage.horizon_row) {
+    const double last_row = calibration.intrinsics.height - 1;
     std::printf("horizon row: %.2f (at the centre column; %s)\n", *coverage.horizon_row,
-                *coverage.horizon_row < 0 ? "above the image" : "inside the image");
+                *coverage.horizon_row < 0          ? "above the image"
+                : *coverage.horizon_row > last_row ? "below the image"
+                                                   : "inside the image");
   } else {
     std::printf("horizon row: none (horizon is vertical in the image)\n");
   }
@@ -45,6 +48,10 @@ int CheckCalib(const std::string& path) {
     } else {
       std::printf("  floor distance at row %6.1f: above the horizon\n", row);
     }
+  }
+  if (const std::string problem = FloorNotInView(camera); !problem.empty()) {
+    std::cerr << "monoplane check-calib: " << path << ": " << problem << "\n";
+    return kExitBadInput;
   }
   return kExitOk;
 }

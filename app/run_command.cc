@@ -19,6 +19,7 @@
 #include "app/input_source.h"
 #include "app/run_pipeline.h"
 #include "perception/geometry/camera_calibration.h"
+#include "perception/geometry/camera_model.h"
 #include "perception/obstacle_detector.h"
 
 namespace monoplane::app {
@@ -104,6 +105,10 @@ int Run(const RunRequest& request, RunSummary* summary) {
   CameraCalibration calibration;
   if (!LoadCalibrationFile(calib_path, &calibration, &error)) {
     std::cerr << "monoplane run: " << error << "\n";
+    return kExitBadInput;
+  }
+  if (const std::string problem = FloorNotInView(CameraModel(calibration)); !problem.empty()) {
+    std::cerr << "monoplane run: " << calib_path << ": " << problem << "\n";
     return kExitBadInput;
   }
   if (!request.frames_out.empty() && !CreateFrameOutputFolders(request.frames_out, &error)) {

@@ -1,6 +1,7 @@
 #include "perception/geometry/camera_model.h"
 
 #include <cmath>
+#include <cstdio>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core.hpp>
 
@@ -229,6 +230,22 @@ double SideViewZeroDisparity(double focal_px, double camera_height_m, double dis
                              double travel_m, double height_m) {
   const double hc = camera_height_m, z = distance_m, d = travel_m, h = height_m;
   return focal_px * (hc - h) * d * h / ((z - d) * (z * hc - d * (hc - h)));
+}
+
+}  // namespace monoplane
+
+namespace monoplane {
+
+std::string FloorNotInView(const CameraModel& camera) {
+  const FloorCoverage coverage = ComputeFloorCoverage(camera);
+  if (!coverage.distance_at_row.empty() && coverage.distance_at_row.front().second) return {};
+  char horizon[96] = "";
+  if (coverage.horizon_row) {
+    std::snprintf(horizon, sizeof(horizon), " (the horizon is at row %.0f of %d)",
+                  *coverage.horizon_row, camera.calibration().intrinsics.height);
+  }
+  return "mount.pitch_deg: the camera sees no floor" + std::string(horizon) +
+         "; a positive pitch looks down";
 }
 
 }  // namespace monoplane

@@ -66,6 +66,11 @@ struct FloorCoverage {
 };
 FloorCoverage ComputeFloorCoverage(const CameraModel& camera, double max_range_m = 50.0);
 
+// Why the camera cannot see the floor (its bottom row's centre looks at or above the horizon: a
+// pitch with the wrong sign, or a camera looking up), as "mount.pitch_deg: ..."; empty when it
+// sees it. Nothing can be detected or mapped with such a calibration.
+std::string FloorNotInView(const CameraModel& camera);
+
 // The floor homography between two robot poses: pixel2 ~ H * pixel1 for every floor point, where
 // base2_from_base1 is the robot's planar motion. This is the paper's H = P T P^-1 with
 // P = pixel_from_floor for a camera mounted at any height, pitch, roll, yaw and offset.
