@@ -86,14 +86,20 @@ std::string IntrinsicsToYaml(const CameraIntrinsics& intrinsics) {
 }
 
 // Reads a calibration; a file with only the camera: section (or ROS's / OpenCV's intrinsics) gives
-// a mount of zeros.
+// a mount of zeros. A file with a mount: section must be a valid calibration: its errors are
+// reported, never read past.
 bool LoadCalibrationOrIntrinsics(const std::string& path, CameraCalibration* calibration,
                                  bool* has_mount, std::string* error) {
   if (LoadCalibrationFile(path, calibration, error)) {
     *has_mount = true;
     return true;
   }
-  if (error->find("mount: missing key") == std::string::npos) return false;
+  std::ifstream in(path);
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.rfind("mount:", 0) == 0) return false;
+  }
+  if (!in.eof()) return false;  // unreadable: the calibration loader's error says so
   *calibration = CameraCalibration{};
   *has_mount = false;
   error->clear();  // LoadIntrinsicsFile reports through a non-empty error
