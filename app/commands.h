@@ -10,6 +10,7 @@ inline constexpr int kExitError = 1;     // an internal failure
 inline constexpr int kExitBadInput = 2;  // the user's input (file, option, config) is unusable
 inline constexpr int kExitInterrupted = 130;
 inline constexpr int kExitTerminated = 143;  // 128 + SIGTERM, as a shell reports it
+inline constexpr int kExitHungUp = 129;      // 128 + SIGHUP
 
 // Each command registers its subcommand; the callback stores the exit code in *exit_code.
 void RegisterCheckCalibCommand(CLI::App* app, int* exit_code);

@@ -153,7 +153,8 @@ int RunCommand(RunCli* cli) {
   if (cli->request.input_path.empty()) return RunDemo(cli);
   RunSummary summary;
   const int code = Run(cli->request, &summary);
-  if (code == kExitOk || code == kExitInterrupted || code == kExitTerminated) {
+  if (code == kExitOk || code == kExitInterrupted || code == kExitTerminated ||
+      code == kExitHungUp) {
     PrintSummary(cli->request, summary);
   }
   return code;
@@ -163,6 +164,7 @@ int RunCommand(RunCli* cli) {
 
 void PrintSummary(const RunRequest& request, const RunSummary& s) {
   std::printf("\nmonoplane run: %s\n", s.terminated    ? "terminated (SIGTERM), map closed cleanly"
+                                       : s.hung_up     ? "hung up (SIGHUP), map closed cleanly"
                                        : s.interrupted ? "interrupted (Ctrl-C), map closed cleanly"
                                                        : "done");
   std::printf("  frames read %d, processed %d, skipped %zu", s.frames_read, s.frames_processed,

@@ -26,7 +26,7 @@ namespace monoplane::app {
 namespace {
 
 std::atomic<bool> g_interrupted{false};
-std::atomic<int> g_signal{0};  // the signal that ended the run (SIGINT or SIGTERM)
+std::atomic<int> g_signal{0};  // the signal that ended the run (SIGINT, SIGTERM or SIGHUP)
 extern "C" void OnSignal(int signal) {
   g_signal = signal;
   g_interrupted = true;
@@ -85,10 +85,12 @@ int Run(const RunRequest& request, RunSummary* summary) {
   const auto run_start = Clock::now();
   g_interrupted = false;
   g_signal = 0;
-  // Ctrl-C, and SIGTERM as systemd, docker and ROS launch send it: the run ends as at the end of
-  // its input (the frames read are mapped, the map is closed, the summary printed).
+  // Ctrl-C, SIGTERM as systemd, docker and ROS launch send it, and SIGHUP when the terminal or
+  // SSH session closes: the run ends as at the end of its input (the frames read are mapped, the
+  // map is closed, the summary printed).
   std::signal(SIGINT, OnSignal);
   std::signal(SIGTERM, OnSignal);
+  std::signal(SIGHUP, OnSignal);
   std::string error;
   auto source = OpenInput(request.input_path, request.config.input, &error);
   if (!source) {
@@ -269,11 +271,14 @@ int Run(const RunRequest& request, RunSummary* summary) {
   }
   std::signal(SIGINT, SIG_DFL);
   std::signal(SIGTERM, SIG_DFL);
+  std::signal(SIGHUP, SIG_DFL);
   summary->wall_s = MsSince(run_start) / 1000.0;
   summary->interrupted = g_interrupted && !sink_failed;
   summary->terminated = summary->interrupted && g_signal == SIGTERM;
+  summary->hung_up = summary->interrupted && g_signal == SIGHUP;
   if (sink_failed) return kExitBadInput;
   if (summary->terminated) return kExitTerminated;
+  if (summary->hung_up) return kExitHungUp;
   return summary->interrupted ? kExitInterrupted : kExitOk;
 }
 

@@ -36,8 +36,9 @@ struct RunSummary {
   std::array<int, 4> status_counts{};  // per PairStatus, of the detected frames
   int frames_carried = 0;              // results carried from the last detected frame
   std::size_t dropped_live_frames = 0;
-  bool interrupted = false;  // by Ctrl-C (SIGINT) or SIGTERM
+  bool interrupted = false;  // by Ctrl-C (SIGINT), SIGTERM or SIGHUP
   bool terminated = false;   // ... by SIGTERM
+  bool hung_up = false;      // ... by SIGHUP (the terminal closed)
   double read_ms = 0, perception_ms = 0, frame_outputs_ms = 0, mapping_ms = 0, storage_ms = 0;
   double wall_s = 0;
   double distance_m = 0;

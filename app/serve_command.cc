@@ -157,6 +157,7 @@ int Serve(const ServeOptions& o) {
       interfaces::MapQueryRequestTopic(o.prefix).c_str());
   std::signal(SIGINT, OnSigint);
   std::signal(SIGTERM, OnSigint);
+  std::signal(SIGHUP, OnSigint);
   auto stamp = ChangeStamp(o.map);
   const auto start = std::chrono::steady_clock::now();
   auto last_check = start;
