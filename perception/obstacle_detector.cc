@@ -1246,7 +1246,10 @@ FrameResult CarryResult(const CameraModel& camera, const ClassificationOptions& 
 void SequenceDetector::Finish(Output* output) {
   if (!output->pending) {
     // Tracked only, or standing still / turning without a pair: what was seen is kept.
-    const bool carry = !output->result || output->result->status == PairStatus::kNoParallax;
+    // Only across a step whose floor motion was fitted: a guessed step (kFallback) would carry
+    // them to the wrong place.
+    const bool carry = (!output->result || output->result->status == PairStatus::kNoParallax) &&
+                       output->step.status == GroundMotion::Status::kOk;
     if (carry && !output->undetected_image.empty() && last_detected_) {
       const PairSelectionOptions& ps = detector_.options().pair_selection;
       const Pose2 now_from_last = output->odom_from_base.Inverse() * last_detected_->odom_from_base;
@@ -1257,8 +1260,9 @@ void SequenceDetector::Finish(Output* output) {
                                      output->undetected_image, now_from_last);
       }
     }
-    // A frame without motion, or too far from the last detected one: what follows is not
-    // carried across it.
+    // A frame whose step was guessed or not found, or that has no motion for its pair: the
+    // odometry from the last detected frame is not known, nothing is carried across it.
+    if (output->step.status != GroundMotion::Status::kOk) last_detected_.reset();
     if (output->result && !output->result->predicted && output->result->status != PairStatus::kOk)
       last_detected_.reset();
     output->undetected_image.release();
