@@ -99,7 +99,10 @@ struct FrameResult {
   cv::Mat height_mm;  // CV_16U, height above the floor in mm + 32768; 0 = unknown
   // Sample grid (one value per sample_stride_px block):
   cv::Mat zero_disparity_px;  // CV_32F, signed; NaN where unknown
-  cv::Mat segments;           // CV_32S segment id per full-resolution pixel (empty if disabled)
+  // CV_8U: how many pairs' measurements the sample's height estimate fuses (HeightFilterOptions;
+  // 0: none, or the filter is off; saturates at 255). Empty when carried (predicted).
+  cv::Mat height_measurements;
+  cv::Mat segments;  // CV_32S segment id per full-resolution pixel (empty if disabled)
   // Local top-view map in the current base frame (x forward, y left), int8 cells.
   OccupancyGrid local_map;
   // Obstacle and drop-off points, base frame of the current frame (z = height above the floor),

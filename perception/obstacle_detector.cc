@@ -59,6 +59,9 @@ struct Sample {
   // Labelled from an earlier frame's estimate without a measurement in this pair: it labels the
   // image, but gives the top view no vote (the map counted it when it was measured).
   bool carried = false;
+  // Measurements fused into the point's height estimate after this pair (HeightFilterOptions; 0
+  // when the filter is off or the sample has none).
+  int measurements = 0;
 };
 
 PixelLabel Classify(const Sample& s, const ClassificationOptions& co, double camera_height_m) {
@@ -198,6 +201,7 @@ void FuseHeights(const CameraModel& camera, const ClassificationOptions& co,
       seed.point_in_base = point.cast<float>();
       double sigma = std::sqrt(static_cast<double>(seed.var_m2));
       if (sigma <= hf.max_carry_sigma_m) posterior->push_back(seed);
+      s.measurements = seed.measurements;
       if (own_pair_only) continue;
       if (seed.InlierRatio() < hf.min_inlier_ratio) continue;  // carried, but disputed
       // Not measured in this pair. Where it had texture, something kept the pair from measuring
@@ -979,6 +983,7 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
   cv::Mat sample_labels(sample_rows, sample_cols, CV_8U, cv::Scalar(0));
   cv::Mat sample_height(sample_rows, sample_cols, CV_16U, cv::Scalar(0));
   r.zero_disparity_px = cv::Mat(sample_rows, sample_cols, CV_32F, cv::Scalar(NAN));
+  r.height_measurements = cv::Mat(sample_rows, sample_cols, CV_8U, cv::Scalar(0));
   const GridGeometry& g = r.local_map.geometry;
   std::vector<std::uint16_t> free_votes(g.NumCells(), 0), occupied_votes(g.NumCells(), 0);
   std::vector<std::uint8_t> not_free(g.NumCells(), 0);  // cells that must not read free
@@ -988,6 +993,8 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
       const PixelLabel label = labels[i * sample_cols + j];
       sample_labels.at<std::uint8_t>(i, j) = static_cast<std::uint8_t>(label);
       if (sample.measured) r.zero_disparity_px.at<float>(i, j) = static_cast<float>(sample.s_px);
+      r.height_measurements.at<std::uint8_t>(i, j) =
+          static_cast<std::uint8_t>(std::min(sample.measurements, 255));
       if (sample.carried) {
         if (label == PixelLabel::kFloor) {
           sample_height.at<std::uint16_t>(i, j) = EncodeHeightMm(0.0);

@@ -86,8 +86,10 @@ cv::Mat RenderPanels(const cv::Mat& current, const FrameResult& result) {
       }
     }
   }
-  Caption(&labelled, "labels: floor obstacle drop-off moving");
-  // Panel 3: zero disparity, colour-coded (grey = unknown).
+  Caption(&labelled, result.predicted ? "labels, carried from the last detected frame"
+                                      : "labels: floor obstacle drop-off moving");
+  // Panel 3: zero disparity, colour-coded (grey = unknown); faded where the sample's height
+  // estimate rests on this pair alone (not yet confirmed by an earlier one).
   cv::Mat disparity(size, CV_8UC3, cv::Scalar(80, 80, 80));
   if (!result.zero_disparity_px.empty()) {
     cv::Mat scaled(result.zero_disparity_px.size(), CV_8U);
@@ -102,11 +104,21 @@ cv::Mat RenderPanels(const cv::Mat& current, const FrameResult& result) {
     }
     cv::Mat coloured;
     cv::applyColorMap(scaled, coloured, cv::COLORMAP_JET);
+    if (result.height_measurements.size() == scaled.size()) {
+      for (int y = 0; y < coloured.rows; ++y) {
+        for (int x = 0; x < coloured.cols; ++x) {
+          if (result.height_measurements.at<std::uint8_t>(y, x) >= 2) continue;
+          cv::Vec3b& p = coloured.at<cv::Vec3b>(y, x);
+          for (int k = 0; k < 3; ++k) p[k] = static_cast<uchar>((p[k] + 80) / 2);
+        }
+      }
+    }
     cv::resize(coloured, coloured, size, 0, 0, cv::INTER_NEAREST);
     cv::resize(known, known, size, 0, 0, cv::INTER_NEAREST);
     coloured.copyTo(disparity, known);
   }
-  Caption(&disparity, "zero disparity (px)");
+  Caption(&disparity, result.predicted ? "zero disparity: none measured (carried)"
+                                       : "zero disparity (px), faded: one pair only");
   // Panel 4: the local top view.
   cv::Mat top(size, CV_8UC3, cv::Scalar(128, 128, 128));
   if (result.local_map.geometry.NumCells() > 0) {
