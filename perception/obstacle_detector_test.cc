@@ -1041,6 +1041,10 @@ TEST_F(DetectorOnSyntheticScene, FramesBetweenDetectionsCarryTheLastResult) {
     if (r.predicted) {
       EXPECT_EQ(r.local_map.cells.size(), r.local_map.geometry.NumCells());
       EXPECT_FALSE(r.obstacle_points_in_base.empty());
+    } else if (detected > 1) {  // estimates that more than one pair measured (the panels show it)
+      ASSERT_FALSE(r.height_measurements.empty());
+      EXPECT_GT(cv::countNonZero(r.height_measurements >= 2), r.height_measurements.total() / 4)
+          << "frame " << k;
     }
     if (last) {
       ASSERT_TRUE(r.predicted);
