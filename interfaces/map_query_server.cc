@@ -411,7 +411,21 @@ std::optional<MapQueryReply> MapQueryClient::Query(const MapQueryRequest& reques
     return std::nullopt;
   }
   const auto deadline = DeadlineIn(timeout_s);
+  // Discovery matches each side on its own: right after WaitForServer the server's reader (or its
+  // reply writer) may not know this client yet, and the request (or its reply) is lost, as
+  // volatile samples are for a reader that matches later. Unanswered, the request is sent again
+  // (the same id; queries only read, and a second reply to it is skipped).
+  constexpr double kResendS = 0.5;
+  auto resend_at = DeadlineIn(kResendS);
   while (true) {
+    if (RemainingNs(resend_at) == 0 && RemainingNs(deadline) > 0) {
+      const dds_return_t again = dds_write(impl_->writer, &msg);
+      if (again < 0) {
+        if (error) *error = DdsError(again, "sending a map query");
+        return std::nullopt;
+      }
+      resend_at = DeadlineIn(kResendS);
+    }
     void* samples[1] = {nullptr};
     dds_sample_info_t info;
     const dds_return_t n = dds_take(impl_->reader, samples, &info, 1, 1);
@@ -439,7 +453,8 @@ std::optional<MapQueryReply> MapQueryClient::Query(const MapQueryRequest& reques
                  std::to_string(timeout_s) + " s";
       return std::nullopt;
     }
-    const dds_return_t woke = dds_waitset_wait(impl_->endpoints.waitset, nullptr, 0, remaining);
+    const dds_return_t woke = dds_waitset_wait(impl_->endpoints.waitset, nullptr, 0,
+                                               std::min(remaining, RemainingNs(resend_at) + 1));
     if (woke < 0) {
       if (error) *error = DdsError(woke, "waiting for a map query reply");
       return std::nullopt;
