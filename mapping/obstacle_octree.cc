@@ -83,6 +83,18 @@ void ObstacleOctree::Insert(const std::vector<Eigen::Vector3f>& points_in_base,
   for (const octomap::OcTreeKey& key : occupied) tree.updateNode(key, true);
 }
 
+std::string OctomapBinaryHeader(const std::string& tree_type, std::size_t num_nodes,
+                                double resolution_m) {
+  std::ostringstream out;
+  out << "# Octomap OcTree binary file"  // AbstractOccupancyOcTree::binaryFileHeader (protected)
+      << "\n# (feel free to add / change comments, but leave the first line as it is!)\n#\n"
+      << "id " << tree_type << std::endl
+      << "size " << num_nodes << std::endl
+      << "res " << resolution_m << std::endl
+      << "data" << std::endl;
+  return out.str();
+}
+
 void ObstacleOctree::Clear() { impl_->tree.clear(); }
 
 std::string ObstacleOctree::ToBinary() const {
@@ -91,12 +103,7 @@ std::string ObstacleOctree::ToBinary() const {
   // tree to its maximum-likelihood values and so change later updates): its header, then the
   // nodes from the root. Written here because writeBinaryConst prints " done." on stderr.
   const octomap::OcTree& tree = impl_->tree;
-  out << "# Octomap OcTree binary file"  // AbstractOccupancyOcTree::binaryFileHeader (protected)
-      << "\n# (feel free to add / change comments, but leave the first line as it is!)\n#\n"
-      << "id " << tree.getTreeType() << std::endl
-      << "size " << tree.size() << std::endl
-      << "res " << tree.getResolution() << std::endl
-      << "data" << std::endl;
+  out << OctomapBinaryHeader(tree.getTreeType(), tree.size(), tree.getResolution());
   if (tree.getRoot() != nullptr) tree.writeBinaryNode(out, tree.getRoot());
   return out.str();
 }

@@ -10,6 +10,12 @@
 
 namespace monoplane {
 
+// The header of OctoMap's .bt format for a tree of `tree_type` (OcTree::getTreeType, "OcTree")
+// holding `num_nodes` nodes at `resolution_m`; the nodes follow it, written from the root
+// (OcTree::writeBinaryNode). OctoMap's own file writers print " done." on stderr.
+std::string OctomapBinaryHeader(const std::string& tree_type, std::size_t num_nodes,
+                                double resolution_m);
+
 // The 3-D obstacle map: an OctoMap (octomap::OcTree, hidden behind a pointer) of the detector's
 // obstacle and drop-off points at their metric heights, free space by ray casting from the camera
 // centre to every point. Map frame, z = height above the floor. Not thread-safe.

@@ -10,6 +10,7 @@
 #include <limits>
 #include <opencv2/imgcodecs.hpp>
 
+#include "mapping/obstacle_octree.h"
 #include "storage/map_export.h"
 #include "tools/sim/renderer.h"
 
@@ -200,7 +201,15 @@ bool WriteObstacleOctree(const Scene& scene, const Pose2& world_from_map, double
     }
   }
   tree.updateInnerOccupancy();
-  if (!tree.writeBinary(path)) {
+  // What OcTree::writeBinary writes (maximum-likelihood values, pruned), without its " done." on
+  // stderr.
+  tree.toMaxLikelihood();
+  tree.prune();
+  std::ofstream out(path, std::ios::binary);
+  out << OctomapBinaryHeader(tree.getTreeType(), tree.size(), tree.getResolution());
+  if (tree.getRoot() != nullptr) tree.writeBinaryNode(out, tree.getRoot());
+  out.close();
+  if (!out) {
     if (error) *error = path + ": cannot write OctoMap";
     return false;
   }
