@@ -462,7 +462,11 @@ bool OptionTable::Apply(const std::string& yaml_text, std::string* error) {
     return false;
   }
   for (const auto& section : root) {
-    const std::string name = section.first.as<std::string>();
+    if (!section.first.IsScalar()) {
+      *error = "section names must be names (got a list or a map as a key)";
+      return false;
+    }
+    const std::string name = section.first.Scalar();
     bool known_section = false;
     for (const Entry& e : entries_) known_section |= e.section == name;
     if (!known_section) {
@@ -474,7 +478,11 @@ bool OptionTable::Apply(const std::string& yaml_text, std::string* error) {
       return false;
     }
     for (const auto& kv : section.second) {
-      const std::string key = kv.first.as<std::string>();
+      if (!kv.first.IsScalar()) {
+        *error = name + ": keys must be names (got a list or a map as a key)";
+        return false;
+      }
+      const std::string key = kv.first.Scalar();
       auto it = std::find_if(entries_.begin(), entries_.end(),
                              [&](const Entry& e) { return e.section == name && e.key == key; });
       if (it == entries_.end()) {
@@ -539,13 +547,17 @@ bool LoadConfigFile(const std::string& path, AppConfig* config, std::string* err
   }
   std::ostringstream text;
   text << in.rdbuf();
-  OptionTable table(config);
   std::string reason;
-  if (!table.Apply(text.str(), &reason) || !ValidateConfig(*config, &reason)) {
+  if (!ParseConfigYaml(text.str(), config, &reason)) {
     *error = path + ": " + reason;
     return false;
   }
   return true;
+}
+
+bool ParseConfigYaml(const std::string& yaml_text, AppConfig* config, std::string* error) {
+  OptionTable table(config);
+  return table.Apply(yaml_text, error) && ValidateConfig(*config, error);
 }
 
 }  // namespace monoplane::app

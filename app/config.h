@@ -92,8 +92,10 @@ class OptionTable {
   AppConfig* config_;
 };
 
-// Reads a config file into *config (starting from its current values) and validates every
-// module's options. Errors name the file, the key and the reason.
+// Applies a config document to *config (starting from its current values) and validates every
+// module's options. Errors name the key and the reason.
+bool ParseConfigYaml(const std::string& yaml_text, AppConfig* config, std::string* error);
+// Reads a config file the same way. Errors start with the file's path.
 bool LoadConfigFile(const std::string& path, AppConfig* config, std::string* error);
 bool ValidateConfig(const AppConfig& config, std::string* error);
 

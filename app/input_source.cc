@@ -13,6 +13,8 @@
 #include <sstream>
 #include <vector>
 
+#include "app/times_file.h"
+
 namespace monoplane::app {
 namespace {
 
@@ -114,45 +116,6 @@ class VideoSource : public InputSource {
   std::string description_;
 };
 
-// "<seconds> <relative path>" per line; '#' comments (TUM's rgb.txt has the same layout).
-bool ReadTimesFile(const fs::path& file, const fs::path& base,
-                   std::vector<std::pair<TimestampNs, std::string>>* frames, std::string* error) {
-  std::ifstream in(file);
-  if (!in) {
-    *error = file.string() + ": cannot open";
-    return false;
-  }
-  std::string line;
-  int line_number = 0;
-  while (std::getline(in, line)) {
-    ++line_number;
-    if (line.empty() || line[0] == '#') continue;
-    std::istringstream fields(line);
-    double seconds = 0;
-    std::string path;
-    const std::string where = file.string() + ":" + std::to_string(line_number);
-    if (!(fields >> seconds >> path)) {
-      *error = where + ": expected '<seconds> <image path>'";
-      return false;
-    }
-    // Stamps become int64 nanoseconds (up to 9.2e9 s) and order the frames: each must be a time
-    // and come after the one before.
-    if (!(seconds >= 0.0 && seconds <= 9e9)) {
-      *error = where + ": time " + line.substr(0, line.find_first_of(" \t")) +
-               " s: must be in [0, 9e9] seconds";
-      return false;
-    }
-    const TimestampNs stamp = SecondsToNs(seconds);
-    if (!frames->empty() && stamp <= frames->back().first) {
-      *error = where + ": time " + std::to_string(seconds) +
-               " s does not come after the previous frame's (times must increase)";
-      return false;
-    }
-    frames->emplace_back(stamp, (base / path).string());
-  }
-  return true;
-}
-
 // KITTI raw timestamps: "2011-09-26 13:02:25.964389445" per line.
 bool ReadKittiTimestamps(const fs::path& file, std::vector<TimestampNs>* stamps) {
   std::ifstream in(file);
@@ -240,7 +203,7 @@ std::unique_ptr<InputSource> OpenInput(const std::string& path, const InputOptio
     return std::make_unique<ImageListSource>(std::move(frames), "", "KITTI drive " + path);
   }
   if (fs::is_regular_file(p / "rgb.txt", ec)) {
-    if (!ReadTimesFile(p / "rgb.txt", p, &frames, error)) return nullptr;
+    if (!ReadTimesFile((p / "rgb.txt").string(), p.string(), &frames, error)) return nullptr;
     if (frames.empty()) {
       *error = path + ": rgb.txt lists no images";
       return nullptr;
@@ -251,7 +214,7 @@ std::unique_ptr<InputSource> OpenInput(const std::string& path, const InputOptio
   const fs::path calib = p / "calib.yaml";
   const std::string calib_path = fs::exists(calib, ec) ? calib.string() : "";
   if (fs::is_regular_file(p / "times.txt", ec)) {
-    if (!ReadTimesFile(p / "times.txt", p, &frames, error)) return nullptr;
+    if (!ReadTimesFile((p / "times.txt").string(), p.string(), &frames, error)) return nullptr;
   } else {
     std::vector<std::string> files;
     for (const auto& e : fs::directory_iterator(images_dir, ec)) {

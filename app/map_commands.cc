@@ -277,8 +277,8 @@ int QueryCommand(const QueryArgs& args, const std::string& kind) {
     for (std::size_t k = 0; k + 1 < args.path.size(); k += 2) {
       path.emplace_back(args.path[k], args.path[k + 1]);
     }
-    const std::string problem = PathQueryProblem(path, args.radius_m, grid.resolution_m());
-    if (!problem.empty()) return Fail("query", "path: " + problem);
+    const std::string path_problem = PathQueryProblem(path, args.radius_m, grid.resolution_m());
+    if (!path_problem.empty()) return Fail("query", "path: " + path_problem);
     const QueryBox box = PathQueryBox(path, args.radius_m + grid.resolution_m());
     st = db->LoadTilesInBox(box.min_m, box.max_m, &grid);
     if (!st.ok()) return Fail("query", st.message(), ExitFor(st));

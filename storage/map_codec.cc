@@ -82,9 +82,26 @@ bool EncodeLocalMapCells(const OccupancyGrid& grid, int png_compression,
 
 bool DecodeLocalMapCells(const std::uint8_t* data, std::size_t size, OccupancyGrid* grid,
                          std::string* error) {
+  const GridGeometry& g = grid->geometry;
+  // The PNG header's size is checked before decoding, so that a damaged blob cannot make the
+  // decoder allocate for an image of any size it declares.
+  static constexpr std::uint8_t kPngSignature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1A, '\n'};
+  const auto be32 = [data](std::size_t at) {
+    return (std::uint32_t{data[at]} << 24) | (std::uint32_t{data[at + 1]} << 16) |
+           (std::uint32_t{data[at + 2]} << 8) | std::uint32_t{data[at + 3]};
+  };
+  if (size < 24 || std::memcmp(data, kPngSignature, sizeof(kPngSignature)) != 0 ||
+      std::memcmp(data + 12, "IHDR", 4) != 0) {
+    *error = "local map blob is not a PNG";
+    return false;
+  }
+  if (g.width <= 0 || g.height <= 0 || be32(16) != static_cast<std::uint32_t>(g.width) ||
+      be32(20) != static_cast<std::uint32_t>(g.height)) {
+    *error = "local map blob does not match its stored size";
+    return false;
+  }
   cv::Mat image;
   if (!DecodePng(data, size, &image, error)) return false;
-  const GridGeometry& g = grid->geometry;
   if (image.type() != CV_8UC1 || image.cols != g.width || image.rows != g.height) {
     *error = "local map blob does not match its stored size";
     return false;
@@ -164,6 +181,11 @@ bool EncodeTile(const TiledGrid::Tile& tile, int compression_level, EncodedTile*
 
 bool DecodeTile(const std::uint8_t* data, std::size_t size, TimestampNs base_ns,
                 TiledGrid::Tile* tile, std::string* error) {
+  // Stamps are base_ns plus up to 2^32 ms; a base outside [0, 2^62] ns comes from a damaged file.
+  if (base_ns < 0 || base_ns > (std::int64_t{1} << 62)) {
+    *error = "tile base stamp " + std::to_string(base_ns) + " ns is out of range";
+    return false;
+  }
   std::vector<std::uint8_t> raw(kTileBytes);
   uLongf raw_size = kTileBytes;
   if (uncompress(raw.data(), &raw_size, data, static_cast<uLong>(size)) != Z_OK ||

@@ -106,5 +106,24 @@ TEST(FloorFeaturesCodec, RefusesInconsistentFeaturesAndDamagedBlobs) {
   EXPECT_TRUE(SameFloorFeatures(out, good));
 }
 
+// A damaged file can hold any base stamp: the cells' stamps (base + up to 2^32 ms) must not
+// overflow (found by map_codec_fuzz under UBSan).
+TEST(TileCodec, RefusesABaseStampThatWouldOverflow) {
+  TiledGrid::Tile tile;
+  tile.log_odds[5] = 2.0f;
+  tile.last_seen_ns[5] = 3'000'000'000;
+  EncodedTile encoded;
+  std::string error;
+  ASSERT_TRUE(EncodeTile(tile, 1, &encoded, &error)) << error;
+  TiledGrid::Tile decoded;
+  EXPECT_TRUE(
+      DecodeTile(encoded.data.data(), encoded.data.size(), encoded.base_ns, &decoded, &error));
+  EXPECT_EQ(decoded.last_seen_ns[5], 3'000'000'000);
+  for (const std::int64_t base : {std::numeric_limits<std::int64_t>::max() - 5, std::int64_t{-1}}) {
+    EXPECT_FALSE(DecodeTile(encoded.data.data(), encoded.data.size(), base, &decoded, &error));
+    EXPECT_NE(error.find("out of range"), std::string::npos) << error;
+  }
+}
+
 }  // namespace
 }  // namespace monoplane

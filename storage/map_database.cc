@@ -14,6 +14,7 @@
 #include <cstdio>
 #include <cstring>
 #include <fstream>
+#include <limits>
 
 #include "storage/map_codec.h"
 
@@ -84,6 +85,11 @@ namespace {
 
 // How grid_tiles.data is encoded (see map_codec.h).
 constexpr const char* kTileEncoding = "zplanes16x4";
+// What a stored grid's cell size and a local map's side can be; other values come from a damaged
+// file (and would overflow cell indices or allocate without bound).
+constexpr double kMinStoredResolutionM = 1e-4;
+constexpr double kMaxStoredResolutionM = 100.0;
+constexpr int kMaxLocalMapSide = 1 << 14;
 
 // "MONP" in the SQLite header's application_id field marks a monoplane map.
 constexpr std::int32_t kApplicationId = 0x4D4F4E50;
@@ -431,7 +437,13 @@ struct MapDatabase::Impl {
     if (st.ok()) st = Step(s, &row, "reading the grid");
     if (!st.ok()) return st;
     grid_resolution_m.reset();
-    if (row) grid_resolution_m = sqlite3_column_double(s.get(), 0);
+    if (!row) return {};
+    const double res = sqlite3_column_double(s.get(), 0);
+    if (!(res >= kMinStoredResolutionM && res <= kMaxStoredResolutionM)) {
+      return Error(StorageErrorKind::kCorrupt,
+                   "the grid's resolution " + std::to_string(res) + " m is not a cell size");
+    }
+    grid_resolution_m = res;
     return {};
   }
 
@@ -453,8 +465,16 @@ struct MapDatabase::Impl {
   StorageStatus InTransaction(std::int64_t run_id, const char* context, Fn&& fn);
 
   StorageStatus DecodeTileRow(const Statement& s, TiledGrid* grid) {
-    const int tx = sqlite3_column_int(s.get(), 0);
-    const int ty = sqlite3_column_int(s.get(), 1);
+    const std::int64_t tx64 = sqlite3_column_int64(s.get(), 0);
+    const std::int64_t ty64 = sqlite3_column_int64(s.get(), 1);
+    // Cell indices of every tile must fit an int with room to spare.
+    constexpr std::int64_t kMaxTileIndex =
+        std::numeric_limits<int>::max() / TiledGrid::kTileSize - 1;
+    if (std::abs(tx64) > kMaxTileIndex || std::abs(ty64) > kMaxTileIndex) {
+      return Error(StorageErrorKind::kCorrupt, "tile (" + std::to_string(tx64) + ", " +
+                                                   std::to_string(ty64) + ") is out of range");
+    }
+    const int tx = static_cast<int>(tx64), ty = static_cast<int>(ty64);
     const TimestampNs base_ns = sqlite3_column_int64(s.get(), 2);
     const auto* data = static_cast<const std::uint8_t*>(sqlite3_column_blob(s.get(), 3));
     const std::size_t size = static_cast<std::size_t>(sqlite3_column_bytes(s.get(), 3));
@@ -1056,6 +1076,12 @@ StorageStatus MapDatabase::ReadLocalMap(std::int64_t run_id, std::int64_t frame_
   g.origin_y_m = sqlite3_column_double(s.get(), 2);
   g.width = sqlite3_column_int(s.get(), 3);
   g.height = sqlite3_column_int(s.get(), 4);
+  if (!(g.resolution_m >= kMinStoredResolutionM && g.resolution_m <= kMaxStoredResolutionM) ||
+      !std::isfinite(g.origin_x_m) || !std::isfinite(g.origin_y_m) || g.width <= 0 ||
+      g.height <= 0 || g.width > kMaxLocalMapSide || g.height > kMaxLocalMapSide) {
+    return impl_->Error(StorageErrorKind::kCorrupt,
+                        "local map of " + which + " has a damaged geometry");
+  }
   local_map_in_base->geometry = g;
   const auto* data = static_cast<const std::uint8_t*>(sqlite3_column_blob(s.get(), 5));
   std::string error;

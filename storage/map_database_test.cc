@@ -523,6 +523,41 @@ TEST(MapDatabase, DamagedTileBlobIsReportedAsCorrupt) {
   EXPECT_EQ(db->LoadTilesInBox({0.0, 0.0}, {0.1, 0.1}, &cache).kind(), StorageErrorKind::kCorrupt);
 }
 
+// Values a damaged file can hold that would overflow cell indices or allocate without bound
+// (found by map_file_fuzz): refused as corruption, nothing read from them.
+TEST(MapDatabase, DamagedGeometryIsReportedAsCorrupt) {
+  TempDir dir;
+  const std::string resolution = dir.File("resolution.db");
+  MakeSmallMap(resolution);
+  RawExec(resolution, "UPDATE grid_tiles SET resolution_m = 0");
+  ExpectRefused(resolution, OpenMode::kReadOnly, StorageErrorKind::kCorrupt,
+                "the grid's resolution 0.000000 m is not a cell size");
+
+  const std::string tile = dir.File("tile.db");
+  MakeSmallMap(tile);
+  RawExec(tile, "UPDATE grid_tiles SET tx = 1099511627776 WHERE tx = 0 AND ty = 0");
+  auto db = MustOpen(tile, OpenMode::kReadOnly);
+  ASSERT_TRUE(db);
+  TiledGrid grid;
+  const StorageStatus st = db->LoadTiledGrid(&grid);
+  EXPECT_EQ(st.kind(), StorageErrorKind::kCorrupt);
+  EXPECT_NE(st.message().find("tile (1099511627776, 0) is out of range"), std::string::npos)
+      << st.message();
+
+  const std::string local = dir.File("local.db");
+  MakeSmallMap(local);
+  RawExec(local, "UPDATE local_maps SET width = 1000000000 WHERE frame_index = 1");
+  db = MustOpen(local, OpenMode::kReadOnly);
+  ASSERT_TRUE(db);
+  OccupancyGrid local_map;
+  EXPECT_TRUE(db->ReadLocalMap(1, 0, &local_map).ok());
+  const StorageStatus bad = db->ReadLocalMap(1, 1, &local_map);
+  EXPECT_EQ(bad.kind(), StorageErrorKind::kCorrupt);
+  EXPECT_NE(bad.message().find("local map of run 1 frame 1 has a damaged geometry"),
+            std::string::npos)
+      << bad.message();
+}
+
 TEST(MapDatabase, RefusesANewerSchemaWithItsVersion) {
   TempDir dir;
   const std::string path = dir.File("map.db");

@@ -16,6 +16,9 @@ packages=(
   libspdlog-dev
   libgtest-dev libgmock-dev
   libbenchmark-dev
+  # Test only: clang's libFuzzer and sanitizers build the fuzz targets (the fuzz preset), which the
+  # test suite runs for a fixed number of inputs.
+  clang libclang-rt-dev
 )
 
 missing=()

@@ -99,7 +99,12 @@ class MapReader {
   void RejectUnknown(const std::set<std::string>& known) {
     if (!ok()) return;
     for (const auto& kv : node_) {
-      const std::string key = kv.first.as<std::string>();
+      if (!kv.first.IsScalar()) {
+        error_ = (path_.empty() ? "" : path_ + ": ") + "keys must be names (got a key that is " +
+                 Describe(kv.first) + ")";
+        return;
+      }
+      const std::string key = kv.first.Scalar();
       if (!known.count(key)) {
         std::string list;
         for (const auto& k : known) list += (list.empty() ? "" : ", ") + k;
@@ -378,16 +383,16 @@ bool ParseCalibrationYaml(const std::string& yaml_text, CameraCalibration* calib
     *error = std::move(duplicate);
     return false;
   }
-  MapReader reader(root, "");
-  reader.RejectUnknown({"camera", "mount"});
-  const YAML::Node camera = reader.Map("camera");
-  const YAML::Node mount = reader.Map("mount");
-  if (!reader.ok()) {
-    *error = reader.error();
-    return false;
-  }
   CameraCalibration parsed;
   try {
+    MapReader reader(root, "");
+    reader.RejectUnknown({"camera", "mount"});
+    const YAML::Node camera = reader.Map("camera");
+    const YAML::Node mount = reader.Map("mount");
+    if (!reader.ok()) {
+      *error = reader.error();
+      return false;
+    }
     if (!ParseCameraSection(camera, &parsed.intrinsics, error)) return false;
     if (!ParseMountSection(mount, &parsed.mount, error)) return false;
   } catch (const YAML::Exception& e) {

@@ -147,6 +147,7 @@ INSTANTIATE_TEST_SUITE_P(
                       BadCase{"missing_fx.yaml", "camera.fx:", "missing key"},
                       BadCase{"unknown_camera_key.yaml", "camera.fz:", "unknown key"},
                       BadCase{"unknown_top_key.yaml", "robot:", "unknown key"},
+                      BadCase{"list_key.yaml", "camera:", "keys must be names"},
                       BadCase{"unknown_mount_key.yaml", "mount.z:", "unknown key"},
                       BadCase{"fx_zero.yaml", "camera.fx:", "must be > 0"},
                       BadCase{"fy_negative.yaml", "camera.fy:", "must be > 0"},
