@@ -1,18 +1,18 @@
-# Fails when a C++ source of the project is not formatted as .clang-format says (run by ctest as
-# tests/format; skipped when clang-format is not installed). Fix with:
+# Fails when a C++ source of the project is not formatted as .clang-format says, or when
+# clang-format is missing (tools/setup.sh installs it; run by ctest as tests/format). Fix with:
 #   clang-format -i $(git ls-files '*.cc' '*.h' | grep -v '^tests/data/')
 #   cmake -DROOT=<source dir> -P tools/check_format.cmake
 find_program(CLANG_FORMAT NAMES clang-format clang-format-14)
 if(NOT CLANG_FORMAT)
-  message("clang-format not found: format check skipped")
-  return()
+  message(FATAL_ERROR "clang-format not found: install it (tools/setup.sh does)")
 endif()
 set(files)
 foreach(dir app mapping perception storage interfaces tests tools)
   file(GLOB_RECURSE found ${ROOT}/${dir}/*.cc ${ROOT}/${dir}/*.h)
   list(APPEND files ${found})
 endforeach()
-list(FILTER files EXCLUDE REGEX "/tests/data/")
+# Test data under the root is not checked (it may be unformatted on purpose).
+list(FILTER files EXCLUDE REGEX "^${ROOT}/tests/data/")
 set(unformatted)
 foreach(f ${files})
   execute_process(COMMAND ${CLANG_FORMAT} --style=file --dry-run --Werror ${f}

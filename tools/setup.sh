@@ -17,8 +17,8 @@ packages=(
   libgtest-dev libgmock-dev
   libbenchmark-dev
   # Test only: clang's libFuzzer and sanitizers build the fuzz targets (the fuzz preset), which the
-  # test suite runs for a fixed number of inputs.
-  clang libclang-rt-dev
+  # test suite runs for a fixed number of inputs; clang-format checks the sources' format.
+  clang libclang-rt-dev clang-format
 )
 
 missing=()
