@@ -28,6 +28,7 @@ struct RunCli {
   // As given on the command line; unset (NaN, the lowest value) when not given.
   double fps = std::numeric_limits<double>::quiet_NaN();
   long long max_frames = std::numeric_limits<long long>::min();
+  long long domain_id = std::numeric_limits<long long>::min();
 };
 
 void PrintPercent(const char* name, const std::optional<double>& v) {
@@ -146,6 +147,15 @@ int RunCommand(RunCli* cli) {
     std::cerr << "monoplane run: " << error << "\n";
     return kExitBadInput;
   }
+  if (cli->domain_id != std::numeric_limits<long long>::min()) {
+    // As `serve` and `echo` take it; the command line wins over the config's dds.domain_id.
+    if (cli->domain_id < 0 || cli->domain_id > 232) {
+      std::cerr << "monoplane run: --domain " << cli->domain_id << ": must be in [0, 232]\n";
+      return kExitBadInput;
+    }
+    cli->request.config.dds.publisher.domain_id = static_cast<int>(cli->domain_id);
+    cli->request.publish = true;
+  }
   if (!ValidateConfig(cli->request.config, &error)) {
     std::cerr << "monoplane run: " << error << "\n";
     return kExitBadInput;
@@ -237,6 +247,8 @@ void RegisterRunCommand(CLI::App* app, int* exit_code) {
   cmd->add_flag("--scale-calibration", cli.request.scale_calibration,
                 "Scale the intrinsics when the images are another size than the calibration");
   cmd->add_flag("--publish", cli.request.publish, "Publish over DDS while mapping");
+  cmd->add_option("--domain", cli.domain_id,
+                  "DDS domain id, 0-232 (implies --publish; default: config dds.domain_id, 0)");
   cmd->add_flag("--quiet,-q", cli.request.quiet, "Only errors and the summary");
   cmd->add_flag("--verbose,-v", cli.verbose, "Debug log lines");
   cmd->callback([exit_code] { *exit_code = RunCommand(&cli); });
