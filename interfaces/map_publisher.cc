@@ -250,6 +250,7 @@ PublishStatus MapPublisher::PublishMapUpdate(const OccupancyGrid& grid_in_map,
 
 PublishStatus MapPublisher::PublishPose(const Pose2& map_from_odom, const Pose2& odom_from_base,
                                         TimestampNs stamp_ns, const Velocity2& velocity_in_base,
+                                        const OdometryUncertainty& uncertainty,
                                         std::string* error) {
   const Options& o = impl_->options;
   nav_msgs_msg_dds__Odometry_ odom{};
@@ -259,7 +260,15 @@ PublishStatus MapPublisher::PublishPose(const Pose2& map_from_odom, const Pose2&
   odom.pose.pose.orientation = YawQuaternion(odom_from_base.yaw);
   odom.twist.twist.linear = {velocity_in_base.vx_mps, velocity_in_base.vy_mps, 0.0};
   odom.twist.twist.angular = {0.0, 0.0, velocity_in_base.wz_radps};
-  // Covariances stay 0 (unknown), as many ROS 2 odometry sources publish.
+  // Row-major 6x6 over (x, y, z, rotation about x, y, z); all 0 when the uncertainty is unknown.
+  const auto fill = [](double* covariance, double planar_sigma, double yaw_sigma) {
+    if (planar_sigma <= 0.0 && yaw_sigma <= 0.0) return;
+    covariance[0] = covariance[7] = planar_sigma * planar_sigma;
+    covariance[14] = covariance[21] = covariance[28] = kUnmeasuredVariance;
+    covariance[35] = yaw_sigma * yaw_sigma;
+  };
+  fill(odom.pose.covariance, uncertainty.position_m, uncertainty.yaw_rad);
+  fill(odom.twist.covariance, uncertainty.linear_mps, uncertainty.angular_radps);
   const PublishStatus odom_status = impl_->Write(kOdom, &odom, error);
 
   geometry_msgs_msg_dds__TransformStamped_ transforms[2] = {

@@ -40,6 +40,17 @@ struct Velocity2 {
   double wz_radps = 0.0;
 };
 
+// Standard deviations of an odometry estimate (rt/odom's covariances), SI units. All 0: unknown
+// (the covariances stay 0, as ROS reads them). z, roll and pitch are not measured by a planar
+// odometry: their variances are then kUnmeasuredVariance, as ROS 2's diff_drive_controller writes.
+struct OdometryUncertainty {
+  double position_m = 0.0;  // x and y, each
+  double yaw_rad = 0.0;
+  double linear_mps = 0.0;     // vx and vy, each
+  double angular_radps = 0.0;  // wz
+};
+inline constexpr double kUnmeasuredVariance = 1e6;
+
 // Counters per topic, since creation.
 struct PublishStats {
   std::int64_t sent = 0;
@@ -97,6 +108,7 @@ class MapPublisher {
   // Returns the worse status of the two writes.
   PublishStatus PublishPose(const Pose2& map_from_odom, const Pose2& odom_from_base,
                             TimestampNs stamp_ns, const Velocity2& velocity_in_base = {},
+                            const OdometryUncertainty& uncertainty = {},
                             std::string* error = nullptr);
   // The per-frame local grid in base_link on rt/monoplane/local_map.
   PublishStatus PublishLocalMap(const OccupancyGrid& grid_in_base, TimestampNs stamp_ns,

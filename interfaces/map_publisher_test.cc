@@ -188,9 +188,9 @@ TEST(MapPublisherTest, MapLocalMapUpdateOdomAndTfRoundTrip) {
   ASSERT_EQ(publisher->PublishMapUpdate(changed, *region, stamp + 2, &error), PublishStatus::kSent);
   const Pose2 map_from_odom{1.0, -2.0, 0.3};
   const Pose2 odom_from_base{0.5, 0.25, -1.2};
-  ASSERT_EQ(
-      publisher->PublishPose(map_from_odom, odom_from_base, stamp + 3, {0.2, 0.0, 0.1}, &error),
-      PublishStatus::kSent)
+  ASSERT_EQ(publisher->PublishPose(map_from_odom, odom_from_base, stamp + 3, {0.2, 0.0, 0.1},
+                                   {0.03, 0.01, 0.02, 0.005}, &error),
+            PublishStatus::kSent)
       << error;
 
   auto got_map = map_sub->Take(10.0, &error);
@@ -230,6 +230,16 @@ TEST(MapPublisherTest, MapLocalMapUpdateOdomAndTfRoundTrip) {
   EXPECT_EQ(got_odom->child_frame_id, "base_link");
   EXPECT_NEAR(got_odom->pose.x, 0.5, 1e-12);
   EXPECT_NEAR(got_odom->pose.yaw, -1.2, 1e-12);
+  EXPECT_DOUBLE_EQ(got_odom->twist.vx_mps, 0.2);
+  EXPECT_DOUBLE_EQ(got_odom->twist.wz_radps, 0.1);
+  // Planar covariances: x, y and yaw measured; z, roll and pitch marked unmeasured.
+  EXPECT_DOUBLE_EQ(got_odom->pose_covariance[0], 0.03 * 0.03);
+  EXPECT_DOUBLE_EQ(got_odom->pose_covariance[7], 0.03 * 0.03);
+  EXPECT_DOUBLE_EQ(got_odom->pose_covariance[14], kUnmeasuredVariance);
+  EXPECT_DOUBLE_EQ(got_odom->pose_covariance[35], 0.01 * 0.01);
+  EXPECT_DOUBLE_EQ(got_odom->twist_covariance[0], 0.02 * 0.02);
+  EXPECT_DOUBLE_EQ(got_odom->twist_covariance[35], 0.005 * 0.005);
+  EXPECT_DOUBLE_EQ(got_odom->twist_covariance[1], 0.0);
 
   auto got_tf = tf_sub->Take(10.0, &error);
   ASSERT_TRUE(got_tf) << error;

@@ -2,9 +2,11 @@
 
 #include <dds/dds.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <iterator>
 #include <utility>
 
 #include "idl/map_msgs.h"
@@ -55,6 +57,11 @@ void Convert(const nav_msgs_msg_dds__Odometry_& msg, ReceivedMessage* out) {
   out->child_frame_id = msg.child_frame_id ? msg.child_frame_id : "";
   out->pose = {msg.pose.pose.position.x, msg.pose.pose.position.y,
                YawOf(msg.pose.pose.orientation)};
+  out->twist = {msg.twist.twist.linear.x, msg.twist.twist.linear.y, msg.twist.twist.angular.z};
+  std::copy(std::begin(msg.pose.covariance), std::end(msg.pose.covariance),
+            out->pose_covariance.begin());
+  std::copy(std::begin(msg.twist.covariance), std::end(msg.twist.covariance),
+            out->twist_covariance.begin());
 }
 
 void Convert(const tf2_msgs_msg_dds__TFMessage_& msg, ReceivedMessage* out) {
@@ -123,7 +130,10 @@ std::string Summarize(const ReceivedMessage& m) {
       break;
     case MessageKind::kOdometry:
       s += " child=" + m.child_frame_id +
-           Format(" pose=(%.3f,%.3f,%.3f)", m.pose.x, m.pose.y, m.pose.yaw);
+           Format(" pose=(%.3f,%.3f,%.3f)", m.pose.x, m.pose.y, m.pose.yaw) +
+           Format(" twist=(%.3f,%.3f,%.3f)", m.twist.vx_mps, m.twist.vy_mps, m.twist.wz_radps) +
+           Format(" sigma=(%.3f,%.3f,%.3f)", std::sqrt(m.pose_covariance[0]),
+                  std::sqrt(m.pose_covariance[7]), std::sqrt(m.pose_covariance[35]));
       break;
     case MessageKind::kTf:
       s += " transforms=" + std::to_string(m.transforms.size());

@@ -1,5 +1,6 @@
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <memory>
 #include <optional>
@@ -7,6 +8,7 @@
 #include <vector>
 
 #include "interfaces/dds_entities.h"
+#include "interfaces/map_publisher.h"
 #include "perception/geometry/occupancy_grid.h"
 #include "perception/geometry/pose2.h"
 #include "perception/geometry/timestamp.h"
@@ -44,6 +46,8 @@ struct ReceivedMessage {
   // Odometry: parent_from_child of frame_id -> child_frame_id.
   std::string child_frame_id;
   Pose2 pose;
+  Velocity2 twist;  // in child_frame_id
+  std::array<double, 36> pose_covariance{}, twist_covariance{};
   std::vector<StampedTransform> transforms;  // tf
 };
 
