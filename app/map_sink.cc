@@ -86,11 +86,12 @@ StorageStatus LoadSavedKeyframes(MapDatabase* db, std::vector<Keyframe>* keyfram
 struct MapSink::Impl {
   using Job = std::function<bool(std::string* error)>;
 
-  Impl(const CameraCalibration& c, const RunRequest& r, RunSummary* s)
-      : calibration(c), request(r), summary(s) {}
+  Impl(const CameraCalibration& c, const RunRequest& r, bool recorded, RunSummary* s)
+      : calibration(c), request(r), recorded_input(recorded), summary(s) {}
 
   CameraCalibration calibration;
   const RunRequest& request;
+  bool recorded_input;
   RunSummary* summary;
 
   std::unique_ptr<Mapper> mapper;
@@ -244,8 +245,8 @@ struct MapSink::Impl {
 };
 
 MapSink::MapSink(const CameraCalibration& calibration, const RunRequest& request,
-                 RunSummary* summary)
-    : impl_(std::make_unique<Impl>(calibration, request, summary)) {}
+                 bool recorded_input, RunSummary* summary)
+    : impl_(std::make_unique<Impl>(calibration, request, recorded_input, summary)) {}
 
 MapSink::~MapSink() {
   if (impl_->writer.joinable()) {
@@ -308,7 +309,9 @@ bool MapSink::Open(std::string* error) {
     }
   }
   if (m.request.publish) {
-    m.publisher = interfaces::MapPublisher::Create(config.dds.publisher, error);
+    interfaces::MapPublisher::Options publisher_options = config.dds.publisher;
+    publisher_options.publish_clock = m.recorded_input;
+    m.publisher = interfaces::MapPublisher::Create(publisher_options, error);
     if (!m.publisher) {
       *error = "DDS: " + *error;
       return false;
@@ -394,6 +397,8 @@ bool MapSink::Add(const InputFrame& frame, const SequenceDetector::Output& outpu
                velocity = velocity, uncertainty = uncertainty,
                local_map = std::move(local_map)](std::string* e) {
       // Dropped samples (a full reader backlog) are counted by the publisher; only errors stop.
+      // The clock first: a use_sim_time node then has reached the stamp when the pose arrives.
+      if (m.publisher->PublishClock(stamp, e) == interfaces::PublishStatus::kError) return false;
       if (m.publisher->PublishPose(map_from_odom, odom, stamp, velocity, uncertainty, e) ==
           interfaces::PublishStatus::kError)
         return false;

@@ -141,7 +141,7 @@ int Run(const RunRequest& request, RunSummary* summary) {
   // The pipeline's own threads keep both cores busy; OpenCV's worker threads inside them only add
   // scheduling (and its per-task overhead: SLIC runs one task per superpixel).
   cv::setNumThreads(1);
-  MapSink sink(calibration, request, summary);
+  MapSink sink(calibration, request, !source->is_live(), summary);
   if (!sink.Open(&error)) {
     std::cerr << "monoplane run: " << error << "\n";
     return kExitBadInput;

@@ -58,7 +58,10 @@ struct RunSummary {
 // The end of the pipeline: mapping, the map database and DDS. Runs on the caller's thread.
 class MapSink {
  public:
-  MapSink(const CameraCalibration& calibration, const RunRequest& request, RunSummary* summary);
+  // recorded_input: the frames come from files (not a live camera), so their stamps are not wall
+  // time; with --publish rt/clock then carries them for ROS 2 nodes with use_sim_time.
+  MapSink(const CameraCalibration& calibration, const RunRequest& request, bool recorded_input,
+          RunSummary* summary);
   ~MapSink();
   bool Open(std::string* error);
   // `detector` computes the floor features the output left to the caller (defer_floor_features),

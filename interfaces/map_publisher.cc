@@ -9,6 +9,7 @@
 
 #include "idl/map_msgs.h"
 #include "idl/nav_msgs.h"
+#include "idl/rosgraph_msgs.h"
 #include "idl/tf2_msgs.h"
 
 namespace monoplane::interfaces {
@@ -65,7 +66,7 @@ bool MapPublisher::Options::IsValid(std::string* error) const {
 
 namespace {
 
-enum Endpoint { kMap = 0, kMapUpdates, kOdom, kTf, kLocalMap, kNumEndpoints };
+enum Endpoint { kMap = 0, kMapUpdates, kOdom, kTf, kLocalMap, kClock, kNumEndpoints };
 
 std_msgs_msg_dds__Header_ MakeHeader(TimestampNs stamp_ns, const std::string& frame) {
   std_msgs_msg_dds__Header_ header{};
@@ -183,8 +184,12 @@ std::unique_ptr<MapPublisher> MapPublisher::Create(const Options& options, std::
       {&nav_msgs_msg_dds__OccupancyGrid__desc,
        "monoplane/local_map",
        {true, Durability::kVolatile, false, options.local_map_history_depth, max_blocking_ns, -1}},
+      {&rosgraph_msgs_msg_dds__Clock__desc,
+       "clock",
+       {true, Durability::kVolatile, false, 1, max_blocking_ns, -1}},
   };
   for (int i = 0; i < kNumEndpoints; ++i) {
+    if (i == kClock && !options.publish_clock) continue;
     const std::string name = RosTopicName(options.topic_prefix, specs[i].name);
     const dds_entity_t topic = CreateTopic(impl->participant, specs[i].descriptor, name, error);
     if (topic <= 0) return nullptr;
@@ -195,6 +200,7 @@ std::unique_ptr<MapPublisher> MapPublisher::Create(const Options& options, std::
     }
   }
   for (int i = 0; i < kNumEndpoints; ++i) {
+    if (impl->writers[i] == 0) continue;  // rt/clock when not asked for
     impl->match_waitsets[i] = dds_create_waitset(impl->participant);
     dds_set_status_mask(impl->writers[i], DDS_PUBLICATION_MATCHED_STATUS);
     const dds_return_t rc = impl->match_waitsets[i] < 0
@@ -286,6 +292,15 @@ PublishStatus MapPublisher::PublishPose(const Pose2& map_from_odom, const Pose2&
   return Worse(odom_status, tf_status);
 }
 
+PublishStatus MapPublisher::PublishClock(TimestampNs stamp_ns, std::string* error) {
+  if (impl_->writers[kClock] == 0) return PublishStatus::kSent;
+  rosgraph_msgs_msg_dds__Clock_ msg{};
+  const RosTime t = ToRosTime(stamp_ns);
+  msg.clock.sec = t.sec;
+  msg.clock.nanosec = t.nanosec;
+  return impl_->Write(kClock, &msg, error);
+}
+
 PublishStatus MapPublisher::PublishLocalMap(const OccupancyGrid& grid_in_base, TimestampNs stamp_ns,
                                             std::string* error) {
   return impl_->WriteGrid(kLocalMap, grid_in_base, stamp_ns, impl_->options.base_frame, error);
@@ -293,7 +308,9 @@ PublishStatus MapPublisher::PublishLocalMap(const OccupancyGrid& grid_in_base, T
 
 std::vector<EndpointInfo> MapPublisher::Endpoints() const {
   std::vector<EndpointInfo> out;
-  for (dds_entity_t writer : impl_->writers) out.push_back(ReadEndpointInfo(writer));
+  for (dds_entity_t writer : impl_->writers) {
+    if (writer != 0) out.push_back(ReadEndpointInfo(writer));
+  }
   return out;
 }
 

@@ -66,6 +66,7 @@ struct PublishStats {
 //   10 rt/odom                  nav_msgs/Odometry odom -> base_link; reliable, volatile, keep-last
 //   10 rt/tf                    tf2_msgs/TFMessage map -> odom and odom -> base_link; reliable,
 //                            volatile, keep-last 100 (tf2's broadcaster QoS)
+//   rt/clock                 rosgraph_msgs/Clock, with Options::publish_clock
 //   rt/monoplane/local_map   nav_msgs/OccupancyGrid in base_link, one per frame; reliable,
 //                            volatile, keep-last `local_map_history_depth` (default 1: a reader
 //                            that falls behind gets the newest local map, not a backlog)
@@ -83,6 +84,9 @@ class MapPublisher {
     // max_blocking_time), seconds, [0, 1]. After it the sample is dropped and counted.
     double max_blocking_time_s = 0.005;
     int local_map_history_depth = 1;  // keep-last depth of rt/monoplane/local_map, [1, 100]
+    // Also publish rt/clock (rosgraph_msgs/Clock, reliable, volatile, keep-last 1), the time of
+    // recorded input, for ROS 2 nodes with use_sim_time (tf2 then accepts the stamps).
+    bool publish_clock = false;
 
     bool IsValid(std::string* error) const;
   };
@@ -110,6 +114,8 @@ class MapPublisher {
                             TimestampNs stamp_ns, const Velocity2& velocity_in_base = {},
                             const OdometryUncertainty& uncertainty = {},
                             std::string* error = nullptr);
+  // rt/clock at stamp_ns (with Options::publish_clock; kSent and nothing written otherwise).
+  PublishStatus PublishClock(TimestampNs stamp_ns, std::string* error = nullptr);
   // The per-frame local grid in base_link on rt/monoplane/local_map.
   PublishStatus PublishLocalMap(const OccupancyGrid& grid_in_base, TimestampNs stamp_ns,
                                 std::string* error = nullptr);

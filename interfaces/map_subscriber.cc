@@ -11,6 +11,7 @@
 
 #include "idl/map_msgs.h"
 #include "idl/nav_msgs.h"
+#include "idl/rosgraph_msgs.h"
 #include "idl/tf2_msgs.h"
 
 namespace monoplane::interfaces {
@@ -115,6 +116,7 @@ std::string CellCounts(const std::vector<int8_t>& cells) {
 }  // namespace
 
 std::string Summarize(const ReceivedMessage& m) {
+  if (m.kind == MessageKind::kClock) return m.topic_name + " clock=" + StampText(m.stamp_ns);
   std::string s = m.topic_name + " stamp=" + StampText(m.stamp_ns) + " frame=" + m.frame_id;
   const GridGeometry& g = m.grid.geometry;
   switch (m.kind) {
@@ -134,6 +136,8 @@ std::string Summarize(const ReceivedMessage& m) {
            Format(" twist=(%.3f,%.3f,%.3f)", m.twist.vx_mps, m.twist.vy_mps, m.twist.wz_radps) +
            Format(" sigma=(%.3f,%.3f,%.3f)", std::sqrt(m.pose_covariance[0]),
                   std::sqrt(m.pose_covariance[7]), std::sqrt(m.pose_covariance[35]));
+      break;
+    case MessageKind::kClock:  // summarised above
       break;
     case MessageKind::kTf:
       s += " transforms=" + std::to_string(m.transforms.size());
@@ -197,10 +201,13 @@ std::unique_ptr<MapSubscriber> MapSubscriber::Create(const Options& options,
   } else if (last == "tf") {
     impl->kind = MessageKind::kTf;
     descriptor = &tf2_msgs_msg_dds__TFMessage__desc;
+  } else if (last == "clock") {
+    impl->kind = MessageKind::kClock;
+    descriptor = &rosgraph_msgs_msg_dds__Clock__desc;
   } else {
     if (error)
       *error = "unknown topic \"" + topic +
-               "\" (known: map, map_updates, odom, tf, monoplane/local_map)";
+               "\" (known: map, map_updates, odom, tf, clock, monoplane/local_map)";
     return nullptr;
   }
   impl->participant = CreateParticipant(options.domain_id, error);
@@ -256,6 +263,12 @@ std::optional<ReceivedMessage> MapSubscriber::Take(double timeout_s, std::string
           case MessageKind::kTf:
             Convert(*static_cast<const tf2_msgs_msg_dds__TFMessage_*>(samples[0]), &*out);
             break;
+          case MessageKind::kClock: {
+            const auto& clock =
+                static_cast<const rosgraph_msgs_msg_dds__Clock_*>(samples[0])->clock;
+            out->stamp_ns = FromRosTime(clock.sec, clock.nanosec);
+            break;
+          }
         }
       }
       dds_return_loan(impl_->reader, samples, n);

@@ -21,6 +21,7 @@ enum class MessageKind {
   kOccupancyGridUpdate,  // .../map_updates: map_msgs/OccupancyGridUpdate
   kOdometry,             // .../odom: nav_msgs/Odometry
   kTf,                   // .../tf: tf2_msgs/TFMessage
+  kClock,                // .../clock: rosgraph_msgs/Clock (its time is stamp_ns)
 };
 
 // One transform of a TFMessage (planar part; z, roll, pitch dropped).
