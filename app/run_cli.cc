@@ -96,9 +96,6 @@ int RunDemo(RunCli* cli) {
   std::printf(
       "\nScores against the simulator's ground truth (%d frames; monoplane-eval gives more):\n",
       labels.frames_scored);
-  for (const auto& band : labels.bands) {
-    if (band.max_distance_m > 4.0 + 1e-9) break;
-  }
   const auto& o = labels.overall;
   PrintPercent("obstacle recall (>= 5 cm tall)", o.obstacle_recall);
   PrintPercent("floor labelled obstacle", o.floor_false_obstacle_rate);
