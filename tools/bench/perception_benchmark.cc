@@ -162,33 +162,41 @@ void BM_Detect(benchmark::State& state) {
 }
 BENCHMARK(BM_Detect)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
 
-// The first 40 frames of the office scene, as rendered (the input of the sequence benchmarks).
+// The first 40 frames of a scene of tests/data/scenes, as rendered (the input of the sequence
+// benchmarks).
 struct Sequence {
   CameraCalibration calibration;
+  double fps = 15.0;
   std::vector<cv::Mat> frames;
 };
 
-const Sequence& OfficeSequence() {
-  static const Sequence* sequence = [] {
-    auto* s = new Sequence;
-    sim::Scene scene;
-    std::string error;
-    if (!sim::LoadSceneFile(std::string(MONOPLANE_SOURCE_DIR) + "/tests/data/scenes/office.yaml",
-                            &scene, &error)) {
-      std::fprintf(stderr, "bench_perception: %s\n", error.c_str());
-      std::exit(2);
-    }
-    s->calibration = scene.calibration;
-    const sim::SceneRenderer renderer(scene, scene.calibration);
-    for (int i = 0; i < 40; ++i) s->frames.push_back(renderer.RenderAtTime(i / scene.fps).image);
-    return s;
-  }();
-  return *sequence;
+const Sequence& SceneSequence(const std::string& name) {
+  static std::map<std::string, Sequence> sequences;
+  const auto found = sequences.find(name);
+  if (found != sequences.end()) return found->second;
+  Sequence& s = sequences[name];
+  sim::Scene scene;
+  std::string error;
+  if (!sim::LoadSceneFile(
+          std::string(MONOPLANE_SOURCE_DIR) + "/tests/data/scenes/" + name + ".yaml", &scene,
+          &error)) {
+    std::fprintf(stderr, "bench_perception: %s\n", error.c_str());
+    std::exit(2);
+  }
+  s.calibration = scene.calibration;
+  s.fps = scene.fps;
+  const sim::SceneRenderer renderer(scene, scene.calibration);
+  for (int i = 0; i < 40 && i < scene.NumFrames(); ++i) {
+    s.frames.push_back(renderer.RenderAtTime(i / scene.fps).image);
+  }
+  return s;
 }
 
-// The office sequence's frames are 15 fps apart: the odometry checks steps against real time.
-TimestampNs FrameStamp(std::size_t index) {
-  return static_cast<TimestampNs>(index) * 1'000'000'000 / 15;
+const Sequence& OfficeSequence() { return SceneSequence("office"); }
+
+// Frame stamps at the scene's rate: the odometry checks steps against real time.
+TimestampNs FrameStamp(std::size_t index, double fps = 15.0) {
+  return static_cast<TimestampNs>(static_cast<double>(index) * 1e9 / fps);
 }
 
 // The whole per-frame chain in steady state: the sequence detector on consecutive frames
@@ -212,6 +220,31 @@ void BM_SequenceFrame(benchmark::State& state) {
   state.SetLabel(state.range(0) == 0 ? "epipolar" : "farneback");
 }
 BENCHMARK(BM_SequenceFrame)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
+
+// The same chain (epipolar, defaults) on the first 40 frames of other scenes: the cost depends on
+// the content (texture, obstacles, how much of the image is floor), so one scene is not enough.
+const char* const kBenchScenes[] = {"office",         "corridor", "effects",
+                                    "low_obstacles",  "loop",     "newspaper_on_carpet",
+                                    "person_crossing"};
+void BM_SequenceFrameScenes(benchmark::State& state) {
+  const char* name = kBenchScenes[state.range(0)];
+  const Sequence& scene = SceneSequence(name);
+  const std::vector<cv::Mat>& frames = scene.frames;
+  std::unique_ptr<SequenceDetector> sequence;
+  std::size_t next = frames.size();
+  for (auto _ : state) {
+    if (next == frames.size()) {
+      state.PauseTiming();
+      sequence = std::make_unique<SequenceDetector>(scene.calibration, DetectorOptions{});
+      for (next = 0; next < 8; ++next) sequence->Process(frames[next], FrameStamp(next, scene.fps));
+      state.ResumeTiming();
+    }
+    benchmark::DoNotOptimize(sequence->Process(frames[next], FrameStamp(next, scene.fps)));
+    ++next;
+  }
+  state.SetLabel(name);
+}
+BENCHMARK(BM_SequenceFrameScenes)->DenseRange(0, 6)->Unit(benchmark::kMillisecond);
 
 // The same chain as BM_SequenceFrame (epipolar), with each stage's share of the time per frame:
 // tracking (Process without the dense detection, image preparation taken out) and the dense
