@@ -3,6 +3,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <fstream>
+#include <optional>
 #include <sstream>
 #include <type_traits>
 
@@ -498,11 +499,52 @@ bool OptionTable::Apply(const std::string& yaml_text, std::string* error) {
         *error = name + "." + key + ": " + reason;
         return false;
       }
+      applied_.emplace_back(static_cast<std::size_t>(it - entries_.begin()), kv.second.Scalar());
     }
   }
   config_->detector.classification.aggregation =
       static_cast<ClassificationOptions::Aggregation>(aggregation_);
   return true;
+}
+
+std::string OptionTable::NameTheKey(const std::string& reason) {
+  for (const Entry& e : entries_) {  // named already ("section.key: ..." or "section.a/b: ...")
+    const std::string name = e.section + "." + e.key;
+    if (reason.rfind(name, 0) == 0 && reason.size() > name.size() &&
+        (reason[name.size()] == ':' || reason[name.size()] == '/')) {
+      return reason;
+    }
+  }
+  // The modules name their C++ fields ("Mapper::Options::loop_match: ScanMatchOptions::min_score
+  // = 2.000000: must be in [0, 1]"): find the key whose default value makes the options valid.
+  const AppConfig given = *config_;
+  AppConfig defaults;
+  const OptionTable default_table(&defaults);
+  std::optional<std::pair<std::size_t, std::string>> culprit;
+  for (const auto& [index, written] : applied_) {
+    *config_ = given;
+    std::string ignored;
+    entries_[index].set(default_table.entries_[index].get(), &ignored);
+    if (ValidateConfig(*config_, &ignored)) {
+      culprit.emplace(index, written);
+      break;
+    }
+  }
+  *config_ = given;
+  if (!culprit) return reason;
+  // The constraint: what follows the field's value ("= 2.000000: must be ..." or
+  // "= 12. Violated constraint: 0..9").
+  std::string constraint = reason;
+  if (const std::size_t equals = reason.rfind(" = "); equals != std::string::npos) {
+    const std::size_t colon = reason.find(": ", equals), stop = reason.find(". ", equals);
+    const std::size_t end = std::min(colon, stop);
+    if (end != std::string::npos) constraint = reason.substr(end + 2);
+  }
+  const std::string violated = "Violated constraint: ";
+  if (constraint.rfind(violated, 0) == 0)
+    constraint = "must be " + constraint.substr(violated.size());
+  const Entry& e = entries_[culprit->first];
+  return e.section + "." + e.key + ": " + culprit->second + ": " + constraint;
 }
 
 std::string OptionTable::Dump() const {
@@ -557,7 +599,11 @@ bool LoadConfigFile(const std::string& path, AppConfig* config, std::string* err
 
 bool ParseConfigYaml(const std::string& yaml_text, AppConfig* config, std::string* error) {
   OptionTable table(config);
-  return table.Apply(yaml_text, error) && ValidateConfig(*config, error);
+  if (!table.Apply(yaml_text, error)) return false;
+  std::string reason;
+  if (ValidateConfig(*config, &reason)) return true;
+  *error = table.NameTheKey(reason);
+  return false;
 }
 
 }  // namespace monoplane::app

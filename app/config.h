@@ -63,6 +63,10 @@ class OptionTable {
   bool Apply(const std::string& yaml_text, std::string* error);
   // The effective options as YAML with a comment per key.
   std::string Dump() const;
+  // A module's validation error (ValidateConfig) after Apply, reworded to name the key the user
+  // wrote and the value as written ("mapping.loop_min_score: 2: must be in [0, 1]") when one key
+  // alone makes the options invalid; otherwise `reason` as it is.
+  std::string NameTheKey(const std::string& reason);
 
  private:
   struct Entry {
@@ -88,6 +92,7 @@ class OptionTable {
                  const std::vector<std::string>& names, const std::string& comment);
 
   std::vector<Entry> entries_;
+  std::vector<std::pair<std::size_t, std::string>> applied_;  // entry index, value as written
   int aggregation_ = 0;
   AppConfig* config_;
 };
