@@ -288,11 +288,15 @@ PathClearance QueryPathClearance(const TiledGrid& grid, const std::vector<Eigen:
       double best = std::numeric_limits<double>::infinity();
       const Eigen::Vector2d grow[2] = {{r, 0.0}, {0.0, r}};
       for (const Eigen::Vector2d& g : grow) {
-        // Liang-Barsky clipping of the segment against the rectangle [lo - g, hi + g].
-        double t0 = 0.0, t1 = seg.length;
+        // Liang-Barsky clipping of the segment against the rectangle [lo - g, hi + g], grown by
+        // a few rounding errors: a path ending exactly on a cell's edge touches that cell (the
+        // divisions below may put the crossing an ulp past the segment's end), and counting a
+        // cell too many is safe where one too few could say "clear".
+        const double eps = 1e-12 * (1.0 + seg.a.cwiseAbs().maxCoeff() + seg.length);
+        double t0 = 0.0, t1 = seg.length + eps;
         for (int axis = 0; axis < 2 && t0 <= t1; ++axis) {
           const double a = seg.a[axis], u = seg.u[axis];
-          const double l = lo[axis] - g[axis], h = hi[axis] + g[axis];
+          const double l = lo[axis] - g[axis] - eps, h = hi[axis] + g[axis] + eps;
           if (std::abs(u) < 1e-12) {
             if (a < l || a > h) t0 = t1 + 1.0;
             continue;
@@ -311,7 +315,7 @@ PathClearance QueryPathClearance(const TiledGrid& grid, const std::vector<Eigen:
         const double h2 = w.squaredNorm() - t * t;
         if (h2 > r * r) continue;
         const double dt = std::sqrt(std::max(0.0, r * r - h2));
-        if (t + dt < 0.0 || t - dt > seg.length) continue;
+        if (t + dt < 0.0 || t - dt > seg.length + 1e-12 * (1.0 + seg.length)) continue;
         best = std::min(best, std::max(0.0, t - dt));
       }
       // Segments come in order: the first that touches gives the smallest arc length.
@@ -319,9 +323,14 @@ PathClearance QueryPathClearance(const TiledGrid& grid, const std::vector<Eigen:
     }
     return -1.0;
   };
+  // The box grown by the clipping's tolerance, so that a cell touched at the box's edge is read.
   const QueryBox box = PathQueryBox(path_m, r);
-  const int i0 = FloorCell(box.min_m.x(), res), i1 = FloorCell(box.max_m.x(), res);
-  const int j0 = FloorCell(box.min_m.y(), res), j1 = FloorCell(box.max_m.y(), res);
+  const double box_eps =
+      1e-12 * (1.0 + std::max(box.min_m.cwiseAbs().maxCoeff(), box.max_m.cwiseAbs().maxCoeff()));
+  const int i0 = FloorCell(box.min_m.x() - box_eps, res),
+            i1 = FloorCell(box.max_m.x() + box_eps, res);
+  const int j0 = FloorCell(box.min_m.y() - box_eps, res),
+            j1 = FloorCell(box.max_m.y() + box_eps, res);
   CellReader reader(grid, thresholds);
   double best_block = std::numeric_limits<double>::infinity();
   double best_unknown = std::numeric_limits<double>::infinity();

@@ -140,6 +140,24 @@ TEST(MapQuery, WallAcrossCorridorBlocksPathAtTheRightCell) {
   EXPECT_NEAR(beyond.unknown_distance_along_m, 5.1 - 3.55, 1e-9);
 }
 
+// A path that ends exactly on a corner of an occupied cell touches it, although the crossing
+// computed for it can land an ulp past the end of the segment (a search over paths ending on cell
+// edges found these answered clear).
+TEST(MapQuery, PathEndingOnAnOccupiedCellsCornerIsBlocked) {
+  TiledGrid grid(0.1);
+  for (int i = -10; i < 10; ++i) {
+    for (int j = -10; j < 10; ++j) MarkCell(&grid, {i, j}, kFree);
+  }
+  MarkCell(&grid, {-5, 4}, kOcc);
+  MarkCell(&grid, {0, -6}, kOcc);
+  const PathClearance along = QueryPathClearance(grid, {{0.5, 0.5}, {-0.4, 0.5}}, 0.0);
+  EXPECT_EQ(along.state, PathState::kBlocked);
+  ASSERT_TRUE(along.first_blocking_cell);
+  EXPECT_EQ(*along.first_blocking_cell, Eigen::Vector2i(-5, 4));
+  const PathClearance slanted = QueryPathClearance(grid, {{0.075, -0.95}, {0.0, -0.6}}, 0.0);
+  EXPECT_EQ(slanted.state, PathState::kBlocked);
+}
+
 // "clear" only from cells actually checked: inputs the cell indices cannot hold, or that would
 // take unbounded work, are refused with the reason, and even unchecked they never read clear.
 TEST(MapQuery, PathQueriesAreTotal) {
