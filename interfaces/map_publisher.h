@@ -84,8 +84,9 @@ class MapPublisher {
     // max_blocking_time), seconds, [0, 1]. After it the sample is dropped and counted.
     double max_blocking_time_s = 0.005;
     int local_map_history_depth = 1;  // keep-last depth of rt/monoplane/local_map, [1, 100]
-    // Also publish rt/clock (rosgraph_msgs/Clock, reliable, volatile, keep-last 1), the time of
-    // recorded input, for ROS 2 nodes with use_sim_time (tf2 then accepts the stamps).
+    // Also publish rt/clock (rosgraph_msgs/Clock, reliable, volatile, keep-last 1; never
+    // prefixed), the time of recorded input, for ROS 2 nodes with use_sim_time (tf2 then accepts
+    // the stamps).
     bool publish_clock = false;
 
     bool IsValid(std::string* error) const;

@@ -76,7 +76,9 @@ bool GroundMotionOptions::IsValid(std::string* error) const {
   if (lk_max_iterations < 1) return fail("lk_max_iterations: must be >= 1");
   if (!(lk_min_step_px > 0)) return fail("lk_min_step_px: must be > 0");
   if (!(forward_backward_max_px > 0)) return fail("forward_backward_max_px: must be > 0");
-  if (ransac_iterations <= 0) return fail("ransac_iterations: must be > 0");
+  if (ransac_iterations <= 0 || ransac_iterations > 100000) {
+    return fail("ransac_iterations: must be in [1, 100000]");
+  }
   if (!(inlier_threshold_px > 0)) return fail("inlier_threshold_px: must be > 0");
   if (!(below_floor_weight >= 0)) return fail("below_floor_weight: must be >= 0");
   if (!(below_floor_px > 0)) return fail("below_floor_px: must be > 0");

@@ -467,10 +467,11 @@ struct MapDatabase::Impl {
   StorageStatus DecodeTileRow(const Statement& s, TiledGrid* grid) {
     const std::int64_t tx64 = sqlite3_column_int64(s.get(), 0);
     const std::int64_t ty64 = sqlite3_column_int64(s.get(), 1);
-    // Cell indices of every tile must fit an int with room to spare.
+    // Cell indices of every tile, and the span between any two, must fit an int.
     constexpr std::int64_t kMaxTileIndex =
-        std::numeric_limits<int>::max() / TiledGrid::kTileSize - 1;
-    if (std::abs(tx64) > kMaxTileIndex || std::abs(ty64) > kMaxTileIndex) {
+        std::numeric_limits<int>::max() / TiledGrid::kTileSize / 4;
+    if (tx64 < -kMaxTileIndex || tx64 > kMaxTileIndex || ty64 < -kMaxTileIndex ||
+        ty64 > kMaxTileIndex) {
       return Error(StorageErrorKind::kCorrupt, "tile (" + std::to_string(tx64) + ", " +
                                                    std::to_string(ty64) + ") is out of range");
     }
@@ -1076,7 +1077,7 @@ StorageStatus MapDatabase::ReadLocalMap(std::int64_t run_id, std::int64_t frame_
   g.origin_y_m = sqlite3_column_double(s.get(), 2);
   g.width = sqlite3_column_int(s.get(), 3);
   g.height = sqlite3_column_int(s.get(), 4);
-  if (!(g.resolution_m >= kMinStoredResolutionM && g.resolution_m <= kMaxStoredResolutionM) ||
+  if (!(g.resolution_m > 0.0 && g.resolution_m <= kMaxStoredResolutionM) ||
       !std::isfinite(g.origin_x_m) || !std::isfinite(g.origin_y_m) || g.width <= 0 ||
       g.height <= 0 || g.width > kMaxLocalMapSide || g.height > kMaxLocalMapSide) {
     return impl_->Error(StorageErrorKind::kCorrupt,
@@ -1137,8 +1138,21 @@ StorageStatus MapDatabase::LoadTiledGrid(TiledGrid* grid) {
   Statement s;
   st = impl_->Prepare("SELECT tx, ty, base_ns, data, encoding FROM grid_tiles", &s, kContext);
   if (!st.ok()) return st;
-  return impl_->ForEachRow(s, kContext,
-                           [&](sqlite3_stmt*) { return impl_->DecodeTileRow(s, grid); });
+  st = impl_->ForEachRow(s, kContext, [&](sqlite3_stmt*) { return impl_->DecodeTileRow(s, grid); });
+  if (!st.ok()) return st;
+  // Exports and the published map are one raster over the tiles' bounding box: a box no real run
+  // makes (2^31 cells, e.g. 2.3 km x 2.3 km at 5 cm) comes from a damaged file.
+  if (const auto bounds = grid->TileBounds()) {
+    const double cells = (static_cast<double>(bounds->second.x()) - bounds->first.x() + 1) *
+                         (static_cast<double>(bounds->second.y()) - bounds->first.y() + 1);
+    if (cells > 2147483648.0) {
+      grid->mutable_tiles().clear();
+      return impl_->Error(StorageErrorKind::kCorrupt,
+                          "the grid's tiles span " + std::to_string(cells) +
+                              " cells, more than a map can hold (2^31)");
+    }
+  }
+  return {};
 }
 
 StorageStatus MapDatabase::LoadTilesInBox(const Eigen::Vector2d& min_m,
