@@ -203,6 +203,10 @@ bool DecodeTile(const std::uint8_t* data, std::size_t size, TimestampNs base_ns,
   tile->last_seen_ns.resize(kTileCells);
   for (int k = 0; k < kTileCells; ++k) {
     const std::uint16_t l = get(0, k), h = get(1, k);
+    if (l == 0) {  // the encoder writes log-odds in [1, 65535]
+      *error = "tile blob holds a log-odds value out of range";
+      return false;
+    }
     tile->log_odds[k] = static_cast<float>((static_cast<int>(l) - 32768) * kLogOddsQuantum);
     tile->height_m[k] = h == 0 ? std::numeric_limits<float>::quiet_NaN()
                                : static_cast<float>((static_cast<int>(h) - 32768) * 1e-3);

@@ -2,6 +2,8 @@
 // any bytes: refused with a reason, or decoded into values that encode and decode back to the
 // same values. The first input byte picks the decoder; the SQLite pages around the blobs are
 // fuzzed by map_file_fuzz.
+#include <zlib.h>
+
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -29,6 +31,8 @@ bool SameTile(const TiledGrid::Tile& a, const TiledGrid::Tile& b) {
   return true;
 }
 
+// The tile's blob as stored (any bytes, mostly refused by zlib) and, so that the decoder itself
+// is reached, the same bytes repeated into the four planes and deflated.
 void FuzzTile(const std::uint8_t* data, std::size_t size) {
   std::int64_t base_ns = 0;
   if (size >= sizeof(base_ns)) {
@@ -36,9 +40,18 @@ void FuzzTile(const std::uint8_t* data, std::size_t size) {
     data += sizeof(base_ns);
     size -= sizeof(base_ns);
   }
-  TiledGrid::Tile tile;
   std::string error;
-  if (!DecodeTile(data, size, base_ns, &tile, &error)) {
+  TiledGrid::Tile tile;
+  if (!DecodeTile(data, size, base_ns, &tile, &error)) FuzzCheck(!error.empty(), "says why");
+  if (size == 0) return;
+  std::vector<std::uint8_t> planes(8 * TiledGrid::kTileSize * TiledGrid::kTileSize);
+  for (std::size_t i = 0; i < planes.size(); ++i) planes[i] = data[i % size];
+  uLongf deflated_size = compressBound(static_cast<uLong>(planes.size()));
+  std::vector<std::uint8_t> deflated(deflated_size);
+  FuzzCheck(compress2(deflated.data(), &deflated_size, planes.data(),
+                      static_cast<uLong>(planes.size()), 1) == Z_OK,
+            "zlib compresses");
+  if (!DecodeTile(deflated.data(), deflated_size, base_ns, &tile, &error)) {
     FuzzCheck(!error.empty(), "a refused tile says why");
     return;
   }
