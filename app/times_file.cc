@@ -1,5 +1,6 @@
 #include "app/times_file.h"
 
+#include <cctype>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -18,7 +19,9 @@ bool ParseTimesText(const std::string& text, const std::string& file_label, cons
     double seconds = 0;
     std::string path;
     const std::string where = file_label + ":" + std::to_string(line_number);
-    if (!(fields >> seconds >> path)) {
+    // Whitespace must separate the fields ("6.0/a.png" is not a time and a path).
+    const bool separated = (fields >> seconds) && std::isspace(fields.peek());
+    if (!separated || !(fields >> path)) {
       *error = where + ": expected '<seconds> <image path>'";
       return false;
     }
