@@ -100,7 +100,7 @@ void FuzzPath(Reader* in) {
   // point on an occupied cell blocks, one on an unknown cell is not clear.
   double length = 0;
   for (int i = 1; i < n; ++i) length += (path[i] - path[i - 1]).norm();
-  if (length > 20.0) return;
+  if (length > 5.0) return;
   bool any_occupied = false, any_unknown = false;
   for (int i = 0; i < n; ++i) {
     const Eigen::Vector2d a = path[i], b = path[std::min(i + 1, n - 1)];
@@ -122,7 +122,7 @@ void FuzzRegion(Reader* in) {
   const bool raster = in->Byte() % 2;
   if (!RegionQueryProblem(a, b, Grid().resolution_m()).empty()) return;
   const Eigen::Vector2d size = (a - b).cwiseAbs() / Grid().resolution_m();
-  if (size.x() * size.y() > 2e3) return;  // larger regions are answered, but slowly to check
+  if (size.x() * size.y() > 200) return;  // larger regions are answered, but slowly to check
   const RegionQuery r = QueryRegion(Grid(), a, b, raster);
   const std::int64_t cells = static_cast<std::int64_t>(r.max_cell.x() - r.min_cell.x() + 1) *
                              (r.max_cell.y() - r.min_cell.y() + 1);
