@@ -6,6 +6,7 @@
 #include <fstream>
 #include <optional>
 #include <sstream>
+#include <stdexcept>
 #include <type_traits>
 
 #include "perception/geometry/yaml_keys.h"
@@ -76,6 +77,8 @@ OptionTable::OptionTable(AppConfig* config) : config_(config) {
             "score a motion loses per strip point it puts below the floor, inliers (>= 0)");
   AddDouble("ground_motion", "below_floor_px", &gm.below_floor_px,
             "how far below the floor counts, px along the epipolar line (> 0)");
+  AddDouble("ground_motion", "below_floor_max_share", &gm.below_floor_max_share,
+            "...up to this share of the floor's predicted flow (a mistrack beyond), (0, 1]");
   AddDouble("ground_motion", "max_acceleration_mps2", &gm.max_acceleration_mps2,
             "steps changing the velocity faster than this are outliers, m/s^2 (0: off)");
   AddDouble("ground_motion", "velocity_noise_mps", &gm.velocity_noise_mps,
@@ -345,6 +348,16 @@ OptionTable::OptionTable(AppConfig* config) : config_(config) {
             "frame rate for inputs without timestamps, Hz (> 0)");
   AddInt("output", "panels_every", &config->output.panels_every,
          "panels every N-th frame (the first with heights from there) with --frames-out (>= 1)");
+  // ScaleDefaultsToCamera: the sizes of what the camera sees, and the motion fit's tolerance of
+  // the camera pitching between frames.
+  ScaleWith(Entry::Scale::kCameraHeight,
+            {"ground_motion.strip_min_x_m", "ground_motion.strip_max_x_m",
+             "ground_motion.strip_half_width_m", "classification.max_range_m",
+             "local_map.resolution_m", "local_map.min_x_m", "local_map.max_x_m",
+             "local_map.min_y_m", "local_map.max_y_m", "pair_selection.min_baseline_m",
+             "pair_selection.turn_min_baseline_m", "direct_alignment.max_correction_m"});
+  ScaleWith(Entry::Scale::kFocalLength,
+            {"ground_motion.inlier_threshold_px", "ground_motion.below_floor_px"});
 }
 
 namespace {
@@ -374,7 +387,30 @@ void OptionTable::AddDouble(const std::string& section, const std::string& key, 
                             const std::string& comment) {
   auto parse = [](const std::string& v, std::size_t* used) { return std::stod(v, used); };
   entries_.push_back({section, key, comment, NumberSetter(target, parse, "a number"),
-                      [target] { return Format(*target); }});
+                      [target] { return Format(*target); }, target});
+}
+
+void OptionTable::ScaleWith(Entry::Scale scale, const std::vector<std::string>& names) {
+  for (const std::string& name : names) {
+    auto it = std::find_if(entries_.begin(), entries_.end(),
+                           [&](const Entry& e) { return e.section + "." + e.key == name; });
+    if (it == entries_.end() || it->number == nullptr)
+      throw std::logic_error("OptionTable::ScaleWith: no number option " + name);
+    it->scale = scale;
+    it->comment += scale == Entry::Scale::kCameraHeight ? "; default scales with camera height"
+                                                        : "; default scales with fx";
+  }
+}
+
+void ScaleDefaultsToCamera(const CameraCalibration& calibration, AppConfig* config) {
+  const double by_height = calibration.mount.height_m / kReferenceCameraHeightM;
+  const double by_focal = calibration.intrinsics.fx / kReferenceFocalPx;
+  OptionTable table(config);
+  for (const OptionTable::Entry& e : table.entries_) {
+    if (e.scale == OptionTable::Entry::Scale::kNone || config->given.count(e.section + "." + e.key))
+      continue;
+    *e.number *= e.scale == OptionTable::Entry::Scale::kCameraHeight ? by_height : by_focal;
+  }
 }
 
 void OptionTable::AddFloat(const std::string& section, const std::string& key, float* target,
@@ -509,6 +545,7 @@ bool OptionTable::Apply(const std::string& yaml_text, std::string* error) {
         return false;
       }
       applied_.emplace_back(static_cast<std::size_t>(it - entries_.begin()), kv.second.Scalar());
+      config_->given.insert(name + "." + key);
     }
   }
   config_->detector.classification.aggregation =

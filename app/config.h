@@ -2,6 +2,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -51,7 +52,23 @@ struct AppConfig {
   StartOptions start;
   MapDatabase::Options storage;
   PublishOptions dds;
+  // The keys ("section.key") a config file set: ScaleDefaultsToCamera keeps their values.
+  std::set<std::string> given;
 };
+
+// The camera the defaults are stated for: the simulator's robot camera, 0.40 m above the floor
+// with a focal length of 457 px (640x480, 70 degrees across).
+inline constexpr double kReferenceCameraHeightM = 0.40;
+inline constexpr double kReferenceFocalPx = 457.0;
+
+// Fits the defaults to the camera, so that one set of defaults serves a robot camera a few
+// decimetres high and a car camera at 1.65 m: every length over the floor (the motion fit's strip,
+// the detection range, the local map's extent and cells, the pair baselines, the alignment's
+// bound) scales with the camera's height over 0.40 m (a camera twice as high sees the same image of
+// a scene twice as large), and the motion fit's pixel thresholds, which cover the camera's
+// pitching between frames, scale with fx over 457 px. Keys in config->given keep their values; a
+// camera at the reference height and focal length changes nothing.
+void ScaleDefaultsToCamera(const CameraCalibration& calibration, AppConfig* config);
 
 // Binds "section.key" names to option fields, for parsing YAML and for dumping the defaults.
 // Keys not in the table are rejected with their name.
@@ -73,7 +90,11 @@ class OptionTable {
     std::string section, key, comment;
     std::function<bool(const std::string& value, std::string* error)> set;
     std::function<std::string()> get;
+    double* number = nullptr;  // for ScaleDefaultsToCamera
+    enum class Scale { kNone, kCameraHeight, kFocalLength } scale = Scale::kNone;
   };
+  friend void ScaleDefaultsToCamera(const CameraCalibration& calibration, AppConfig* config);
+  void ScaleWith(Entry::Scale scale, const std::vector<std::string>& names);
   void AddDouble(const std::string& section, const std::string& key, double* target,
                  const std::string& comment);
   void AddInt(const std::string& section, const std::string& key, int* target,

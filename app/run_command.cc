@@ -81,7 +81,8 @@ class Progress {
 
 }  // namespace
 
-int Run(const RunRequest& request, RunSummary* summary) {
+int Run(const RunRequest& given, RunSummary* summary) {
+  RunRequest request = given;  // its defaults are fitted to the camera below
   const auto run_start = Clock::now();
   g_interrupted = false;
   g_signal = 0;
@@ -136,6 +137,12 @@ int Run(const RunRequest& request, RunSummary* summary) {
       return kExitBadInput;
     }
     calibration.intrinsics = in.Scaled(first->image.cols, first->image.rows);
+  }
+  ScaleDefaultsToCamera(calibration, &request.config);
+  if (!ValidateConfig(request.config, &error)) {
+    std::cerr << "monoplane run: " << calib_path << ": the options fitted to this camera: " << error
+              << "\n";
+    return kExitBadInput;
   }
 
   // The pipeline's own threads keep both cores busy; OpenCV's worker threads inside them only add

@@ -82,6 +82,8 @@ bool GroundMotionOptions::IsValid(std::string* error) const {
   if (!(inlier_threshold_px > 0)) return fail("inlier_threshold_px: must be > 0");
   if (!(below_floor_weight >= 0)) return fail("below_floor_weight: must be >= 0");
   if (!(below_floor_px > 0)) return fail("below_floor_px: must be > 0");
+  if (!(below_floor_max_share > 0 && below_floor_max_share <= 1))
+    return fail("below_floor_max_share: must be in (0, 1]");
   if (!(max_acceleration_mps2 >= 0)) return fail("max_acceleration_mps2: must be >= 0");
   if (!(velocity_noise_mps >= 0)) return fail("velocity_noise_mps: must be >= 0");
   if (max_rejected_steps < 0) return fail("max_rejected_steps: must be >= 0");
@@ -293,7 +295,13 @@ GroundMotion FitGroundMotion(const std::vector<Eigen::Vector2d>& pixels1,
       } else if (has_parallax && r2 > below2) {
         const Eigen::Vector2d up = e.head<2>() - e.z() * p;
         const double norm = up.norm();
-        if (norm > 1e-9 && r.dot(up) < -options.below_floor_px * norm) ++below;
+        // How far below, along the epipolar line, against how far the floor would have moved.
+        const double below_px = norm > 1e-9 ? -r.dot(up) / norm : 0.0;
+        const double floor_flow_px = (p - pixels1[index[i]]).norm();
+        if (below_px > options.below_floor_px &&
+            below_px <= options.below_floor_max_share * floor_flow_px) {
+          ++below;
+        }
       }
     }
     return static_cast<double>(inliers->size()) - options.below_floor_weight * below;

@@ -46,6 +46,12 @@ struct GroundMotionOptions {
   // noise and the unevenness of real roads from counting (weight >= 0, 0 = off; margin > 0).
   double below_floor_weight = 2.0;
   double below_floor_px = 3.0;
+  // ...and at most below_floor_max_share of the floor flow the hypothesis predicts for it: a point
+  // that moved less than half as far as the floor would have is a mistrack or something moving
+  // along with the camera (a car ahead of a car), not the floor under a hypothesis fitted to the
+  // tops of obstacles (for a top at height z the floor appears a share z / camera height below,
+  // under a half for obstacles lower than half the camera). (0, 1]; 1 counts every point.
+  double below_floor_max_share = 0.5;
   // Frame-to-frame steps (SequenceDetector): a fitted step whose velocity differs from the last
   // step's by more than max_acceleration_mps2 * dt + velocity_noise_mps cannot have been driven (a
   // car at 13 m/s does not reverse within 0.1 s); it is an outlier fit (a moving thing, repeated

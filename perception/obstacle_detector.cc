@@ -1384,8 +1384,16 @@ SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, Timesta
 
   const cv::Size size(in.width, in.height);
   ++frames_since_detection_;
+  // A frame is only tracked when Finish can carry the last detection to it (within the same
+  // bounds); a fast camera (a car: 1.3 m per frame) has every frame detected instead.
+  bool can_carry = true;
+  if (last_detection_odom_from_base_) {
+    const Pose2 now_from_last = odom_from_base_.Inverse() * *last_detection_odom_from_base_;
+    can_carry = now_from_last.TranslationNorm() <= 2.0 * options.pair_selection.min_baseline_m &&
+                std::abs(now_from_last.yaw) <= options.pair_selection.max_rotation_rad;
+  }
   if (out.step.status != GroundMotion::Status::kFailed &&
-      frames_since_detection_ < options.pair_selection.detect_every) {
+      frames_since_detection_ < options.pair_selection.detect_every && can_carry) {
     // Tracked only (see PairSelectionOptions::detect_every); Finish carries the last detected
     // frame's result to it.
     out.undetected_image = prepared;
@@ -1463,7 +1471,10 @@ SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, Timesta
             Output::PendingDetection{reference->image, prepared,  motion,         std::move(moving),
                                      alignment,        turn_pair, odom_from_base_};
         if (!defer_detection) Finish(&out);
-        if (!turn_pair) frames_since_detection_ = 0;
+        if (!turn_pair) {
+          frames_since_detection_ = 0;
+          last_detection_odom_from_base_ = odom_from_base_;
+        }
       }
     }
   }

@@ -165,7 +165,9 @@ struct PairSelectionOptions {
   double turn_min_baseline_m = 0.04;
   double turn_max_rotation_rad = 0.5;
   // Dense detection on every N-th usable frame (>= 1); the others are only tracked for odometry
-  // and have no result. 2 halves the cost with obstacle updates at half the camera rate.
+  // and carry the last detected frame's result. 2 halves the cost with obstacle updates at half
+  // the camera rate. A frame farther from the last detected one than a carried result may go
+  // (2 * min_baseline_m, max_rotation_rad) is detected whatever N says.
   int detect_every = 2;
 
   bool IsValid(std::string* error) const;
@@ -328,9 +330,10 @@ class SequenceDetector {
   Pose2 odom_from_base_;
   std::int64_t next_track_id_ = 0;
   int frames_since_detection_ = 0;
-  std::vector<cv::Mat> previous_pyramid_;  // Lucas-Kanade pyramid of history_.back()
-  AlignmentImage previous_alignment_;      // and its direct-alignment image
-  ShiTomasiCorners corners_;               // corner strength of the frame being topped up
+  std::optional<Pose2> last_detection_odom_from_base_;  // of the last (non-turn) detected frame
+  std::vector<cv::Mat> previous_pyramid_;               // Lucas-Kanade pyramid of history_.back()
+  AlignmentImage previous_alignment_;                   // and its direct-alignment image
+  ShiTomasiCorners corners_;  // corner strength of the frame being topped up
 };
 
 // The 2x2 picture for people: input with labels, segmentation, zero disparity, top view.

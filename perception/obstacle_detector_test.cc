@@ -190,8 +190,8 @@ TEST(GroundMotion, PrefersTheLowestSurfaceOverMoreCornersOnABoxTop) {
     pixels1.push_back(*a);
     pixels2.push_back(*b);
   };
-  for (int i = 0; i < 15; ++i) add(0.6 + 0.05 * i, -0.5 + 0.07 * i, 0.0);        // floor
-  for (int i = 0; i < 40; ++i) add(1.0 + 0.01 * i, -0.2 + 0.02 * (i % 7), 0.2);  // box top
+  for (int i = 0; i < 15; ++i) add(0.6 + 0.05 * i, -0.5 + 0.07 * i, 0.0);         // floor
+  for (int i = 0; i < 40; ++i) add(1.0 + 0.01 * i, -0.2 + 0.02 * (i % 7), 0.15);  // box top
   GroundMotionOptions options;
   options.below_floor_weight = 0.0;
   const GroundMotion plain = FitGroundMotion(pixels1, pixels2, camera, options);
@@ -204,6 +204,38 @@ TEST(GroundMotion, PrefersTheLowestSurfaceOverMoreCornersOnABoxTop) {
   EXPECT_NEAR(lowest.base2_from_base1.x, truth.x, 1e-4);
   EXPECT_NEAR(lowest.base2_from_base1.y, truth.y, 1e-4);
   EXPECT_NEAR(lowest.base2_from_base1.yaw, truth.yaw, 1e-5);
+}
+
+// Tracks that hardly moved (a car driving ahead of a car, corners stuck on a reflection) lie far
+// below the floor under the true motion: they are not evidence against it (below_floor_max_share),
+// or a still camera would outscore the driving one.
+TEST(GroundMotion, TracksThatBarelyMovedDoNotVoteAgainstTheFloor) {
+  const CameraModel camera(DefaultCalibration());
+  const Pose2 truth = Pose2{0.05, 0.0, 0.01}.Inverse();
+  std::vector<Eigen::Vector2d> pixels1, pixels2;
+  for (int i = 0; i < 30; ++i) {
+    const Eigen::Vector2d xy(0.5 + 0.04 * i, -0.6 + 0.04 * i);
+    const Eigen::Vector2d xy2 = truth * xy;
+    const auto a = camera.ProjectToPixel({xy.x(), xy.y(), 0.0});
+    const auto b = camera.ProjectToPixel({xy2.x(), xy2.y(), 0.0});
+    ASSERT_TRUE(a && b);
+    pixels1.push_back(*a);
+    pixels2.push_back(*b);
+  }
+  for (int i = 0; i < 20; ++i) {  // a thing ahead moving along with the camera: no image motion
+    const auto a = camera.ProjectToPixel({1.2 + 0.03 * i, 0.3 - 0.02 * i, 0.0});
+    ASSERT_TRUE(a);
+    pixels1.push_back(*a);
+    pixels2.push_back(*a);
+  }
+  GroundMotionOptions options;
+  const GroundMotion fit = FitGroundMotion(pixels1, pixels2, camera, options);
+  ASSERT_EQ(fit.status, GroundMotion::Status::kOk);
+  EXPECT_EQ(fit.num_inliers, 30);
+  EXPECT_NEAR(fit.base2_from_base1.x, truth.x, 1e-4);
+  options.below_floor_max_share = 1.0;  // every point below counts: the standing still wins
+  const GroundMotion counted = FitGroundMotion(pixels1, pixels2, camera, options);
+  EXPECT_GT(std::abs(counted.base2_from_base1.x - truth.x), 0.03);
 }
 
 // A car at 13 m/s (1.34 m per 0.103 s step) cannot reverse within one step; a robot at 0.4 m/s

@@ -1,0 +1,75 @@
+#include "app/config.h"
+
+#include <gtest/gtest.h>
+
+namespace monoplane::app {
+namespace {
+
+CameraCalibration Camera(double height_m, double fx) {
+  CameraCalibration c;
+  c.intrinsics.width = 640;
+  c.intrinsics.height = 480;
+  c.intrinsics.fx = c.intrinsics.fy = fx;
+  c.intrinsics.cx = 319.5;
+  c.intrinsics.cy = 239.5;
+  c.mount.height_m = height_m;
+  c.mount.pitch_deg = 10.0;
+  return c;
+}
+
+TEST(ScaleDefaultsToCamera, TheReferenceCameraChangesNothing) {
+  AppConfig scaled;
+  ScaleDefaultsToCamera(Camera(kReferenceCameraHeightM, kReferenceFocalPx), &scaled);
+  AppConfig defaults;
+  EXPECT_EQ(OptionTable(&scaled).Dump(), OptionTable(&defaults).Dump());
+}
+
+TEST(ScaleDefaultsToCamera, LengthsFollowTheHeightAndMotionFitPixelsTheFocalLength) {
+  const AppConfig defaults;
+  AppConfig car;
+  ScaleDefaultsToCamera(Camera(1.6, 914.0), &car);  // four times as high, twice the focal length
+  const GroundMotionOptions& gm = car.detector.ground_motion;
+  EXPECT_DOUBLE_EQ(gm.strip_min_x_m, 4 * defaults.detector.ground_motion.strip_min_x_m);
+  EXPECT_DOUBLE_EQ(gm.strip_max_x_m, 4 * defaults.detector.ground_motion.strip_max_x_m);
+  EXPECT_DOUBLE_EQ(gm.strip_half_width_m, 4 * defaults.detector.ground_motion.strip_half_width_m);
+  EXPECT_DOUBLE_EQ(gm.inlier_threshold_px, 2 * defaults.detector.ground_motion.inlier_threshold_px);
+  EXPECT_DOUBLE_EQ(gm.below_floor_px, 2 * defaults.detector.ground_motion.below_floor_px);
+  EXPECT_DOUBLE_EQ(car.detector.classification.max_range_m,
+                   4 * defaults.detector.classification.max_range_m);
+  EXPECT_DOUBLE_EQ(car.detector.local_map.resolution_m,
+                   4 * defaults.detector.local_map.resolution_m);
+  EXPECT_DOUBLE_EQ(car.detector.local_map.max_x_m, 4 * defaults.detector.local_map.max_x_m);
+  EXPECT_DOUBLE_EQ(car.detector.pair_selection.min_baseline_m,
+                   4 * defaults.detector.pair_selection.min_baseline_m);
+  EXPECT_DOUBLE_EQ(car.detector.direct_alignment.max_correction_m,
+                   4 * defaults.detector.direct_alignment.max_correction_m);
+  // Neither lengths over the floor nor pixel thresholds of the motion fit: kept.
+  EXPECT_EQ(car.detector.classification.floor_max_height_sigmas,
+            defaults.detector.classification.floor_max_height_sigmas);
+  EXPECT_EQ(car.detector.ground_motion.lk_window_px, defaults.detector.ground_motion.lk_window_px);
+  EXPECT_EQ(car.mapping.grid_resolution_m, defaults.mapping.grid_resolution_m);
+  std::string error;
+  EXPECT_TRUE(ValidateConfig(car, &error)) << error;
+}
+
+TEST(ScaleDefaultsToCamera, KeysTheConfigSetAreKept) {
+  AppConfig config;
+  std::string error;
+  ASSERT_TRUE(ParseConfigYaml(
+      "ground_motion: {strip_max_x_m: 25}\nlocal_map: {resolution_m: 0.05}\n", &config, &error))
+      << error;
+  ScaleDefaultsToCamera(Camera(1.6, 914.0), &config);
+  const AppConfig defaults;
+  EXPECT_EQ(config.detector.ground_motion.strip_max_x_m, 25.0);
+  EXPECT_EQ(config.detector.local_map.resolution_m, 0.05);
+  EXPECT_DOUBLE_EQ(config.detector.ground_motion.strip_min_x_m,
+                   4 * defaults.detector.ground_motion.strip_min_x_m);
+  // The dump of the fitted options reads back as the same options for any camera.
+  AppConfig again;
+  ASSERT_TRUE(ParseConfigYaml(OptionTable(&config).Dump(), &again, &error)) << error;
+  ScaleDefaultsToCamera(Camera(0.2, 300.0), &again);
+  EXPECT_EQ(OptionTable(&again).Dump(), OptionTable(&config).Dump());
+}
+
+}  // namespace
+}  // namespace monoplane::app
