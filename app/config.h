@@ -41,8 +41,8 @@ struct StartOptions {
 struct AppConfig {
   // monoplane run's defaults where they differ from the modules' own: every accepted loop closure
   // re-optimises the whole graph and may rebuild the maps, and driving back and forth over mapped
-  // floor closes loops at nearly every keyframe; 3 keyframes between closures cost 60 ms per frame
-  // after 10,000 frames, 10 keep the trajectory within 1.5 cm (tools/bench/throughput.sh scene).
+  // floor closes loops at nearly every keyframe; 10 keyframes between closures bound that cost on
+  // long runs and still hold the trajectory.
   AppConfig() { mapping.loop_min_interval_keyframes = 10; }
 
   DetectorOptions detector;

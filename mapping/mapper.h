@@ -95,8 +95,7 @@ class Mapper {
     double cull_max_error_rad = 0.05;  // > 0
     // Only into a keyframe of an earlier visit: at least this much path before the merged one.
     // Merging the keyframes of one pass into each other would replace the window's accurate
-    // odometry between them by floor matches, edge after edge (the `loop` scene's ATE rose from
-    // 0.9 to 3.5 cm). >= 0
+    // odometry between them by floor matches, edge after edge. >= 0
     double cull_min_travel_m = 1.0;
     int cull_max_candidates = 3;  // nearest older keyframes whose floor is matched, >= 1
     // Rebuild the grid and the OctoMap when a correction moves any keyframe by more than this.

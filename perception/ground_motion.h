@@ -22,10 +22,9 @@ struct GroundMotionOptions {
   int max_corners = 250;
   double corner_quality = 0.005;
   double corner_min_distance_px = 8.0;
-  // Pyramidal Lucas-Kanade: window side (odd, >= 5) and pyramid levels (>= 0). 17 px has two
-  // thirds of 21 px's area (the run's CPU: -6 to -8 %); the suite's figures moved within their
-  // noise, the throughput scene's grid got 3 more dangerous cells at wall bases (README,
-  // "Simulated suite"); 15 px let the door threshold into the floor.
+  // Pyramidal Lucas-Kanade: window side (odd, >= 5) and pyramid levels (>= 0). A larger window
+  // tracks weak texture more reliably at more CPU; more levels follow larger image motion (a fast
+  // camera, a low frame rate).
   int lk_window_px = 17;
   int lk_levels = 3;
   // Lucas-Kanade stops per level after lk_max_iterations (>= 1) or once a step is below

@@ -47,8 +47,8 @@ struct ClassificationOptions {
   double max_residual = 12.0;
   // Dense test: an offset perpendicular to the epipolar line of at least this many input pixels
   // (and min_disparity_sigmas) marks motion of its own (>= 0; 0 = off). Off by default: on tiled
-  // and grained floors the aperture problem makes it call 4 % of the floor moving, and things that
-  // move move farther than the dense search follows; the tracked-corner test below finds them.
+  // and grained floors the aperture problem makes it call parts of the floor moving, and things
+  // that move move farther than the dense search follows; the tracked-corner test below finds them.
   double moving_min_perpendicular_px = 0.0;
   // Tracked corners: a corner shared by the pair that lies farther than this from its epipolar
   // line under the fitted motion cannot be a static point (input pixels, > 0). Where two such
@@ -76,16 +76,12 @@ struct ClassificationOptions {
   // sample's window straddles the edge and its cell holds the base of what stands there (a wall
   // seen at a grazing angle, a box without texture), detected or not. Below floor_edge_samples
   // samples that are not floor, its cell is not free in the local map; below fewer (a seam, a
-  // textureless spot in the floor) it just gives no free vote. 0 = off, >= 0. On the corridor
-  // scene this takes the grid's dangerous cells from 4.3 % to 0.3 %.
+  // textureless spot in the floor) it just gives no free vote. 0 = off, >= 0.
   int floor_edge_samples = 3;
   // Labels: a floor sample within this many samples of an obstacle sample in its image column (the
   // obstacle's base below it, its top edge above it) is unknown: its matching window straddles the
-  // edge, and next to an obstacle the floor label reaches onto its lowest pixels. Obstacle pixels
-  // labelled floor on the suite (dangerous) with 0 / 1 / 2: textureless_floor 1.1 / 0.8 / 0.7 %,
-  // low_obstacles 2.8 / 2.0 / 1.7 %, effects 1.6 / 1.3 / 1.1 %; coverage 0.1-0.6 points lower
-  // with 1, 0.4-1.2 with 2, and with 2 one grid cell of the loop scene read free under an
-  // obstacle (0 with 0 and 1). >= 0, 0 = off.
+  // edge, and next to an obstacle the floor label reaches onto its lowest pixels. More samples
+  // label fewer obstacle pixels floor and cover less of the floor. >= 0, 0 = off.
   int edge_floor_unknown_samples = 1;
   // Labels: unmeasured samples between two labelled ones in an image column are filled where the
   // two bound what lies between (one vertical surface, an obstacle standing on the floor, or
@@ -110,9 +106,8 @@ struct ClassificationOptions {
   int column_min_samples = 3;
   double column_max_sigmas = 2.0;  // >= 0
   // Top view: cells within this many cells (a square) of a placed obstacle point are not free in
-  // the local map. With the points on their surfaces a wall's base cell read free from the floor
-  // samples just in front of it (throughput scene: dangerous cells 8 -> 13 of 816; with 1: 6).
-  // >= 0; 0 = off.
+  // the local map: a wall's points sit a few cm behind its base cell, which the floor samples just
+  // in front of it would otherwise vote free. >= 0; 0 = off.
   int free_margin_cells = 1;
   // How samples are combined before labelling: each on its own, with the median height of their
   // neighbours, or with the median height of their superpixel (SLICO; the paper's segments).
@@ -120,7 +115,7 @@ struct ClassificationOptions {
   Aggregation aggregation = Aggregation::kSegments;
   int median_radius = 1;          // samples, for kMedian (>= 1)
   double segment_size_px = 16.0;  // superpixel side, input pixels, for kSegments (>= 4)
-  int segment_iterations = 2;     // SLIC iterations (>= 1); 4 measured no better, 1 worse
+  int segment_iterations = 2;     // SLIC iterations (>= 1)
   // Superpixels computed at 1 / 2^segment_level of the search resolution (0 or 1): 1 is about four
   // times cheaper, with segments of the same size in input pixels.
   int segment_level = 1;
