@@ -11,6 +11,7 @@ packages=(
   libceres-dev
   cyclonedds-dev cyclonedds-tools libcycloneddsidl0
   libsqlite3-dev sqlite3
+  libzstd-dev liblz4-dev
   libyaml-cpp-dev
   libcli11-dev
   libspdlog-dev
