@@ -13,6 +13,7 @@
 #include <sstream>
 #include <vector>
 
+#include "app/rosbag2_input.h"
 #include "app/times_file.h"
 
 namespace monoplane::app {
@@ -156,6 +157,13 @@ std::unique_ptr<InputSource> OpenInput(const std::string& path, const InputOptio
   if (!fs::exists(p, ec)) {
     *error = path + ": no such file or folder";
     return nullptr;
+  }
+  // A rosbag2 recording: its folder, or one of its storage files.
+  if (fs::is_regular_file(p / "metadata.yaml", ec)) return OpenRosbag2Input(path, options, error);
+  const std::string extension = p.extension().string();
+  if ((extension == ".mcap" || extension == ".db3") &&
+      fs::is_regular_file(p.parent_path() / "metadata.yaml", ec)) {
+    return OpenRosbag2Input(p.parent_path().string(), options, error);
   }
   if (fs::is_regular_file(p, ec)) {
     // FFmpeg reads every video format Debian's OpenCV can; the other backends OpenCV would try on

@@ -5,6 +5,7 @@
 #include <optional>
 #include <string>
 
+#include "perception/geometry/camera_calibration.h"
 #include "perception/geometry/timestamp.h"
 
 namespace monoplane::app {
@@ -18,8 +19,9 @@ struct InputFrame {
   std::string error;  // why it could not be read
 };
 
-// A sequence of frames: a folder of images, a video file, a camera device, a KITTI raw drive or a
-// TUM RGB-D folder (../shared/INTERFACES.md). Not thread-safe; one reader thread owns it.
+// A sequence of frames: a folder of images, a video file, a camera device, a KITTI raw drive, a
+// TUM RGB-D folder (../shared/INTERFACES.md) or a rosbag2 recording. Not thread-safe; one reader
+// thread owns it.
 class InputSource {
  public:
   virtual ~InputSource() = default;
@@ -31,11 +33,20 @@ class InputSource {
   virtual int size() const { return -1; }
   // Where a calibration beside the input would be (folder/calib.yaml), or empty.
   virtual std::string default_calibration_path() const { return {}; }
+  // Intrinsics the input carries (a rosbag2 recording's sensor_msgs/CameraInfo), for a
+  // calibration file that gives only the mount; nullopt when it carries none.
+  virtual std::optional<CameraIntrinsics> intrinsics() const { return std::nullopt; }
+  // Where those intrinsics come from, or why the input's camera information cannot give them
+  // (for the error when the calibration file needs them).
+  virtual std::string intrinsics_origin() const { return {}; }
   virtual std::string description() const = 0;
 };
 
 struct InputOptions {
   double fps = 15.0;  // timestamps for image folders without times.txt and videos without them
+  // rosbag2 recordings: the image topic to read; empty: the bag's only image topic. Given on the
+  // command line (run --topic), not in config files.
+  std::string topic;
 };
 
 // Opens PATH as whichever kind of input it is. nullptr and a one-line reason when it is none.

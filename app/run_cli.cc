@@ -29,6 +29,7 @@ struct RunCli {
   double fps = std::numeric_limits<double>::quiet_NaN();
   long long max_frames = std::numeric_limits<long long>::min();
   long long domain_id = std::numeric_limits<long long>::min();
+  std::string topic;  // rosbag2 input's image topic
 };
 
 void PrintPercent(const char* name, const std::optional<double>& v) {
@@ -153,6 +154,7 @@ int RunCommand(RunCli* cli) {
     cli->request.config.dds.publisher.domain_id = static_cast<int>(cli->domain_id);
     cli->request.publish = true;
   }
+  cli->request.config.input.topic = cli->topic;
   if (!ValidateConfig(cli->request.config, &error)) {
     std::cerr << "monoplane run: " << error << "\n";
     return kExitBadInput;
@@ -232,7 +234,7 @@ void RegisterRunCommand(CLI::App* app, int* exit_code) {
       "run", "Detect obstacles and build a map from an input; without --input, the built-in demo");
   cmd->add_option("--input", cli.request.input_path,
                   "Folder of images (with times.txt, calib.yaml), video file, /dev/videoN, KITTI "
-                  "drive or TUM folder");
+                  "drive, TUM folder or rosbag2 recording (folder with metadata.yaml)");
   cmd->add_option("--calib", cli.request.calib_path,
                   "Calibration YAML (default: INPUT/calib.yaml)");
   cmd->add_option("--map", cli.request.map_path, "SQLite map file to create or extend");
@@ -240,6 +242,8 @@ void RegisterRunCommand(CLI::App* app, int* exit_code) {
                   "Folder for per-frame labels, heights, local maps and panels");
   cmd->add_option("--config", cli.config_path, "YAML options (monoplane config --dump)");
   cmd->add_option("--fps", cli.fps, "Frame rate for inputs without timestamps (default 15)");
+  cmd->add_option("--topic", cli.topic,
+                  "rosbag2 input: the image topic to read (default: the bag's only one)");
   cmd->add_option("--max-frames", cli.max_frames, "Stop after N frames (>= 1)");
   cmd->add_flag("--scale-calibration", cli.request.scale_calibration,
                 "Scale the intrinsics when the images are another size than the calibration");

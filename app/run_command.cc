@@ -2,6 +2,7 @@
 // joined by bounded queues.
 #include <spdlog/spdlog.h>
 #include <unistd.h>
+#include <yaml-cpp/yaml.h>
 
 #include <atomic>
 #include <chrono>
@@ -79,6 +80,43 @@ class Progress {
   Clock::time_point start_ = Clock::now();
 };
 
+// Loads the calibration file. A file with a mount: and no camera: section takes the intrinsics
+// the input carries (a rosbag2 recording's CameraInfo); a file with both is used as written.
+bool LoadCalibrationForInput(const std::string& path, const InputSource& source,
+                             CameraCalibration* calibration, std::string* error) {
+  if (LoadCalibrationFile(path, calibration, error)) return true;
+  YAML::Node root;
+  try {
+    root = YAML::LoadFile(path);
+  } catch (const YAML::Exception&) {
+    return false;  // LoadCalibrationFile's error says why
+  }
+  if (!root.IsMap() || !root["mount"] || root["camera"]) return false;
+  const std::optional<CameraIntrinsics> in = source.intrinsics();
+  if (!in) {
+    *error = path + ": camera: missing, and the input gives no intrinsics" +
+             (source.intrinsics_origin().empty() ? "" : " (" + source.intrinsics_origin() + ")");
+    return false;
+  }
+  YAML::Node camera;
+  camera["width"] = in->width;
+  camera["height"] = in->height;
+  camera["fx"] = in->fx;
+  camera["fy"] = in->fy;
+  camera["cx"] = in->cx;
+  camera["cy"] = in->cy;
+  for (const double d : in->distortion) camera["distortion"].push_back(d);
+  root["camera"] = camera;
+  YAML::Emitter text;
+  text << root;
+  if (!ParseCalibrationYaml(text.c_str(), calibration, error)) {
+    *error = path + " with the intrinsics of " + source.intrinsics_origin() + ": " + *error;
+    return false;
+  }
+  spdlog::info("{}: intrinsics from {}", path, source.intrinsics_origin());
+  return true;
+}
+
 }  // namespace
 
 int Run(const RunRequest& given, RunSummary* summary) {
@@ -106,7 +144,7 @@ int Run(const RunRequest& given, RunSummary* summary) {
     return kExitBadInput;
   }
   CameraCalibration calibration;
-  if (!LoadCalibrationFile(calib_path, &calibration, &error)) {
+  if (!LoadCalibrationForInput(calib_path, *source, &calibration, &error)) {
     std::cerr << "monoplane run: " << error << "\n";
     return kExitBadInput;
   }

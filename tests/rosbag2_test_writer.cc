@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <opencv2/imgproc.hpp>
 #include <sstream>
 
 namespace monoplane::testing {
@@ -76,6 +77,69 @@ struct Message {
 };
 
 }  // namespace
+
+interfaces::ImageMessage ImageMessageFromBgr(const cv::Mat& bgr, const std::string& encoding,
+                                             bool big_endian, int row_padding) {
+  interfaces::ImageMessage m;
+  m.width = static_cast<std::uint32_t>(bgr.cols);
+  m.height = static_cast<std::uint32_t>(bgr.rows);
+  m.encoding = encoding;
+  m.is_bigendian = big_endian;
+  cv::Mat pixels;  // the message's pixels, 8-bit
+  int bytes_per_px = 1;
+  if (encoding == "bgr8") {
+    pixels = bgr;
+    bytes_per_px = 3;
+  } else if (encoding == "rgb8") {
+    cv::cvtColor(bgr, pixels, cv::COLOR_BGR2RGB);
+    bytes_per_px = 3;
+  } else if (encoding == "bgra8" || encoding == "rgba8") {
+    cv::cvtColor(bgr, pixels, encoding == "bgra8" ? cv::COLOR_BGR2BGRA : cv::COLOR_BGR2RGBA);
+    bytes_per_px = 4;
+  } else if (encoding == "yuv422" || encoding == "yuv422_yuy2") {
+    // Y per pixel, U and V per pair of pixels (their mean), studio range.
+    const bool uyvy = encoding == "yuv422";
+    pixels.create(bgr.rows, bgr.cols, CV_8UC2);
+    for (int r = 0; r < bgr.rows; ++r) {
+      for (int c = 0; c + 1 < bgr.cols; c += 2) {
+        double y[2], u = 0, v = 0;
+        for (int k = 0; k < 2; ++k) {
+          const cv::Vec3b p = bgr.at<cv::Vec3b>(r, c + k);
+          const double b = p[0], g = p[1], red = p[2];
+          y[k] = 16 + (65.481 * red + 128.553 * g + 24.966 * b) / 255;
+          u += (128 + (-37.797 * red - 74.203 * g + 112.0 * b) / 255) / 2;
+          v += (128 + (112.0 * red - 93.786 * g - 18.214 * b) / 255) / 2;
+        }
+        const auto q = [](double x) { return cv::saturate_cast<std::uint8_t>(x); };
+        std::uint8_t* out = pixels.ptr<std::uint8_t>(r) + 2 * c;
+        const std::uint8_t bytes[4] = {q(u), q(y[0]), q(v), q(y[1])};
+        const std::uint8_t yuyv[4] = {q(y[0]), q(u), q(y[1]), q(v)};
+        std::copy(uyvy ? bytes : yuyv, (uyvy ? bytes : yuyv) + 4, out);
+      }
+    }
+    bytes_per_px = 2;
+  } else {
+    cv::cvtColor(bgr, pixels, cv::COLOR_BGR2GRAY);
+  }
+  if (encoding == "mono16") bytes_per_px = 2;
+  m.step =
+      m.width * static_cast<std::uint32_t>(bytes_per_px) + static_cast<std::uint32_t>(row_padding);
+  m.data.assign(std::size_t{m.step} * m.height, 0xAB);  // padding bytes are not pixels
+  for (int r = 0; r < pixels.rows; ++r) {
+    std::uint8_t* row = m.data.data() + std::size_t{m.step} * static_cast<std::size_t>(r);
+    if (encoding == "mono16") {
+      for (int c = 0; c < pixels.cols; ++c) {
+        const unsigned value = pixels.at<std::uint8_t>(r, c) * 257u;
+        row[2 * c + (big_endian ? 0 : 1)] = static_cast<std::uint8_t>(value >> 8);
+        row[2 * c + (big_endian ? 1 : 0)] = static_cast<std::uint8_t>(value & 0xFF);
+      }
+    } else {
+      std::copy(pixels.ptr<std::uint8_t>(r),
+                pixels.ptr<std::uint8_t>(r) + pixels.cols * bytes_per_px, row);
+    }
+  }
+  return m;
+}
 
 std::string MessageDefinition(const std::string& type) {
   if (type == "std_msgs/msg/String") return "string data\n";

@@ -2,8 +2,11 @@
 
 #include <cstdint>
 #include <memory>
+#include <opencv2/core.hpp>
 #include <string>
 #include <vector>
+
+#include "interfaces/cdr_messages.h"
 
 namespace monoplane::testing {
 
@@ -33,6 +36,13 @@ class Rosbag2Writer {
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };
+
+// A BGR image as a sensor_msgs/msg/Image of `encoding`: mono8, bgr8, rgb8, bgra8, rgba8, mono16
+// (grey x 257, in the byte order `big_endian` says), yuv422 (UYVY) or yuv422_yuy2 (YUYV) with
+// BT.601 studio-range YUV; any other name labels mono8 pixels. Each row is padded by
+// `row_padding` bytes (step = width x pixel size + row_padding).
+interfaces::ImageMessage ImageMessageFromBgr(const cv::Mat& bgr, const std::string& encoding,
+                                             bool big_endian = false, int row_padding = 0);
 
 // The ros2msg definition monoplane's writer stores for a type (MCAP schema, sqlite3
 // message_definitions); empty for types it does not know.
