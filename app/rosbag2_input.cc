@@ -261,13 +261,16 @@ bool ImageFromMessage(const interfaces::ImageMessage& m, cv::Mat* image, std::st
       return false;
     }
   }
-  // The message's rows, in place (cv::Mat does not write through it here).
-  const cv::Mat pixels(static_cast<int>(m.height), static_cast<int>(m.width), e->type,
-                       const_cast<std::uint8_t*>(m.data.data()), m.step);
+  // Row by row: `step` may hold padding and need not be a multiple of the pixel size.
+  cv::Mat pixels(static_cast<int>(m.height), static_cast<int>(m.width), e->type);
+  for (int r = 0; r < pixels.rows; ++r) {
+    std::memcpy(pixels.ptr(r), m.data.data() + std::size_t{m.step} * static_cast<std::size_t>(r),
+                row_bytes);
+  }
   if (e->conversion >= 0) {
     cv::cvtColor(pixels, *image, e->conversion);
   } else {
-    *image = pixels.clone();
+    *image = pixels;
   }
   const bool host_big_endian = cv::Mat(1, 1, CV_16UC1, cv::Scalar(1)).data[0] == 0;
   if (image->depth() == CV_16U && m.is_bigendian != host_big_endian) {
