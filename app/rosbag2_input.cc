@@ -180,11 +180,21 @@ class Rosbag2Source : public InputSource {
   std::optional<InputFrame> Read() {
     BagMessage message;
     std::string error;
+    if (ended_) return std::nullopt;
     if (!reader_->Next(&message, &error)) {
-      // A file that fails in the middle (it was checked when opened) ends the input; the frames
-      // it still held are not counted.
-      if (!error.empty() && index_ == 0) bag_error_ = error;
-      return std::nullopt;
+      ended_ = true;
+      if (error.empty()) return std::nullopt;
+      if (index_ == 0) {
+        bag_error_ = error;
+        return std::nullopt;
+      }
+      // A file that fails in the middle (it was checked when opened) ends the input: one skipped
+      // frame names the problem.
+      InputFrame f;
+      f.index = index_++;
+      f.name = topic_name() + " message " + std::to_string(f.index);
+      f.error = error + " (the rest of the bag is not read)";
+      return f;
     }
     InputFrame f;
     f.index = index_++;
@@ -226,6 +236,7 @@ class Rosbag2Source : public InputSource {
   std::string description_;
   std::optional<InputFrame> pending_;
   std::string bag_error_;
+  bool ended_ = false;
   std::string unknown_encoding_;
   std::optional<CameraIntrinsics> intrinsics_;
   std::string intrinsics_origin_;

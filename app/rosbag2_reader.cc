@@ -80,6 +80,28 @@ bool DecompressChunk(const std::string& compression, const std::uint8_t* data, s
     *error = "chunk states " + std::to_string(uncompressed_size) + " bytes uncompressed";
     return false;
   }
+  if (!compression.empty() && compression != "zstd" && compression != "lz4") {
+    *error = "unknown chunk compression \"" + compression + "\"";
+    return false;
+  }
+  // A stated size the compressed bytes cannot hold is refused before memory is taken for it:
+  // zstd expands at most about 44,000 times (run-length blocks), lz4 about 255 times.
+  const std::uint64_t most = compression.empty()     ? size
+                             : compression == "zstd" ? std::uint64_t{size} * 65536
+                                                     : std::uint64_t{size} * 256 + 65536;
+  if (uncompressed_size > most || (compression.empty() && uncompressed_size != size)) {
+    *error = std::to_string(size) + " bytes of chunk (compression \"" + compression +
+             "\") cannot hold the " + std::to_string(uncompressed_size) + " bytes it states";
+    return false;
+  }
+  if (compression == "zstd") {
+    const unsigned long long frame_size = ZSTD_getFrameContentSize(data, size);
+    if (frame_size == ZSTD_CONTENTSIZE_ERROR ||
+        (frame_size != ZSTD_CONTENTSIZE_UNKNOWN && frame_size > uncompressed_size)) {
+      *error = "zstd chunk: not a zstd frame of the stated size";
+      return false;
+    }
+  }
   try {
     out->resize(uncompressed_size);
   } catch (const std::bad_alloc&) {
@@ -87,11 +109,6 @@ bool DecompressChunk(const std::string& compression, const std::uint8_t* data, s
     return false;
   }
   if (compression.empty()) {
-    if (size != uncompressed_size) {
-      *error = "uncompressed chunk of " + std::to_string(size) + " bytes states " +
-               std::to_string(uncompressed_size);
-      return false;
-    }
     std::copy(data, data + size, out->begin());
     return true;
   }
@@ -104,40 +121,37 @@ bool DecompressChunk(const std::string& compression, const std::uint8_t* data, s
     }
     return true;
   }
-  if (compression == "lz4") {
-    LZ4F_dctx* context = nullptr;
-    if (LZ4F_isError(LZ4F_createDecompressionContext(&context, LZ4F_VERSION))) {
-      *error = "lz4: out of memory";
-      return false;
-    }
-    std::size_t in_pos = 0, out_pos = 0;
-    std::size_t hint = 1;
-    while (hint != 0) {
-      std::size_t in_size = size - in_pos;
-      std::size_t out_size = out->size() - out_pos;
-      hint = LZ4F_decompress(context, out->data() + out_pos, &out_size, data + in_pos, &in_size,
-                             nullptr);
-      if (LZ4F_isError(hint)) {
-        *error = std::string("lz4 chunk: ") + LZ4F_getErrorName(hint);
-        break;
-      }
-      in_pos += in_size;
-      out_pos += out_size;
-      if (hint != 0 && in_size == 0 && out_size == 0) {
-        *error = "lz4 chunk: truncated or larger than stated";
-        break;
-      }
-    }
-    LZ4F_freeDecompressionContext(context);
-    if (hint != 0) return false;
-    if (out_pos != uncompressed_size) {
-      *error = "lz4 chunk: size differs from the stated one";
-      return false;
-    }
-    return true;
+  // lz4 frames.
+  LZ4F_dctx* context = nullptr;
+  if (LZ4F_isError(LZ4F_createDecompressionContext(&context, LZ4F_VERSION))) {
+    *error = "lz4: out of memory";
+    return false;
   }
-  *error = "unknown chunk compression \"" + compression + "\"";
-  return false;
+  std::size_t in_pos = 0, out_pos = 0;
+  std::size_t hint = 1;
+  while (hint != 0) {
+    std::size_t in_size = size - in_pos;
+    std::size_t out_size = out->size() - out_pos;
+    hint = LZ4F_decompress(context, out->data() + out_pos, &out_size, data + in_pos, &in_size,
+                           nullptr);
+    if (LZ4F_isError(hint)) {
+      *error = std::string("lz4 chunk: ") + LZ4F_getErrorName(hint);
+      break;
+    }
+    in_pos += in_size;
+    out_pos += out_size;
+    if (hint != 0 && in_size == 0 && out_size == 0) {
+      *error = "lz4 chunk: truncated or larger than stated";
+      break;
+    }
+  }
+  LZ4F_freeDecompressionContext(context);
+  if (hint != 0) return false;
+  if (out_pos != uncompressed_size) {
+    *error = "lz4 chunk: size differs from the stated one";
+    return false;
+  }
+  return true;
 }
 
 // ---------------------------------------------------------------------------------------------
