@@ -146,6 +146,18 @@ std::unique_ptr<InputSource> OpenInput(const std::string& path, const InputOptio
                                        std::string* error) {
   const fs::path p(path);
   std::error_code ec;
+  // A rosbag2 recording: its folder, or one of its storage files.
+  if (fs::is_regular_file(p / "metadata.yaml", ec)) return OpenRosbag2Input(path, options, error);
+  const std::string extension = p.extension().string();
+  if ((extension == ".mcap" || extension == ".db3") &&
+      fs::is_regular_file(p.parent_path() / "metadata.yaml", ec)) {
+    return OpenRosbag2Input(p.parent_path().string(), options, error);
+  }
+  if (!options.topic.empty()) {
+    *error = path + ": --topic " + options.topic +
+             ": only rosbag2 recordings (a folder with metadata.yaml) have topics";
+    return nullptr;
+  }
   if (path.rfind("/dev/video", 0) == 0) {
     auto capture = std::make_unique<cv::VideoCapture>();
     if (!fs::exists(p, ec) || !capture->open(path, cv::CAP_V4L2)) {
@@ -157,13 +169,6 @@ std::unique_ptr<InputSource> OpenInput(const std::string& path, const InputOptio
   if (!fs::exists(p, ec)) {
     *error = path + ": no such file or folder";
     return nullptr;
-  }
-  // A rosbag2 recording: its folder, or one of its storage files.
-  if (fs::is_regular_file(p / "metadata.yaml", ec)) return OpenRosbag2Input(path, options, error);
-  const std::string extension = p.extension().string();
-  if ((extension == ".mcap" || extension == ".db3") &&
-      fs::is_regular_file(p.parent_path() / "metadata.yaml", ec)) {
-    return OpenRosbag2Input(p.parent_path().string(), options, error);
   }
   if (fs::is_regular_file(p, ec)) {
     // FFmpeg reads every video format Debian's OpenCV can; the other backends OpenCV would try on

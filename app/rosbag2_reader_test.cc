@@ -462,6 +462,14 @@ TEST(Rosbag2Images, CorruptCdrIsRefusedNotCrashing) {
   std::string text;
   ASSERT_TRUE(interfaces::DecodeStringCdr(big.data(), big.size(), &text, &error)) << error;
   EXPECT_EQ(text, "abc");
+  // PLAIN_CDR2 little-endian (0x0007), as ROS 2 nodes configured for XCDR2 write it.
+  const std::vector<std::uint8_t> cdr2 = {0, 7, 0, 0, 4, 0, 0, 0, 'x', 'y', 'z', 0};
+  ASSERT_TRUE(interfaces::DecodeStringCdr(cdr2.data(), cdr2.size(), &text, &error)) << error;
+  EXPECT_EQ(text, "xyz");
+  const std::vector<std::uint8_t> parameter_list = {0, 3, 0, 0, 4, 0, 0, 0, 'x', 'y', 'z', 0};
+  EXPECT_FALSE(
+      interfaces::DecodeStringCdr(parameter_list.data(), parameter_list.size(), &text, &error));
+  EXPECT_NE(error.find("unsupported encapsulation 0x0003"), std::string::npos) << error;
 }
 
 TEST(Rosbag2Images, CameraInfoRoundTrips) {

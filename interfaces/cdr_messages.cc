@@ -9,6 +9,7 @@
 #include <dds/ddsi/ddsi_cdrstream.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <cstring>
 #include <limits>
 
@@ -55,9 +56,9 @@ bool ReadSample(const CdrType& type, const char* type_name, const std::uint8_t* 
   // Encapsulation identifiers (DDS-XTypes 7.6.3.1.2): CDR_BE 0, CDR_LE 1, PLAIN_CDR2_BE 6,
   // PLAIN_CDR2_LE 7.
   if (data[0] != 0 || (data[1] != 0 && data[1] != 1 && data[1] != 6 && data[1] != 7)) {
-    return fail("unsupported encapsulation 0x" + std::to_string(data[0] >> 4) +
-                std::to_string(data[0] & 15) + std::to_string(data[1] >> 4) +
-                std::to_string(data[1] & 15));
+    char id[8];
+    std::snprintf(id, sizeof(id), "0x%02x%02x", data[0], data[1]);
+    return fail(std::string("unsupported encapsulation ") + id);
   }
   const bool payload_little_endian = (data[1] & 1) != 0;
   const std::uint32_t xcdr = data[1] >= 6 ? kXcdr2 : kXcdr1;
