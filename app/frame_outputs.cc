@@ -5,6 +5,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "perception/obstacle_detector.h"
+#include "perception/panels.h"
 #include "storage/map_export.h"
 
 namespace monoplane::app {

@@ -5,6 +5,7 @@
 #include <optional>
 #include <string>
 
+#include "perception/detector_options.h"
 #include "perception/direct_alignment.h"
 #include "perception/floor_features.h"
 #include "perception/frame_types.h"
@@ -16,175 +17,6 @@
 #include "perception/zero_disparity.h"
 
 namespace monoplane {
-
-// How samples become floor, obstacle, drop-off, moving or unknown (the paper's steps 4-5).
-struct ClassificationOptions {
-  // Sample spacing on the finest search level, pixels (>= 1). Labels are per sample, upsampled.
-  int sample_stride = 2;
-  // Heights (metres, > 0): at or above obstacle_min_height_m an obstacle, at or below
-  // -drop_off_min_depth_m a drop-off.
-  double obstacle_min_height_m = 0.03;
-  double drop_off_min_depth_m = 0.03;
-  // Smallest error assumed for a zero disparity, input pixels (> 0); each sample's own error
-  // (ZeroDisparityField::sigma_px) is used when larger. A point is only called floor when its
-  // error keeps its height within the thresholds above; otherwise unknown.
-  double disparity_sigma_px = 0.05;
-  // An obstacle or drop-off needs a zero disparity of at least this many sigmas (>= 0).
-  double min_disparity_sigmas = 3.0;
-  // Floor needs |height| + this many height sigmas below obstacle_min_height_m (>= 0): a point that
-  // could be an obstacle within its error is unknown, not floor.
-  double floor_max_height_sigmas = 3.0;
-  // An obstacle or drop-off needs the floor hypothesis (zero disparity) to misfit the sample's own
-  // 3x3 neighbourhood by at least this many grey levels (mean |difference|) more than its zero
-  // disparity does (>= 0). Otherwise the neighbourhood cannot tell them apart (the matching window
-  // carried an obstacle's parallax onto the floor next to it, or there is no texture): unknown.
-  bool check_floor_hypothesis = true;
-  double min_floor_misfit = 0.0;
-  // Minimum texture along the epipolar line (mean squared gradient, grey levels^2 per pixel^2, >
-  // 0); below it a pixel is unknown, never floor.
-  double min_texture = 1.0;
-  // Maximum mean |difference| after alignment, grey levels (> 0); above it unknown (or moving).
-  double max_residual = 12.0;
-  // Dense test: an offset perpendicular to the epipolar line of at least this many input pixels
-  // (and min_disparity_sigmas) marks motion of its own (>= 0; 0 = off). Off by default: on tiled
-  // and grained floors the aperture problem makes it call parts of the floor moving, and things
-  // that move move farther than the dense search follows; the tracked-corner test below finds them.
-  double moving_min_perpendicular_px = 0.0;
-  // Tracked corners: a corner shared by the pair that lies farther than this from its epipolar
-  // line under the fitted motion cannot be a static point (input pixels, > 0). Where two such
-  // corners lie within moving_track_radius_px of each other, the samples within that radius that
-  // are not floor are labelled moving (>= 0; 0 turns the track test off). Moving things move far
-  // between the frames of a pair, beyond what the dense search follows; their tracks do not.
-  double moving_track_min_px = 4.0;
-  double moving_track_radius_px = 32.0;
-  // Points farther than this from the robot (metres, > 0) are unknown: not reliable.
-  double max_range_m = 6.0;
-  // An obstacle or drop-off point goes into the top view (local map, obstacle points) only when
-  // its footprint is known to within 0.05 m + this fraction of its range (one sigma of the zero
-  // disparity moves it along its ray; >= 0). Far, tall points whose rays graze their height are
-  // labelled in the image but not placed, rather than smeared far beyond where they are.
-  double max_footprint_sigma_ratio = 0.03;
-  // ... and when it lies on a surface: at least min_surface_neighbours of its 8 neighbouring
-  // samples (measured, any label) are at ranges from the camera that a surface seen at
-  // min_surface_angle_deg or more to the viewing ray would give. A sample whose matching window
-  // straddles a depth edge measures a mix of the two depths ("veil" points, as a lidar's mixed
-  // returns); without this they smear an obstacle's edge along its rays in the top view.
-  // Angle in degrees, [0, 90), 0 = off; neighbours in [0, 8].
-  double min_surface_angle_deg = 10.0;
-  int min_surface_neighbours = 3;
-  // Where the floor ends in an image column (the samples above it are not floor), the last floor
-  // sample's window straddles the edge and its cell holds the base of what stands there (a wall
-  // seen at a grazing angle, a box without texture), detected or not. Below floor_edge_samples
-  // samples that are not floor, its cell is not free in the local map; below fewer (a seam, a
-  // textureless spot in the floor) it just gives no free vote. 0 = off, >= 0.
-  int floor_edge_samples = 3;
-  // Labels: a floor sample within this many samples of an obstacle sample in its image column (the
-  // obstacle's base below it, its top edge above it) is unknown: its matching window straddles the
-  // edge, and next to an obstacle the floor label reaches onto its lowest pixels. More samples
-  // label fewer obstacle pixels floor and cover less of the floor. >= 0, 0 = off.
-  int edge_floor_unknown_samples = 1;
-  // Labels: unmeasured samples between two labelled ones in an image column are filled where the
-  // two bound what lies between (one vertical surface, an obstacle standing on the floor, or
-  // floor on both sides of a gap too short to hide an obstacle): FillColumnGaps in the .cc says
-  // which rule fills what. Gaps of up to fill_max_gap_samples samples (>= 0, 0 = off); a floor
-  // gap at most fill_max_floor_gap_m long on the floor (metres, >= 0: a hole in it could not be
-  // seen, so it is kept short).
-  int fill_max_gap_samples = 24;
-  double fill_max_floor_gap_m = 0.10;
-  // Top view, surfaces: the obstacle (or drop-off) samples of one run in an image column (up to two
-  // unmeasured ones between) show one surface, vertical (a wall, a box's side: one range) or
-  // horizontal (a table top from below, the lower floor past a drop-off: one height). With at
-  // least column_min_samples placeable samples in the run, a sample within column_max_sigmas
-  // footprint sigmas (+ 0.05 m) of the run's median range goes to that range along its ray, else
-  // one within column_max_sigmas height sigmas (+ 0.02 m) of the median height to where its ray
-  // meets that height. The others are not placed; their cells are not free. A shorter run is too
-  // short to show a surface: its obstacle samples keep their own footprints (a small obstacle;
-  // leaving it out lets the floor around clear its cell), its drop-off samples are not placed
-  // (lone false drop-offs are phantom cells). One sample's range scatters by several cells at
-  // 1-3 m, the run's median much less: fewer phantom cells, at some recall (measurements:
-  // docs/experiments.md). 0 = off (every sample at its own triangulated footprint), >= 0.
-  int column_min_samples = 3;
-  double column_max_sigmas = 2.0;  // >= 0
-  // Top view: cells within this many cells (a square) of a placed obstacle point are not free in
-  // the local map: a wall's points sit a few cm behind its base cell, which the floor samples just
-  // in front of it would otherwise vote free. >= 0; 0 = off.
-  int free_margin_cells = 1;
-  // How samples are combined before labelling: each on its own, with the median height of their
-  // neighbours, or with the median height of their superpixel (SLICO; the paper's segments).
-  enum class Aggregation { kNone, kMedian, kSegments };
-  Aggregation aggregation = Aggregation::kSegments;
-  int median_radius = 1;          // samples, for kMedian (>= 1)
-  double segment_size_px = 16.0;  // superpixel side, input pixels, for kSegments (>= 4)
-  int segment_iterations = 2;     // SLIC iterations (>= 1)
-  // Superpixels computed at 1 / 2^segment_level of the search resolution (0 or 1): 1 is about four
-  // times cheaper, with segments of the same size in input pixels.
-  int segment_level = 1;
-  int segment_min_samples = 3;  // measured samples a segment needs to be labelled (>= 1)
-  // A segment labelled obstacle whose measured samples are at least this fraction of its samples
-  // labels its unmeasured (textureless) samples obstacle too, for kSegments; in [0, 1], 1 = never.
-  double segment_fill_fraction = 0.25;
-
-  bool IsValid(std::string* error) const;
-};
-
-// The robot-frame top view (the paper's step 6).
-struct LocalMapOptions {
-  double resolution_m = 0.05;  // cell side (> 0)
-  double min_x_m = -1.0;       // extent in the base frame of the current frame (min < max)
-  double max_x_m = 7.0;
-  double min_y_m = -4.0;
-  double max_y_m = 4.0;
-
-  bool IsValid(std::string* error) const;
-};
-
-// Reference frame selection (the paper's step 1): keep a reference until the camera has moved
-// enough for parallax.
-struct PairSelectionOptions {
-  double min_baseline_m = 0.10;  // camera centre travel between the pair (> 0)
-  int max_history = 20;          // frames kept to choose a reference from (>= 2)
-  // When the robot stops (or creeps) after driving, the last frame far enough away for a pair
-  // stays in the history while it is within 2 * min_baseline_m (the frames after it go instead),
-  // so that a robot waiting keeps seeing what it saw while driving instead of going blind once
-  // max_history frames have passed. Standing still before any driving still gives no pair
-  // (unknown).
-  bool hold_reference = true;
-  // Largest yaw between the pair (rad, > 0). Turning pairs have little baseline for much image
-  // motion and match badly; when no frame within this yaw has the baseline, the frame is
-  // "no parallax" (unknown), as when standing still.
-  double max_rotation_rad = 0.12;
-  // Turning on the spot still moves the camera (it sits ahead of the axle, mount x): when no
-  // reference qualifies above, the newest frame within turn_max_rotation_rad (rad, >= 0) whose
-  // camera centre lies at least turn_min_baseline_m away (m, > 0) is used: a narrow-baseline pair
-  // that sees near obstacles (FrameResult::turn_pair tells). turn_max_rotation_rad 0 = off.
-  double turn_min_baseline_m = 0.04;
-  double turn_max_rotation_rad = 0.5;
-  // Dense detection on every N-th usable frame (>= 1); the others are only tracked for odometry
-  // and carry the last detected frame's result. 2 halves the cost with obstacle updates at half
-  // the camera rate. A frame farther from the last detected one than a carried result may go
-  // (2 * min_baseline_m, max_rotation_rad) is detected whatever N says.
-  int detect_every = 2;
-
-  bool IsValid(std::string* error) const;
-};
-
-struct DetectorOptions {
-  GroundMotionOptions ground_motion;
-  DirectAlignmentOptions direct_alignment;  // the pair's motion refined on the floor's texture
-  ZeroDisparityOptions zero_disparity;
-  ClassificationOptions classification;
-  HeightFilterOptions height_filter;  // heights fused over the detected frames
-  LocalMapOptions local_map;
-  PairSelectionOptions pair_selection;
-  FloorFeatureOptions floor_features;  // computed on every kOk result (FrameResult::floor_features)
-  // Leave the floor features to the caller: Detect keeps what they come from in
-  // FrameResult::floor_feature_source and ComputeFloorFeatures computes them, for the frames that
-  // need them (a mapper's keyframes, one frame in 7-14 in the simulated scenes). Set by the
-  // program, not a config key.
-  bool defer_floor_features = false;
-
-  bool IsValid(std::string* error) const;
-};
 
 // Detects floor, obstacles, drop-offs and moving things in the second of two frames. Holds the
 // calibration's precomputed matrices and undistortion maps; no files, threads or clocks.
@@ -330,11 +162,5 @@ class SequenceDetector {
   AlignmentImage previous_alignment_;                   // and its direct-alignment image
   ShiTomasiCorners corners_;  // corner strength of the frame being topped up
 };
-
-// The 2x2 picture for people: input with labels, segmentation, zero disparity, top view.
-cv::Mat RenderPanels(const cv::Mat& current, const FrameResult& result);
-
-// The local map drawn as an image (free white, occupied black, unknown grey, x up).
-cv::Mat RenderLocalMap(const OccupancyGrid& grid, int pixels_per_cell = 2);
 
 }  // namespace monoplane

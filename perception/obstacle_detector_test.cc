@@ -9,6 +9,8 @@
 #include <opencv2/imgproc.hpp>
 #include <random>
 
+#include "perception/panels.h"
+
 namespace monoplane {
 namespace {
 

@@ -1,3 +1,5 @@
+#include "perception/panels.h"
+
 #include <cmath>
 #include <opencv2/imgproc.hpp>
 
