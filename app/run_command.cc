@@ -9,8 +9,10 @@
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <iostream>
 #include <opencv2/core/utility.hpp>
+#include <sstream>
 #include <thread>
 
 #include "app/bounded_queue.h"
@@ -81,39 +83,51 @@ class Progress {
 };
 
 // Loads the calibration file. A file with a mount: and no camera: section takes the intrinsics
-// the input carries (a rosbag2 recording's CameraInfo); a file with both is used as written.
+// the input carries (a rosbag2 recording's CameraInfo), appended to the file's own text so that
+// the file is checked as any calibration is; a file with both is used as written.
 bool LoadCalibrationForInput(const std::string& path, const InputSource& source,
                              CameraCalibration* calibration, std::string* error) {
-  if (LoadCalibrationFile(path, calibration, error)) return true;
-  YAML::Node root;
-  try {
-    root = YAML::LoadFile(path);
-  } catch (const YAML::Exception&) {
-    return false;  // LoadCalibrationFile's error says why
+  std::ifstream file(path);
+  if (!file) {
+    *error = path + ": cannot open file";
+    return false;
   }
-  if (!root.IsMap() || !root["mount"] || root["camera"]) return false;
-  const std::optional<CameraIntrinsics> in = source.intrinsics();
-  if (!in) {
+  std::ostringstream read;
+  read << file.rdbuf();
+  std::string text = read.str();
+  bool mount_only = false;
+  try {
+    const YAML::Node root = YAML::Load(text);
+    mount_only = root.IsMap() && root["mount"] && !root["camera"];
+  } catch (const YAML::Exception&) {
+  }  // ParseCalibrationYaml below says why
+  const std::optional<CameraIntrinsics> in = mount_only ? source.intrinsics() : std::nullopt;
+  if (mount_only && !in) {
     *error = path + ": camera: missing, and the input gives no intrinsics" +
              (source.intrinsics_origin().empty() ? "" : " (" + source.intrinsics_origin() + ")");
     return false;
   }
-  YAML::Node camera;
-  camera["width"] = in->width;
-  camera["height"] = in->height;
-  camera["fx"] = in->fx;
-  camera["fy"] = in->fy;
-  camera["cx"] = in->cx;
-  camera["cy"] = in->cy;
-  for (const double d : in->distortion) camera["distortion"].push_back(d);
-  root["camera"] = camera;
-  YAML::Emitter text;
-  text << root;
-  if (!ParseCalibrationYaml(text.c_str(), calibration, error)) {
-    *error = path + " with the intrinsics of " + source.intrinsics_origin() + ": " + *error;
+  if (in) {
+    YAML::Emitter camera;
+    camera << YAML::BeginMap << YAML::Key << "camera" << YAML::Value << YAML::BeginMap;
+    camera << YAML::Key << "width" << YAML::Value << in->width;
+    camera << YAML::Key << "height" << YAML::Value << in->height;
+    camera << YAML::Key << "fx" << YAML::Value << in->fx << YAML::Key << "fy" << YAML::Value
+           << in->fy;
+    camera << YAML::Key << "cx" << YAML::Value << in->cx << YAML::Key << "cy" << YAML::Value
+           << in->cy;
+    camera << YAML::Key << "distortion" << YAML::Value << YAML::Flow << YAML::BeginSeq;
+    for (const double d : in->distortion) camera << d;
+    camera << YAML::EndSeq;
+    camera << YAML::EndMap << YAML::EndMap;
+    text += "\n" + std::string(camera.c_str()) + "\n";
+  }
+  if (!ParseCalibrationYaml(text, calibration, error)) {
+    *error =
+        path + (in ? " with the intrinsics of " + source.intrinsics_origin() : "") + ": " + *error;
     return false;
   }
-  spdlog::info("{}: intrinsics from {}", path, source.intrinsics_origin());
+  if (in) spdlog::info("{}: intrinsics from {}", path, source.intrinsics_origin());
   return true;
 }
 

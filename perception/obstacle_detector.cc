@@ -1149,6 +1149,12 @@ FrameResult CarryResult(const CameraModel& camera, const ClassificationOptions& 
   return r;
 }
 
+// Whether a detected frame's result may be carried to a frame at now_from_last from it.
+bool WithinCarryReach(const Pose2& now_from_last, const PairSelectionOptions& ps) {
+  return now_from_last.TranslationNorm() <= 2.0 * ps.min_baseline_m &&
+         std::abs(now_from_last.yaw) <= ps.max_rotation_rad;
+}
+
 }  // namespace
 
 void SequenceDetector::Finish(Output* output) {
@@ -1159,10 +1165,8 @@ void SequenceDetector::Finish(Output* output) {
     const bool carry = (!output->result || output->result->status == PairStatus::kNoParallax) &&
                        output->step.status == GroundMotion::Status::kOk;
     if (carry && !output->undetected_image.empty() && last_detected_) {
-      const PairSelectionOptions& ps = detector_.options().pair_selection;
       const Pose2 now_from_last = output->odom_from_base.Inverse() * last_detected_->odom_from_base;
-      if (now_from_last.TranslationNorm() <= 2.0 * ps.min_baseline_m &&
-          std::abs(now_from_last.yaw) <= ps.max_rotation_rad) {
+      if (WithinCarryReach(now_from_last, detector_.options().pair_selection)) {
         output->result = CarryResult(detector_.camera(), detector_.options().classification,
                                      last_detected_->result, last_detected_->image_half,
                                      output->undetected_image, now_from_last);
@@ -1287,12 +1291,10 @@ SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, Timesta
   ++frames_since_detection_;
   // A frame is only tracked when Finish can carry the last detection to it (within the same
   // bounds); a fast camera (a car: 1.3 m per frame) has every frame detected instead.
-  bool can_carry = true;
-  if (last_detection_odom_from_base_) {
-    const Pose2 now_from_last = odom_from_base_.Inverse() * *last_detection_odom_from_base_;
-    can_carry = now_from_last.TranslationNorm() <= 2.0 * options.pair_selection.min_baseline_m &&
-                std::abs(now_from_last.yaw) <= options.pair_selection.max_rotation_rad;
-  }
+  const bool can_carry =
+      !last_detection_odom_from_base_ ||
+      WithinCarryReach(odom_from_base_.Inverse() * *last_detection_odom_from_base_,
+                       options.pair_selection);
   if (out.step.status != GroundMotion::Status::kFailed &&
       frames_since_detection_ < options.pair_selection.detect_every && can_carry) {
     // Tracked only (see PairSelectionOptions::detect_every); Finish carries the last detected

@@ -1144,27 +1144,46 @@ TEST_F(DetectorOnSyntheticScene, TurningOnTheSpotSeesANearBox) {
   EXPECT_EQ(unknown.result->status, PairStatus::kNoParallax);
 }
 
-TEST_F(DetectorOnSyntheticScene, DetectEveryNthFrameTracksTheOthers) {
-  DetectorOptions options = options_;
-  options.pair_selection.detect_every = 3;
-  SequenceDetector sequence(calib_, options);
-  Scene scene;
-  std::vector<bool> detected, carried;
+// Drives 10 frames 0.05 m apart over the floor; which frames were detected, which carried.
+void DetectedAndCarried(const CameraCalibration& calib, const DetectorOptions& options,
+                        std::vector<bool>* detected, std::vector<bool>* carried) {
+  SequenceDetector sequence(calib, options);
+  const Scene scene;
   for (int i = 0; i < 10; ++i) {
     const Pose2 pose{0.05 * i, 0.0, 0.0};
     const auto out =
         sequence.Process(Render(scene, sequence.detector().camera(), pose).image, i * kFrameNs);
     ASSERT_TRUE(out.image_ok);
     EXPECT_NEAR(out.odom_from_base.x, pose.x, 0.01) << "frame " << i;  // every frame is tracked
-    detected.push_back(out.result.has_value() && !out.result->predicted);
-    carried.push_back(out.result.has_value() && out.result->predicted);
+    detected->push_back(out.result.has_value() && !out.result->predicted);
+    carried->push_back(out.result.has_value() && out.result->predicted);
   }
+}
+
+TEST_F(DetectorOnSyntheticScene, DetectEveryNthFrameTracksTheOthers) {
+  DetectorOptions options = options_;
+  options.pair_selection.detect_every = 3;
+  std::vector<bool> detected, carried;
+  DetectedAndCarried(calib_, options, &detected, &carried);
   // Frame 0 has no pair; frames 1 and 2 are tracked only, with nothing detected to carry; then
   // every 3rd frame is detected and the two after it carry its result.
   EXPECT_EQ(detected,
             (std::vector<bool>{false, false, false, true, false, false, true, false, false, true}));
   EXPECT_EQ(carried,
             (std::vector<bool>{false, false, false, false, true, true, false, true, true, false}));
+}
+
+// A camera that moves farther per frame than a carried result may go (2 * min_baseline_m, a car
+// at speed) has every frame detected once one is: nothing would be carried to the others.
+TEST_F(DetectorOnSyntheticScene, FramesBeyondCarryReachAreDetected) {
+  DetectorOptions options = options_;
+  options.pair_selection.detect_every = 3;
+  options.pair_selection.min_baseline_m = 0.02;  // carried at most 0.04 m; the steps are 0.05 m
+  std::vector<bool> detected, carried;
+  DetectedAndCarried(calib_, options, &detected, &carried);
+  EXPECT_EQ(detected,
+            (std::vector<bool>{false, false, false, true, true, true, true, true, true, true}));
+  EXPECT_EQ(carried, std::vector<bool>(10, false));
 }
 
 TEST_F(DetectorOnSyntheticScene, BadImagesAreRejectedWithReasons) {
