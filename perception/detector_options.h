@@ -65,11 +65,12 @@ struct ClassificationOptions {
   // Angle in degrees, [0, 90), 0 = off; neighbours in [0, 8].
   double min_surface_angle_deg = 10.0;
   int min_surface_neighbours = 3;
-  // Where the floor ends in an image column (the samples above it are not floor), the last floor
-  // sample's window straddles the edge and its cell holds the base of what stands there (a wall
-  // seen at a grazing angle, a box without texture), detected or not. Below floor_edge_samples
-  // samples that are not floor, its cell is not free in the local map; below fewer (a seam, a
-  // textureless spot in the floor) it just gives no free vote. 0 = off, >= 0.
+  // Where the floor ends in an image column (the samples above it are not floor), the floor
+  // samples whose matching window reaches the edge (half a window) straddle it: the floor label
+  // climbs onto the lowest pixels of what stands there (a wall seen at a grazing angle, a box
+  // without texture), detected or not, and their cells hold its base. Below floor_edge_samples
+  // samples that are not floor, those cells are not free in the local map; below fewer (a seam, a
+  // textureless spot in the floor) they just give no free vote. 0 = off, >= 0.
   int floor_edge_samples = 3;
   // Labels: a floor sample within this many samples of an obstacle sample in its image column (the
   // obstacle's base below it, its top edge above it) is unknown: its matching window straddles the
@@ -98,9 +99,10 @@ struct ClassificationOptions {
   // docs/experiments.md). 0 = off (every sample at its own triangulated footprint), >= 0.
   int column_min_samples = 3;
   double column_max_sigmas = 2.0;  // >= 0
-  // Top view: cells within this many cells (a square) of a placed obstacle point are not free in
-  // the local map: a wall's points sit a few cm behind its base cell, which the floor samples just
-  // in front of it would otherwise vote free. >= 0; 0 = off.
+  // Top view: cells within this many cells (a square) of a placed obstacle point, and this many
+  // cells beyond a floor edge along its ray, are not free in the local map: a wall's points sit a
+  // few cm behind its base cell, which the floor samples just in front of it would otherwise vote
+  // free, and a textureless wall has no points at all. >= 0; 0 = off.
   int free_margin_cells = 1;
   // How samples are combined before labelling: each on its own, with the median height of their
   // neighbours, or with the median height of their superpixel (SLICO; the paper's segments).

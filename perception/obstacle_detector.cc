@@ -888,6 +888,9 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
   const GridGeometry& g = r.local_map.geometry;
   std::vector<std::uint16_t> free_votes(g.NumCells(), 0), occupied_votes(g.NumCells(), 0);
   std::vector<std::uint8_t> not_free(g.NumCells(), 0);  // cells that must not read free
+  const Eigen::Vector2d camera_centre_xy = camera_.CameraCentreInBase().head<2>();
+  // Samples (stride search pixels apart) whose matching window reaches a sample above them.
+  const int edge_reach_samples = 1 + options_.zero_disparity.window_px / 2 / stride;
   for (int i = 0; i < sample_rows; ++i) {
     for (int j = 0; j < sample_cols; ++j) {
       const Sample& sample = samples[i * sample_cols + j];
@@ -911,10 +914,18 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
         // edge, and its cell holds the base of whatever stands there, detected or not. Below a
         // short run of other samples (a seam, a textureless spot) it gives no free vote; below
         // floor_edge_samples of them its cell is not free.
+        // A sample whose matching window reaches the edge counts as the edge: the window of a
+        // wall's or a box's lowest (textureless) pixels holds the floor below them, so the floor
+        // label climbs a sample or so onto them, and the last floor samples lie on the base.
+        int edge = i - 1;  // the first sample above that is not floor, within the window's reach
+        while (edge >= 0 && i - edge <= edge_reach_samples &&
+               labels[edge * sample_cols + j] == PixelLabel::kFloor) {
+          --edge;
+        }
         int not_floor_above = 0;
-        while (co.floor_edge_samples > 0 && not_floor_above < co.floor_edge_samples &&
-               i - not_floor_above - 1 >= 0 &&
-               labels[(i - not_floor_above - 1) * sample_cols + j] != PixelLabel::kFloor) {
+        while (co.floor_edge_samples > 0 && i - edge <= edge_reach_samples &&
+               not_floor_above < co.floor_edge_samples && edge - not_floor_above >= 0 &&
+               labels[(edge - not_floor_above) * sample_cols + j] != PixelLabel::kFloor) {
           ++not_floor_above;
         }
         if (auto cell = g.CellOf(sample.floor_in_base2)) {
@@ -923,6 +934,16 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
             ++free_votes[c];
           } else if (not_floor_above >= co.floor_edge_samples) {
             not_free[c] = 1;
+            // What stands at the edge stands beyond it along the ray: the cells up to
+            // free_margin_cells further on hold its base, not the cells beside or before it.
+            const Eigen::Vector2d ray = sample.floor_in_base2 - camera_centre_xy;
+            if (ray.norm() > 0.0) {
+              for (int k = 1; k <= co.free_margin_cells; ++k) {
+                if (auto beyond =
+                        g.CellOf(sample.floor_in_base2 + ray.normalized() * (k * g.resolution_m)))
+                  not_free[g.Index(beyond->x(), beyond->y())] = 1;
+              }
+            }
           }
         }
       } else if ((label == PixelLabel::kObstacle || label == PixelLabel::kDropOff) &&

@@ -235,7 +235,7 @@ ZeroDisparityField ComputeZeroDisparity(const cv::Mat& image1, const cv::Mat& im
       // The 3x3 Sobel of the 8-bit warp in one pass; the integer sums are exact, / 8 as below.
       cv::spatialGradient(warped, grad_x, grad_y, 3);
       const bool final = what == Terms::kFinal;
-      terms.create(rows, cols, final ? CV_32FC4 : CV_32FC2);
+      terms.create(rows, cols, final ? CV_32FC4 : CV_32FC3);
       for (int y = 0; y < rows; ++y) {
         const std::uint8_t* __restrict pw = warped.ptr<std::uint8_t>(y);
         const std::int16_t* __restrict pdx = grad_x.ptr<std::int16_t>(y);
@@ -244,13 +244,15 @@ ZeroDisparityField ComputeZeroDisparity(const cv::Mat& image1, const cv::Mat& im
         const float* __restrict puy = uy.ptr<float>(y);
         const float* __restrict pa = i2_zero_mean.ptr<float>(y);
         const float* __restrict pm = mean_w.ptr<float>(y);
+        const float* __restrict ps = s.ptr<float>(y);
         float* __restrict pt = terms.ptr<float>(y);
         for (int x = 0; x < cols; ++x) {
           const float gu = pdx[x] * 0.125f * pux[x] + pdy[x] * 0.125f * puy[x];
           const float d = pa[x] - (static_cast<float>(pw[x]) - pm[x]);
           if (!final) {
-            pt[2 * x] = gu * d;
-            pt[2 * x + 1] = gu * gu;
+            pt[3 * x] = gu * d;
+            pt[3 * x + 1] = gu * gu;
+            pt[3 * x + 2] = gu * gu * ps[x];
           } else {
             const float gp = pdy[x] * 0.125f * pux[x] - pdx[x] * 0.125f * puy[x];
             pt[4 * x] = gu * gu;
@@ -270,8 +272,14 @@ ZeroDisparityField ComputeZeroDisparity(const cv::Mat& image1, const cv::Mat& im
         float* __restrict ps = s.ptr<float>(y);
         const float* __restrict pnd = sums.ptr<float>(y);
         for (int x = 0; x < cols; ++x) {
-          // I2 = W(q - (s + delta) u) ~ Ws - delta * Gu  =>  delta = -sum(Gu D) / sum(Gu^2).
-          ps[x] += std::clamp(-pnd[2 * x] / (pnd[2 * x + 1] + damping), -max_step, max_step);
+          // Each pixel q of the window was warped by its own s(q), not by this pixel's s(p):
+          // linearised, D_q(s_p) = D_q(s_q) + Gu_q (s_p - s_q), so the window's step for p is
+          // delta = -(sum(Gu D) + s_p sum(Gu^2) - sum(Gu^2 s)) / sum(Gu^2). Without the s terms
+          // the differences between neighbours are never corrected, and every iteration adds the
+          // noise of the window sums to them.
+          const float gg = pnd[3 * x + 1];
+          const float step = -(pnd[3 * x] + ps[x] * gg - pnd[3 * x + 2]) / (gg + damping);
+          ps[x] += std::clamp(step, -max_step, max_step);
         }
       }
     }
