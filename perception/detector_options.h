@@ -99,10 +99,10 @@ struct ClassificationOptions {
   // docs/experiments.md). 0 = off (every sample at its own triangulated footprint), >= 0.
   int column_min_samples = 3;
   double column_max_sigmas = 2.0;  // >= 0
-  // Top view: cells within this many cells (a square) of a placed obstacle point, and this many
-  // cells beyond a floor edge along its ray, are not free in the local map: a wall's points sit a
-  // few cm behind its base cell, which the floor samples just in front of it would otherwise vote
-  // free, and a textureless wall has no points at all. >= 0; 0 = off.
+  // Top view: cells within this many cells (a square) of a placed obstacle point or of a floor
+  // edge (floor_edge_samples) are not free in the local map: a wall's points sit a few cm behind
+  // its base cell, which the floor samples just in front of it would otherwise vote free, and a
+  // textureless wall has no points at all. >= 0; 0 = off.
   int free_margin_cells = 1;
   // How samples are combined before labelling: each on its own, with the median height of their
   // neighbours, or with the median height of their superpixel (SLICO; the paper's segments).

@@ -887,8 +887,8 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
   r.height_measurements = cv::Mat(sample_rows, sample_cols, CV_8U, cv::Scalar(0));
   const GridGeometry& g = r.local_map.geometry;
   std::vector<std::uint16_t> free_votes(g.NumCells(), 0), occupied_votes(g.NumCells(), 0);
-  std::vector<std::uint8_t> not_free(g.NumCells(), 0);  // cells that must not read free
-  const Eigen::Vector2d camera_centre_xy = camera_.CameraCentreInBase().head<2>();
+  std::vector<std::uint8_t> not_free(g.NumCells(), 0);    // cells that must not read free
+  std::vector<std::uint8_t> floor_edge(g.NumCells(), 0);  // where the floor ends below something
   // Samples (stride search pixels apart) whose matching window reaches a sample above them.
   const int edge_reach_samples = 1 + options_.zero_disparity.window_px / 2 / stride;
   for (int i = 0; i < sample_rows; ++i) {
@@ -934,16 +934,7 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
             ++free_votes[c];
           } else if (not_floor_above >= co.floor_edge_samples) {
             not_free[c] = 1;
-            // What stands at the edge stands beyond it along the ray: the cells up to
-            // free_margin_cells further on hold its base, not the cells beside or before it.
-            const Eigen::Vector2d ray = sample.floor_in_base2 - camera_centre_xy;
-            if (ray.norm() > 0.0) {
-              for (int k = 1; k <= co.free_margin_cells; ++k) {
-                if (auto beyond =
-                        g.CellOf(sample.floor_in_base2 + ray.normalized() * (k * g.resolution_m)))
-                  not_free[g.Index(beyond->x(), beyond->y())] = 1;
-              }
-            }
+            floor_edge[c] = 1;
           }
         }
       } else if ((label == PixelLabel::kObstacle || label == PixelLabel::kDropOff) &&
@@ -972,15 +963,16 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
       }
     }
   }
-  // A margin: the cells around a placed obstacle point are not free either (a wall's base cell
-  // otherwise reads free from the floor samples just in front of it when the wall's points sit a
-  // few cm behind the cell boundary).
+  // A margin: the cells around a placed obstacle point, and around the floor's edge below
+  // something that is not floor, are not free either (a wall's base cell otherwise reads free from
+  // the floor samples just in front of it: the wall's points sit a few cm behind the cell
+  // boundary, a textureless wall has none, and the base cell holds floor and wall).
   if (co.free_margin_cells > 0) {
     const int m = co.free_margin_cells;
     std::vector<std::uint8_t> margin = not_free;
     for (int row = 0; row < g.height; ++row) {
       for (int col = 0; col < g.width; ++col) {
-        if (occupied_votes[g.Index(col, row)] == 0) continue;
+        if (occupied_votes[g.Index(col, row)] == 0 && !floor_edge[g.Index(col, row)]) continue;
         for (int r2 = std::max(row - m, 0); r2 <= std::min(row + m, g.height - 1); ++r2) {
           for (int c2 = std::max(col - m, 0); c2 <= std::min(col + m, g.width - 1); ++c2)
             margin[g.Index(c2, r2)] = 1;
