@@ -24,6 +24,7 @@
 #include <vector>
 
 #include "idl/nav_msgs.h"
+#include "interfaces/dds_entities.h"
 #include "interfaces/map_publisher.h"
 #include "interfaces/map_subscriber.h"
 #include "interfaces/test/loopback.h"
@@ -64,6 +65,9 @@ OccupancyGrid Grid(int size) {
   dds_qset_history(qos, DDS_HISTORY_KEEP_LAST, 1);
   const dds_data_representation_id_t xcdr1 = DDS_DATA_REPRESENTATION_XCDR1;
   dds_qset_data_representation(qos, 1, &xcdr1);
+  // The three topics share one type: one USER_DATA (the ROS 2 type hash) serves all endpoints.
+  const std::string user_data = RosUserData(pong);
+  dds_qset_userdata(qos, user_data.data(), user_data.size());
   const dds_entity_t readers[2] = {dds_create_reader(participant, ping_local, qos, nullptr),
                                    dds_create_reader(participant, ping_map, qos, nullptr)};
   const dds_entity_t writer = dds_create_writer(participant, pong, qos, nullptr);

@@ -2,6 +2,8 @@
 
 #include <dds/dds.h>
 
+#include "interfaces/ros_type_hash.h"
+
 namespace monoplane::interfaces {
 
 std::string DdsError(std::int32_t return_code, const std::string& context) {
@@ -17,7 +19,7 @@ std::string Trim(const std::string& s) {
   return s.substr(begin, end - begin);
 }
 
-dds_qos_t* MakeQos(const EndpointQos& q) {
+dds_qos_t* MakeQos(const EndpointQos& q, std::int32_t topic) {
   dds_qos_t* qos = dds_create_qos();
   dds_qset_reliability(qos, q.reliable ? DDS_RELIABILITY_RELIABLE : DDS_RELIABILITY_BEST_EFFORT,
                        q.max_blocking_ns);
@@ -35,6 +37,9 @@ dds_qos_t* MakeQos(const EndpointQos& q) {
   // ROS 2 (rmw_cyclonedds) speaks XCDR1 for its final types; say so explicitly.
   const dds_data_representation_id_t xcdr1 = DDS_DATA_REPRESENTATION_XCDR1;
   dds_qset_data_representation(qos, 1, &xcdr1);
+  // ROS 2 (Iron and later) reads the type hash from every endpoint's USER_DATA.
+  const std::string user_data = RosUserData(topic);
+  if (!user_data.empty()) dds_qset_userdata(qos, user_data.data(), user_data.size());
   return qos;
 }
 
@@ -73,9 +78,15 @@ std::int32_t CreateTopic(std::int32_t participant, const void* descriptor,
   return topic;
 }
 
+std::string RosUserData(std::int32_t topic) {
+  char type_name[512];
+  if (dds_get_type_name(topic, type_name, sizeof(type_name)) < 0) return "";
+  return RosTypeHashUserData(type_name);
+}
+
 std::int32_t CreateWriter(std::int32_t participant, std::int32_t topic, const EndpointQos& q,
                           std::string* error) {
-  dds_qos_t* qos = MakeQos(q);
+  dds_qos_t* qos = MakeQos(q, topic);
   const dds_entity_t writer = dds_create_writer(participant, topic, qos, nullptr);
   dds_delete_qos(qos);
   if (writer < 0) {
@@ -87,7 +98,7 @@ std::int32_t CreateWriter(std::int32_t participant, std::int32_t topic, const En
 
 std::int32_t CreateReader(std::int32_t participant, std::int32_t topic, const EndpointQos& q,
                           std::string* error) {
-  dds_qos_t* qos = MakeQos(q);
+  dds_qos_t* qos = MakeQos(q, topic);
   const dds_entity_t reader = dds_create_reader(participant, topic, qos, nullptr);
   dds_delete_qos(qos);
   if (reader < 0) {
@@ -144,6 +155,12 @@ EndpointInfo ReadEndpointInfo(std::int32_t endpoint) {
                                                                                  : "other";
       }
       dds_free(values);
+    }
+    void* user_data = nullptr;
+    std::size_t user_data_size = 0;
+    if (dds_qget_userdata(qos, &user_data, &user_data_size) && user_data != nullptr) {
+      info.user_data.assign(static_cast<const char*>(user_data), user_data_size);
+      dds_free(user_data);
     }
   }
   dds_delete_qos(qos);

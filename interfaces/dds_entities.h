@@ -40,6 +40,7 @@ struct EndpointInfo {
   int history_depth = 0;
   std::int64_t max_blocking_ns = 0;
   std::string data_representation;  // "XCDR1", "XCDR2" or "XCDR1,XCDR2"
+  std::string user_data;            // e.g. "typehash=RIHS01_<64 hex>;" (ROS 2's type hash)
 };
 
 // A participant on `domain_id` (0..232; Cyclone's configuration comes from CYCLONEDDS_URI).
@@ -51,12 +52,17 @@ void DeleteEntity(std::int32_t entity);
 // Creates a topic named `topic_name` with the IDL type `descriptor` (a dds_topic_descriptor_t*).
 std::int32_t CreateTopic(std::int32_t participant, const void* descriptor,
                          const std::string& topic_name, std::string* error);
+// The USER_DATA ROS 2 expects of every reader and writer on `topic`: "typehash=RIHS01_<hex>;" of
+// the topic's type (ros_type_hash.h); empty when the type has no ROS 2 description here.
+std::string RosUserData(std::int32_t topic);
+// A writer or reader on `topic` with `qos` and USER_DATA RosUserData(topic), so that ROS 2 nodes
+// see the type hash. Returns the handle (> 0) or 0 with `error` set.
 std::int32_t CreateWriter(std::int32_t participant, std::int32_t topic, const EndpointQos& qos,
                           std::string* error);
 std::int32_t CreateReader(std::int32_t participant, std::int32_t topic, const EndpointQos& qos,
                           std::string* error);
 
-// Reads back the topic name, type name and QoS of a reader or writer.
+// Reads back the topic name, type name, QoS and USER_DATA of a reader or writer.
 EndpointInfo ReadEndpointInfo(std::int32_t endpoint);
 
 }  // namespace monoplane::interfaces

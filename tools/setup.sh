@@ -10,6 +10,8 @@ packages=(
   liboctomap-dev
   libceres-dev
   cyclonedds-dev cyclonedds-tools libcycloneddsidl0
+  # libcrypto's sha256 for the ROS 2 type hashes in the DDS endpoints' USER_DATA.
+  libssl-dev
   libsqlite3-dev sqlite3
   libzstd-dev liblz4-dev
   libyaml-cpp-dev
