@@ -614,6 +614,358 @@ std::vector<Eigen::Vector2d> OffEpipolarCorners(const CameraModel& camera,
   return moving;
 }
 
+namespace {
+
+// The detector's sample grid over the search level: sample (i, j) sits at level pixel
+// (j, i) * stride + stride / 2, input pixel scale times that.
+struct SampleGrid {
+  int rows = 0;
+  int cols = 0;
+  int stride = 1;
+  double scale = 1.0;  // input pixels per level pixel
+  double SamplePx() const { return stride * scale; }
+  std::size_t Index(int i, int j) const { return static_cast<std::size_t>(i) * cols + j; }
+};
+
+// Phase 1: every sample measured on its own (its zero disparity, height and footprint) and
+// labelled from that alone.
+std::vector<Sample> MeasureSamples(const CameraModel& camera, const ZeroDisparityField& field,
+                                   const SampleGrid& grid, const Pose2& base2_from_base1,
+                                   const ClassificationOptions& co) {
+  const CameraIntrinsics& in = camera.calibration().intrinsics;
+  const Pose2& t = base2_from_base1;
+  const Eigen::Matrix3d h_inv = FloorHomography(camera, t).inverse();
+  const Eigen::Vector3d horizon = camera.HorizonLine();
+  const double horizon_norm = horizon.head<2>().norm();
+  // Orient the horizon line so that floor pixels have positive signed distance.
+  const Eigen::Vector2d bottom((in.width - 1) / 2.0, in.height - 1.0);
+  const double horizon_sign = horizon.dot(bottom.homogeneous()) >= 0 ? 1.0 : -1.0;
+  const double camera_height = camera.CameraCentreInBase().z();
+  const MotionTriangulator triangulate(camera, t);
+  const Eigen::Matrix2d t_rotation = t.Rotation();  // t * p, without a sine and cosine per sample
+  const Eigen::Vector2d t_translation = t.Translation();
+  const int stride = grid.stride;
+  std::vector<Sample> samples(static_cast<std::size_t>(grid.rows) * grid.cols);
+  for (int i = 0; i < grid.rows; ++i) {
+    for (int j = 0; j < grid.cols; ++j) {
+      Sample& sample = samples[grid.Index(i, j)];
+      const int y = i * stride + stride / 2, x = j * stride + stride / 2;
+      const Eigen::Vector2d q(x * field.scale, y * field.scale);
+      sample.below_horizon_px = horizon_sign * horizon.dot(q.homogeneous()) / horizon_norm;
+      if (auto f = camera.PixelToFloor(q)) sample.floor_in_base2 = *f;
+      if (field.texture.at<float>(y, x) < co.min_texture) continue;  // unknown, never floor
+      sample.textured = true;
+      const float perpendicular = std::abs(field.perpendicular_px.at<float>(y, x));
+      if (co.moving_min_perpendicular_px > 0 && perpendicular >= co.moving_min_perpendicular_px &&
+          perpendicular >= co.min_disparity_sigmas * field.perpendicular_sigma_px.at<float>(y, x)) {
+        sample.raw = PixelLabel::kMoving;
+        continue;
+      }
+      if (field.residual.at<float>(y, x) > co.max_residual) {
+        sample.mismatched = true;
+        continue;
+      }
+      const double s = field.s_px.at<float>(y, x);
+      const double sigma_px =
+          std::max<double>(co.disparity_sigma_px, field.sigma_px.at<float>(y, x));
+      const Eigen::Vector2d u(field.ux.at<float>(y, x), field.uy.at<float>(y, x));
+      const auto tri = triangulate.OnEpipolarLine(ApplyHomography(h_inv, q - s * u), q);
+      const auto tri_sigma =
+          triangulate.OnEpipolarLine(ApplyHomography(h_inv, q - (s + sigma_px) * u), q);
+      if (!tri || !tri_sigma || tri->depth_m <= 0) continue;
+      sample.measured = true;
+      sample.s_px = s;
+      sample.significant = std::abs(s) >= co.min_disparity_sigmas * sigma_px;
+      if (co.check_floor_hypothesis && sample.significant && !field.floor_residual_fine.empty() &&
+          field.floor_residual_fine.at<float>(y, x) <
+              field.residual_fine.at<float>(y, x) + co.min_floor_misfit) {
+        sample.significant = false;
+        sample.floor_explains = true;
+      }
+      sample.height_m = tri->point_in_base1.z();
+      sample.height_sigma_m = std::abs(tri_sigma->point_in_base1.z() - sample.height_m);
+      sample.height_m_per_px = sample.height_sigma_m / sigma_px;
+      sample.footprint_sigma_m =
+          (tri_sigma->point_in_base1.head<2>() - tri->point_in_base1.head<2>()).norm();
+      sample.point_in_base2 = t_rotation * tri->point_in_base1.head<2>() + t_translation;
+      sample.raw = Classify(sample, co, camera_height);
+    }
+  }
+  return samples;
+}
+
+// Each measured sample labelled by the median height and sigma of its neighbours
+// (ClassificationOptions::Aggregation::kMedian).
+void AggregateByMedian(const std::vector<Sample>& samples, const SampleGrid& grid,
+                       const ClassificationOptions& co, double camera_height_m,
+                       std::vector<PixelLabel>* labels) {
+  const int radius = co.median_radius;
+  std::vector<float> heights, sigmas;
+  for (int i = 0; i < grid.rows; ++i) {
+    for (int j = 0; j < grid.cols; ++j) {
+      const Sample& centre = samples[grid.Index(i, j)];
+      if (!centre.measured || centre.raw == PixelLabel::kUnknown) continue;
+      heights.clear();
+      sigmas.clear();
+      for (int di = -radius; di <= radius; ++di) {
+        for (int dj = -radius; dj <= radius; ++dj) {
+          const int ii = i + di, jj = j + dj;
+          if (ii < 0 || jj < 0 || ii >= grid.rows || jj >= grid.cols) continue;
+          const Sample& n = samples[grid.Index(ii, jj)];
+          if (!n.measured) continue;
+          heights.push_back(static_cast<float>(n.height_m));
+          sigmas.push_back(static_cast<float>(n.height_sigma_m));
+        }
+      }
+      Sample median = centre;
+      median.height_m = Median(&heights);
+      median.height_sigma_m = Median(&sigmas);
+      median.significant = centre.significant;
+      (*labels)[grid.Index(i, j)] = Classify(median, co, camera_height_m);
+    }
+  }
+}
+
+// Corners that move on their own (level pixels), confirmed by a second one within radius_px: what
+// is not floor around them moves.
+void LabelAroundMovingCorners(const std::vector<Eigen::Vector2d>& moving, const SampleGrid& grid,
+                              double radius_px, std::vector<PixelLabel>* labels) {
+  const double sample_px = grid.SamplePx();
+  const int reach = static_cast<int>(std::ceil(radius_px / sample_px));
+  for (std::size_t a = 0; a < moving.size(); ++a) {
+    bool confirmed = false;
+    for (std::size_t b = 0; b < moving.size() && !confirmed; ++b) {
+      confirmed = b != a && (moving[a] - moving[b]).norm() <= radius_px;
+    }
+    if (!confirmed) continue;
+    const int ci = static_cast<int>(moving[a].y() / sample_px);
+    const int cj = static_cast<int>(moving[a].x() / sample_px);
+    for (int i = std::max(0, ci - reach); i <= std::min(grid.rows - 1, ci + reach); ++i) {
+      for (int j = std::max(0, cj - reach); j <= std::min(grid.cols - 1, cj + reach); ++j) {
+        const Eigen::Vector2d centre((j + 0.5) * sample_px, (i + 0.5) * sample_px);
+        if ((centre - moving[a]).norm() > radius_px) continue;
+        PixelLabel& label = (*labels)[grid.Index(i, j)];
+        if (label != PixelLabel::kFloor) label = PixelLabel::kMoving;
+      }
+    }
+  }
+}
+
+// Floor within `reach` samples of an obstacle in its image column (its base below it, the floor
+// behind its top above it): the matching window straddled the edge, and the floor label reached
+// onto the obstacle's edge pixels. Unknown, not floor.
+void UnknownFloorNextToObstacles(const SampleGrid& grid, int reach,
+                                 std::vector<PixelLabel>* labels) {
+  const std::vector<PixelLabel> before = *labels;
+  for (int i = 0; i < grid.rows; ++i) {
+    for (int j = 0; j < grid.cols; ++j) {
+      if (before[grid.Index(i, j)] != PixelLabel::kFloor) continue;
+      bool next_to_obstacle = false;
+      for (int d = std::max(0, i - reach); d <= std::min(grid.rows - 1, i + reach); ++d)
+        next_to_obstacle |= before[grid.Index(d, j)] == PixelLabel::kObstacle;
+      if (next_to_obstacle) (*labels)[grid.Index(i, j)] = PixelLabel::kUnknown;
+    }
+  }
+}
+
+// 1 for the obstacle and drop-off samples on a surface (ClassificationOptions::
+// min_surface_angle_deg), 0 for mixed "veil" points at a depth edge; 1 for every other sample.
+std::vector<std::uint8_t> SamplesOnSurfaces(const CameraModel& camera,
+                                            const std::vector<Sample>& samples,
+                                            const std::vector<PixelLabel>& labels,
+                                            const SampleGrid& grid,
+                                            const ClassificationOptions& co) {
+  std::vector<std::uint8_t> on_surface(samples.size(), 1);
+  if (co.min_surface_angle_deg <= 0) return on_surface;
+  const Eigen::Vector3d centre = camera.CameraCentreInBase();
+  const double pixel_rad = grid.SamplePx() / camera.K()(0, 0);
+  const double depth_per_lateral = 1.0 / std::tan(co.min_surface_angle_deg * M_PI / 180.0);
+  std::vector<float> range(samples.size(), NAN);
+  for (std::size_t k = 0; k < samples.size(); ++k) {
+    const Sample& s = samples[k];
+    if (s.measured) {
+      range[k] = static_cast<float>(
+          (Eigen::Vector3d(s.point_in_base2.x(), s.point_in_base2.y(), s.height_m) - centre)
+              .norm());
+    }
+  }
+  for (int i = 0; i < grid.rows; ++i) {
+    for (int j = 0; j < grid.cols; ++j) {
+      const std::size_t k = grid.Index(i, j);
+      const PixelLabel label = labels[k];
+      if (!samples[k].measured || (label != PixelLabel::kObstacle && label != PixelLabel::kDropOff))
+        continue;
+      int smooth = 0;
+      for (int di = -1; di <= 1; ++di) {
+        for (int dj = -1; dj <= 1; ++dj) {
+          const int ii = i + di, jj = j + dj;
+          if ((di == 0 && dj == 0) || ii < 0 || jj < 0 || ii >= grid.rows || jj >= grid.cols)
+            continue;
+          const float neighbour = range[grid.Index(ii, jj)];
+          if (std::isnan(neighbour)) continue;
+          const double lateral = range[k] * pixel_rad * (di != 0 && dj != 0 ? M_SQRT2 : 1.0);
+          smooth += std::abs(neighbour - range[k]) <= depth_per_lateral * lateral ? 1 : 0;
+        }
+      }
+      on_surface[k] = smooth >= co.min_surface_neighbours ? 1 : 0;
+    }
+  }
+  return on_surface;
+}
+
+// The per-sample images of a result: labels, heights (EncodeHeightMm; floor 0, obstacles and
+// drop-offs their height where they have one), zero disparity (NaN where not measured) and the
+// measurements fused into each estimate.
+void WriteSampleImages(const std::vector<Sample>& samples, const std::vector<PixelLabel>& labels,
+                       const SampleGrid& grid, cv::Mat* sample_labels, cv::Mat* sample_height,
+                       cv::Mat* zero_disparity_px, cv::Mat* height_measurements) {
+  *sample_labels = cv::Mat(grid.rows, grid.cols, CV_8U, cv::Scalar(0));
+  *sample_height = cv::Mat(grid.rows, grid.cols, CV_16U, cv::Scalar(0));
+  *zero_disparity_px = cv::Mat(grid.rows, grid.cols, CV_32F, cv::Scalar(NAN));
+  *height_measurements = cv::Mat(grid.rows, grid.cols, CV_8U, cv::Scalar(0));
+  for (int i = 0; i < grid.rows; ++i) {
+    for (int j = 0; j < grid.cols; ++j) {
+      const Sample& sample = samples[grid.Index(i, j)];
+      const PixelLabel label = labels[grid.Index(i, j)];
+      sample_labels->at<std::uint8_t>(i, j) = static_cast<std::uint8_t>(label);
+      if (sample.measured) zero_disparity_px->at<float>(i, j) = static_cast<float>(sample.s_px);
+      height_measurements->at<std::uint8_t>(i, j) =
+          static_cast<std::uint8_t>(std::min(sample.measurements, 255));
+      if (label == PixelLabel::kFloor) {
+        sample_height->at<std::uint16_t>(i, j) = EncodeHeightMm(0.0);
+      } else if ((label == PixelLabel::kObstacle || label == PixelLabel::kDropOff) &&
+                 (sample.carried || sample.measured)) {
+        sample_height->at<std::uint16_t>(i, j) = EncodeHeightMm(sample.height_m);
+      }
+    }
+  }
+}
+
+// Where each labelled sample's obstacle point may be placed in the top view.
+struct Placement {
+  std::vector<std::uint8_t> footprint_known;   // footprint known well enough to be placed at all
+  std::vector<std::uint8_t> on_surface;        // SamplesOnSurfaces
+  std::vector<Eigen::Vector2d> column_placed;  // PlaceOnColumnSurfaces, empty when off
+};
+
+// The top view of one pair: the local map's cells (free, occupied, the rest unknown) and the
+// placed obstacle points (base frame, z = height). Samples carried from earlier frames give no
+// vote (the map counted them when they were measured). `edge_reach_samples`: samples above a
+// floor sample that its matching window reaches.
+void BuildTopView(const std::vector<Sample>& samples, const std::vector<PixelLabel>& labels,
+                  const Placement& placement, const SampleGrid& grid, int edge_reach_samples,
+                  const ClassificationOptions& co, OccupancyGrid* local_map,
+                  std::vector<Eigen::Vector3f>* obstacle_points_in_base) {
+  const GridGeometry& g = local_map->geometry;
+  std::vector<std::uint16_t> free_votes(g.NumCells(), 0), occupied_votes(g.NumCells(), 0);
+  std::vector<std::uint8_t> not_free(g.NumCells(), 0);    // cells that must not read free
+  std::vector<std::uint8_t> floor_edge(g.NumCells(), 0);  // where the floor ends below something
+  for (int i = 0; i < grid.rows; ++i) {
+    for (int j = 0; j < grid.cols; ++j) {
+      const std::size_t k = grid.Index(i, j);
+      const Sample& sample = samples[k];
+      const PixelLabel label = labels[k];
+      if (sample.carried) continue;
+      if (label == PixelLabel::kFloor) {
+        // Floor at its floor point...
+        // ...except where the floor ends in the image column: that sample's window straddles the
+        // edge, and its cell holds the base of whatever stands there, detected or not. Below a
+        // short run of other samples (a seam, a textureless spot) it gives no free vote; below
+        // floor_edge_samples of them its cell is not free.
+        // A sample whose matching window reaches the edge counts as the edge: the window of a
+        // wall's or a box's lowest (textureless) pixels holds the floor below them, so the floor
+        // label climbs a sample or so onto them, and the last floor samples lie on the base.
+        int edge = i - 1;  // the first sample above that is not floor, within the window's reach
+        while (edge >= 0 && i - edge <= edge_reach_samples &&
+               labels[grid.Index(edge, j)] == PixelLabel::kFloor) {
+          --edge;
+        }
+        int not_floor_above = 0;
+        while (co.floor_edge_samples > 0 && i - edge <= edge_reach_samples &&
+               not_floor_above < co.floor_edge_samples && edge - not_floor_above >= 0 &&
+               labels[grid.Index(edge - not_floor_above, j)] != PixelLabel::kFloor) {
+          ++not_floor_above;
+        }
+        if (auto cell = g.CellOf(sample.floor_in_base2)) {
+          const std::size_t c = g.Index(cell->x(), cell->y());
+          if (not_floor_above == 0) {
+            ++free_votes[c];
+          } else if (not_floor_above >= co.floor_edge_samples) {
+            not_free[c] = 1;
+            floor_edge[c] = 1;
+          }
+        }
+      } else if ((label == PixelLabel::kObstacle || label == PixelLabel::kDropOff) &&
+                 sample.measured) {
+        if (!placement.footprint_known[k]) continue;
+        // ...obstacles and drop-offs at their true footprint, not their stretched shadow: that of
+        // the surface their column shows when there is one. A point between two surfaces (a "veil"
+        // point at a depth edge) or off its column's surface is not placed, but its cell is not
+        // free.
+        const Eigen::Vector2d footprint = !placement.on_surface[k] ? Eigen::Vector2d(NAN, NAN)
+                                          : placement.column_placed.empty()
+                                              ? sample.point_in_base2
+                                              : placement.column_placed[k];
+        if (!footprint.allFinite()) {
+          if (auto cell = g.CellOf(sample.point_in_base2))
+            not_free[g.Index(cell->x(), cell->y())] = 1;
+          continue;
+        }
+        obstacle_points_in_base->emplace_back(static_cast<float>(footprint.x()),
+                                              static_cast<float>(footprint.y()),
+                                              static_cast<float>(sample.height_m));
+        if (auto cell = g.CellOf(footprint)) {
+          ++occupied_votes[g.Index(cell->x(), cell->y())];
+        }
+      }
+    }
+  }
+  // A margin: the cells around a placed obstacle point, and around the floor's edge below
+  // something that is not floor, are not free either (a wall's base cell otherwise reads free from
+  // the floor samples just in front of it: the wall's points sit a few cm behind the cell
+  // boundary, a textureless wall has none, and the base cell holds floor and wall).
+  if (co.free_margin_cells > 0) {
+    const int m = co.free_margin_cells;
+    std::vector<std::uint8_t> margin = not_free;
+    for (int row = 0; row < g.height; ++row) {
+      for (int col = 0; col < g.width; ++col) {
+        if (occupied_votes[g.Index(col, row)] == 0 && !floor_edge[g.Index(col, row)]) continue;
+        for (int r2 = std::max(row - m, 0); r2 <= std::min(row + m, g.height - 1); ++r2) {
+          for (int c2 = std::max(col - m, 0); c2 <= std::min(col + m, g.width - 1); ++c2)
+            margin[g.Index(c2, r2)] = 1;
+        }
+      }
+    }
+    not_free.swap(margin);
+  }
+  for (std::size_t k = 0; k < g.NumCells(); ++k) {
+    // A cell with any obstacle point is occupied: calling it free would be the dangerous error.
+    if (occupied_votes[k] >= 1) {
+      local_map->cells[k] = kCellOccupied;
+    } else if (free_votes[k] >= 1 && !not_free[k]) {
+      local_map->cells[k] = kCellFree;
+    }
+  }
+}
+
+// The label counts of a result's image, from a histogram (no branch per pixel).
+void CountLabels(FrameResult* r) {
+  std::array<int, 256> count{};
+  for (int y = 0; y < r->labels.rows; ++y) {
+    const std::uint8_t* p = r->labels.ptr<std::uint8_t>(y);
+    for (int x = 0; x < r->labels.cols; ++x) ++count[p[x]];
+  }
+  const auto of = [&](PixelLabel label) { return count[static_cast<std::uint8_t>(label)]; };
+  r->num_floor = of(PixelLabel::kFloor);
+  r->num_obstacle = of(PixelLabel::kObstacle);
+  r->num_drop_off = of(PixelLabel::kDropOff);
+  r->num_moving = of(PixelLabel::kMoving);
+  r->num_unknown = r->labels.rows * r->labels.cols - r->num_floor - r->num_obstacle -
+                   r->num_drop_off - r->num_moving;
+}
+
+}  // namespace
+
 FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& current,
                                      const GroundMotion& motion,
                                      const std::vector<Eigen::Vector2d>& moving_pixels,
@@ -674,329 +1026,76 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
   r.motion = refined;
   const ZeroDisparityField field =
       ComputeZeroDisparity(reference, *current_level, camera_, t, options_.zero_disparity);
-  const Eigen::Matrix3d h_inv = FloorHomography(camera_, t).inverse();
-
-  const int stride = co.sample_stride;
-  const int sample_rows = field.s_px.rows / stride, sample_cols = field.s_px.cols / stride;
-  const Eigen::Vector3d horizon = camera_.HorizonLine();
-  const double horizon_norm = horizon.head<2>().norm();
-  // Orient the horizon line so that floor pixels have positive signed distance.
-  const Eigen::Vector2d bottom((in.width - 1) / 2.0, in.height - 1.0);
-  const double horizon_sign = horizon.dot(bottom.homogeneous()) >= 0 ? 1.0 : -1.0;
+  const SampleGrid grid{field.s_px.rows / co.sample_stride, field.s_px.cols / co.sample_stride,
+                        co.sample_stride, field.scale};
   const double camera_height = camera_.CameraCentreInBase().z();
 
   // Phase 1: measure every sample on its own.
-  const MotionTriangulator triangulate(camera_, t);
-  const Eigen::Matrix2d t_rotation = t.Rotation();  // t * p, without a sine and cosine per sample
-  const Eigen::Vector2d t_translation = t.Translation();
-  std::vector<Sample> samples(static_cast<std::size_t>(sample_rows) * sample_cols);
-  for (int i = 0; i < sample_rows; ++i) {
-    for (int j = 0; j < sample_cols; ++j) {
-      Sample& sample = samples[i * sample_cols + j];
-      const int y = i * stride + stride / 2, x = j * stride + stride / 2;
-      const Eigen::Vector2d q(x * field.scale, y * field.scale);
-      sample.below_horizon_px = horizon_sign * horizon.dot(q.homogeneous()) / horizon_norm;
-      if (auto f = camera_.PixelToFloor(q)) sample.floor_in_base2 = *f;
-      if (field.texture.at<float>(y, x) < co.min_texture) continue;  // unknown, never floor
-      sample.textured = true;
-      const float perpendicular = std::abs(field.perpendicular_px.at<float>(y, x));
-      if (co.moving_min_perpendicular_px > 0 && perpendicular >= co.moving_min_perpendicular_px &&
-          perpendicular >= co.min_disparity_sigmas * field.perpendicular_sigma_px.at<float>(y, x)) {
-        sample.raw = PixelLabel::kMoving;
-        continue;
-      }
-      if (field.residual.at<float>(y, x) > co.max_residual) {
-        sample.mismatched = true;
-        continue;
-      }
-      const double s = field.s_px.at<float>(y, x);
-      const double sigma_px =
-          std::max<double>(co.disparity_sigma_px, field.sigma_px.at<float>(y, x));
-      const Eigen::Vector2d u(field.ux.at<float>(y, x), field.uy.at<float>(y, x));
-      const auto tri = triangulate.OnEpipolarLine(ApplyHomography(h_inv, q - s * u), q);
-      const auto tri_sigma =
-          triangulate.OnEpipolarLine(ApplyHomography(h_inv, q - (s + sigma_px) * u), q);
-      if (!tri || !tri_sigma || tri->depth_m <= 0) continue;
-      sample.measured = true;
-      sample.s_px = s;
-      sample.significant = std::abs(s) >= co.min_disparity_sigmas * sigma_px;
-      if (co.check_floor_hypothesis && sample.significant && !field.floor_residual_fine.empty() &&
-          field.floor_residual_fine.at<float>(y, x) <
-              field.residual_fine.at<float>(y, x) + co.min_floor_misfit) {
-        sample.significant = false;
-        sample.floor_explains = true;
-      }
-      sample.height_m = tri->point_in_base1.z();
-      sample.height_sigma_m = std::abs(tri_sigma->point_in_base1.z() - sample.height_m);
-      sample.height_m_per_px = sample.height_sigma_m / sigma_px;
-      sample.footprint_sigma_m =
-          (tri_sigma->point_in_base1.head<2>() - tri->point_in_base1.head<2>()).norm();
-      sample.point_in_base2 = t_rotation * tri->point_in_base1.head<2>() + t_translation;
-      sample.raw = Classify(sample, co, camera_height);
-    }
-  }
+  std::vector<Sample> samples = MeasureSamples(camera_, field, grid, t, co);
 
-  // Phase 1b: evidence over frames.
+  // Phase 2: evidence over frames.
   if (options_.height_filter.enabled) {
     static const std::vector<HeightSeed> kNoPrior;
     FuseHeights(camera_, co, options_.height_filter, prior_in_base ? *prior_in_base : kNoPrior,
-                sample_rows, sample_cols, stride * field.scale, &samples, &r.height_seeds);
+                grid.rows, grid.cols, grid.SamplePx(), &samples, &r.height_seeds);
   }
 
-  // Phase 2: aggregate, as the paper does per segment, for stability.
+  // Phase 3: aggregate, as the paper does per segment, for stability.
   std::vector<PixelLabel> labels(samples.size());
   for (std::size_t k = 0; k < samples.size(); ++k) labels[k] = samples[k].raw;
   if (co.aggregation == ClassificationOptions::Aggregation::kMedian) {
-    const int radius = co.median_radius;
-    std::vector<float> heights, sigmas;
-    for (int i = 0; i < sample_rows; ++i) {
-      for (int j = 0; j < sample_cols; ++j) {
-        const Sample& centre = samples[i * sample_cols + j];
-        if (!centre.measured || centre.raw == PixelLabel::kUnknown) continue;
-        heights.clear();
-        sigmas.clear();
-        for (int di = -radius; di <= radius; ++di) {
-          for (int dj = -radius; dj <= radius; ++dj) {
-            const int ii = i + di, jj = j + dj;
-            if (ii < 0 || jj < 0 || ii >= sample_rows || jj >= sample_cols) continue;
-            const Sample& n = samples[ii * sample_cols + jj];
-            if (!n.measured) continue;
-            heights.push_back(static_cast<float>(n.height_m));
-            sigmas.push_back(static_cast<float>(n.height_sigma_m));
-          }
-        }
-        Sample median = centre;
-        median.height_m = Median(&heights);
-        median.height_sigma_m = Median(&sigmas);
-        median.significant = centre.significant;
-        labels[i * sample_cols + j] = Classify(median, co, camera_height);
-      }
-    }
+    AggregateByMedian(samples, grid, co, camera_height, &labels);
   } else if (co.aggregation == ClassificationOptions::Aggregation::kSegments) {
     r.segments = Superpixels(*current_level, co, field.scale);
-    AggregateBySegment(r.segments, samples, sample_rows, sample_cols, stride, field.scale, co,
+    AggregateBySegment(r.segments, samples, grid.rows, grid.cols, grid.stride, field.scale, co,
                        camera_height, &labels);
   }
 
-  // Corners that move on their own, confirmed by a second one nearby: what is not floor around
-  // them moves.
-  const double radius_px = co.moving_track_radius_px;
-  if (radius_px > 0) {
-    const double sample_px = stride * field.scale;
-    const int reach = static_cast<int>(std::ceil(radius_px / sample_px));
-    for (std::size_t a = 0; a < moving_level.size(); ++a) {
-      bool confirmed = false;
-      for (std::size_t b = 0; b < moving_level.size() && !confirmed; ++b) {
-        confirmed = b != a && (moving_level[a] - moving_level[b]).norm() <= radius_px;
-      }
-      if (!confirmed) continue;
-      const int ci = static_cast<int>(moving_level[a].y() / sample_px);
-      const int cj = static_cast<int>(moving_level[a].x() / sample_px);
-      for (int i = std::max(0, ci - reach); i <= std::min(sample_rows - 1, ci + reach); ++i) {
-        for (int j = std::max(0, cj - reach); j <= std::min(sample_cols - 1, cj + reach); ++j) {
-          const Eigen::Vector2d centre((j + 0.5) * sample_px, (i + 0.5) * sample_px);
-          if ((centre - moving_level[a]).norm() > radius_px) continue;
-          PixelLabel& label = labels[i * sample_cols + j];
-          if (label != PixelLabel::kFloor) label = PixelLabel::kMoving;
-        }
-      }
-    }
+  // Phase 4: the labels' own rules: things that move, gaps the labels around them bound, floor
+  // whose window straddled an obstacle's edge.
+  if (co.moving_track_radius_px > 0) {
+    LabelAroundMovingCorners(moving_level, grid, co.moving_track_radius_px, &labels);
   }
-
-  // Gaps in image columns that the labels around them bound.
   if (co.fill_max_gap_samples > 0) {
-    FillColumnGaps(camera_, co, sample_rows, sample_cols, stride * field.scale, &samples, &labels);
+    FillColumnGaps(camera_, co, grid.rows, grid.cols, grid.SamplePx(), &samples, &labels);
   }
-
-  // Floor next to an obstacle in its image column (its base below it, the floor behind its top
-  // above it): the matching window straddled the edge, and the floor label reached onto the
-  // obstacle's edge pixels. Unknown, not floor.
   if (co.edge_floor_unknown_samples > 0) {
-    const int reach = co.edge_floor_unknown_samples;
-    const std::vector<PixelLabel> before = labels;
-    for (int i = 0; i < sample_rows; ++i) {
-      for (int j = 0; j < sample_cols; ++j) {
-        if (before[i * sample_cols + j] != PixelLabel::kFloor) continue;
-        bool next_to_obstacle = false;
-        for (int d = std::max(0, i - reach); d <= std::min(sample_rows - 1, i + reach); ++d)
-          next_to_obstacle |= before[d * sample_cols + j] == PixelLabel::kObstacle;
-        if (next_to_obstacle) labels[i * sample_cols + j] = PixelLabel::kUnknown;
-      }
-    }
+    UnknownFloorNextToObstacles(grid, co.edge_floor_unknown_samples, &labels);
   }
 
-  // Obstacle points on a surface (not mixed "veil" points at a depth edge) go into the top view.
-  std::vector<std::uint8_t> on_surface(samples.size(), 1);
-  if (co.min_surface_angle_deg > 0) {
-    const Eigen::Vector3d centre = camera_.CameraCentreInBase();
-    const double pixel_rad = stride * field.scale / camera_.K()(0, 0);
-    const double depth_per_lateral = 1.0 / std::tan(co.min_surface_angle_deg * M_PI / 180.0);
-    std::vector<float> range(samples.size(), NAN);
-    for (std::size_t k = 0; k < samples.size(); ++k) {
-      const Sample& s = samples[k];
-      if (s.measured) {
-        range[k] = static_cast<float>(
-            (Eigen::Vector3d(s.point_in_base2.x(), s.point_in_base2.y(), s.height_m) - centre)
-                .norm());
-      }
-    }
-    for (int i = 0; i < sample_rows; ++i) {
-      for (int j = 0; j < sample_cols; ++j) {
-        const std::size_t k = static_cast<std::size_t>(i) * sample_cols + j;
-        const PixelLabel label = labels[k];
-        if (!samples[k].measured ||
-            (label != PixelLabel::kObstacle && label != PixelLabel::kDropOff))
-          continue;
-        int smooth = 0;
-        for (int di = -1; di <= 1; ++di) {
-          for (int dj = -1; dj <= 1; ++dj) {
-            const int ii = i + di, jj = j + dj;
-            if ((di == 0 && dj == 0) || ii < 0 || jj < 0 || ii >= sample_rows || jj >= sample_cols)
-              continue;
-            const float neighbour = range[static_cast<std::size_t>(ii) * sample_cols + jj];
-            if (std::isnan(neighbour)) continue;
-            const double lateral = range[k] * pixel_rad * (di != 0 && dj != 0 ? M_SQRT2 : 1.0);
-            smooth += std::abs(neighbour - range[k]) <= depth_per_lateral * lateral ? 1 : 0;
-          }
-        }
-        on_surface[k] = smooth >= co.min_surface_neighbours ? 1 : 0;
-      }
-    }
-  }
-
-  // Measured samples whose footprint is known well enough to be placed at all (far, tall points
-  // whose rays graze their height are not).
-  std::vector<std::uint8_t> footprint_known(samples.size(), 0);
+  // Phase 5: the top view. Obstacle points on a surface (not mixed "veil" points at a depth
+  // edge) whose footprint is known well enough to be placed at all (far, tall points whose rays
+  // graze their height are not), on the surface their image column shows.
+  Placement placement;
+  placement.on_surface = SamplesOnSurfaces(camera_, samples, labels, grid, co);
+  placement.footprint_known.assign(samples.size(), 0);
   for (std::size_t k = 0; k < samples.size(); ++k) {
     const Sample& s = samples[k];
-    footprint_known[k] = s.measured && s.footprint_sigma_m <= 0.05 + co.max_footprint_sigma_ratio *
-                                                                         s.point_in_base2.norm();
+    placement.footprint_known[k] =
+        s.measured &&
+        s.footprint_sigma_m <= 0.05 + co.max_footprint_sigma_ratio * s.point_in_base2.norm();
   }
-  std::vector<Eigen::Vector2d> column_placed;
   if (co.column_min_samples > 0) {
     std::vector<std::uint8_t> usable(samples.size(), 0);
     for (std::size_t k = 0; k < samples.size(); ++k)
-      usable[k] = footprint_known[k] && on_surface[k];
-    column_placed = PlaceOnColumnSurfaces(samples, labels, usable, sample_rows, sample_cols,
-                                          camera_.CameraCentreInBase(), co);
+      usable[k] = placement.footprint_known[k] && placement.on_surface[k];
+    placement.column_placed = PlaceOnColumnSurfaces(samples, labels, usable, grid.rows, grid.cols,
+                                                    camera_.CameraCentreInBase(), co);
   }
+  const int edge_reach_samples = 1 + options_.zero_disparity.window_px / 2 / grid.stride;
+  BuildTopView(samples, labels, placement, grid, edge_reach_samples, co, &r.local_map,
+               &r.obstacle_points_in_base);
 
-  cv::Mat sample_labels(sample_rows, sample_cols, CV_8U, cv::Scalar(0));
-  cv::Mat sample_height(sample_rows, sample_cols, CV_16U, cv::Scalar(0));
-  r.zero_disparity_px = cv::Mat(sample_rows, sample_cols, CV_32F, cv::Scalar(NAN));
-  r.height_measurements = cv::Mat(sample_rows, sample_cols, CV_8U, cv::Scalar(0));
-  const GridGeometry& g = r.local_map.geometry;
-  std::vector<std::uint16_t> free_votes(g.NumCells(), 0), occupied_votes(g.NumCells(), 0);
-  std::vector<std::uint8_t> not_free(g.NumCells(), 0);    // cells that must not read free
-  std::vector<std::uint8_t> floor_edge(g.NumCells(), 0);  // where the floor ends below something
-  // Samples (stride search pixels apart) whose matching window reaches a sample above them.
-  const int edge_reach_samples = 1 + options_.zero_disparity.window_px / 2 / stride;
-  for (int i = 0; i < sample_rows; ++i) {
-    for (int j = 0; j < sample_cols; ++j) {
-      const Sample& sample = samples[i * sample_cols + j];
-      const PixelLabel label = labels[i * sample_cols + j];
-      sample_labels.at<std::uint8_t>(i, j) = static_cast<std::uint8_t>(label);
-      if (sample.measured) r.zero_disparity_px.at<float>(i, j) = static_cast<float>(sample.s_px);
-      r.height_measurements.at<std::uint8_t>(i, j) =
-          static_cast<std::uint8_t>(std::min(sample.measurements, 255));
-      if (sample.carried) {
-        if (label == PixelLabel::kFloor) {
-          sample_height.at<std::uint16_t>(i, j) = EncodeHeightMm(0.0);
-        } else if (label == PixelLabel::kObstacle || label == PixelLabel::kDropOff) {
-          sample_height.at<std::uint16_t>(i, j) = EncodeHeightMm(sample.height_m);
-        }
-        continue;  // no second vote in the top view
-      }
-      if (label == PixelLabel::kFloor) {
-        sample_height.at<std::uint16_t>(i, j) = EncodeHeightMm(0.0);
-        // Top view: floor at its floor point...
-        // ...except where the floor ends in the image column: that sample's window straddles the
-        // edge, and its cell holds the base of whatever stands there, detected or not. Below a
-        // short run of other samples (a seam, a textureless spot) it gives no free vote; below
-        // floor_edge_samples of them its cell is not free.
-        // A sample whose matching window reaches the edge counts as the edge: the window of a
-        // wall's or a box's lowest (textureless) pixels holds the floor below them, so the floor
-        // label climbs a sample or so onto them, and the last floor samples lie on the base.
-        int edge = i - 1;  // the first sample above that is not floor, within the window's reach
-        while (edge >= 0 && i - edge <= edge_reach_samples &&
-               labels[edge * sample_cols + j] == PixelLabel::kFloor) {
-          --edge;
-        }
-        int not_floor_above = 0;
-        while (co.floor_edge_samples > 0 && i - edge <= edge_reach_samples &&
-               not_floor_above < co.floor_edge_samples && edge - not_floor_above >= 0 &&
-               labels[(edge - not_floor_above) * sample_cols + j] != PixelLabel::kFloor) {
-          ++not_floor_above;
-        }
-        if (auto cell = g.CellOf(sample.floor_in_base2)) {
-          const std::size_t c = g.Index(cell->x(), cell->y());
-          if (not_floor_above == 0) {
-            ++free_votes[c];
-          } else if (not_floor_above >= co.floor_edge_samples) {
-            not_free[c] = 1;
-            floor_edge[c] = 1;
-          }
-        }
-      } else if ((label == PixelLabel::kObstacle || label == PixelLabel::kDropOff) &&
-                 sample.measured) {
-        sample_height.at<std::uint16_t>(i, j) = EncodeHeightMm(sample.height_m);
-        const std::size_t k = static_cast<std::size_t>(i) * sample_cols + j;
-        if (!footprint_known[k]) continue;
-        // ...obstacles and drop-offs at their true footprint, not their stretched shadow: that of
-        // the surface their column shows when there is one. A point between two surfaces (a "veil"
-        // point at a depth edge) or off its column's surface is not placed, but its cell is not
-        // free.
-        const Eigen::Vector2d footprint = !on_surface[k]          ? Eigen::Vector2d(NAN, NAN)
-                                          : column_placed.empty() ? sample.point_in_base2
-                                                                  : column_placed[k];
-        if (!footprint.allFinite()) {
-          if (auto cell = g.CellOf(sample.point_in_base2))
-            not_free[g.Index(cell->x(), cell->y())] = 1;
-          continue;
-        }
-        r.obstacle_points_in_base.emplace_back(static_cast<float>(footprint.x()),
-                                               static_cast<float>(footprint.y()),
-                                               static_cast<float>(sample.height_m));
-        if (auto cell = g.CellOf(footprint)) {
-          ++occupied_votes[g.Index(cell->x(), cell->y())];
-        }
-      }
-    }
-  }
-  // A margin: the cells around a placed obstacle point, and around the floor's edge below
-  // something that is not floor, are not free either (a wall's base cell otherwise reads free from
-  // the floor samples just in front of it: the wall's points sit a few cm behind the cell
-  // boundary, a textureless wall has none, and the base cell holds floor and wall).
-  if (co.free_margin_cells > 0) {
-    const int m = co.free_margin_cells;
-    std::vector<std::uint8_t> margin = not_free;
-    for (int row = 0; row < g.height; ++row) {
-      for (int col = 0; col < g.width; ++col) {
-        if (occupied_votes[g.Index(col, row)] == 0 && !floor_edge[g.Index(col, row)]) continue;
-        for (int r2 = std::max(row - m, 0); r2 <= std::min(row + m, g.height - 1); ++r2) {
-          for (int c2 = std::max(col - m, 0); c2 <= std::min(col + m, g.width - 1); ++c2)
-            margin[g.Index(c2, r2)] = 1;
-        }
-      }
-    }
-    not_free.swap(margin);
-  }
-  for (std::size_t k = 0; k < g.NumCells(); ++k) {
-    const int occ = occupied_votes[k], fr = free_votes[k];
-    // A cell with any obstacle point is occupied: calling it free would be the dangerous error.
-    if (occ >= 1) {
-      r.local_map.cells[k] = kCellOccupied;
-    } else if (fr >= 1 && !not_free[k]) {
-      r.local_map.cells[k] = kCellFree;
-    }
-  }
-
-  // Samples cover stride x stride blocks of the search level; blow them up to input resolution.
-  const int block = static_cast<int>(stride * field.scale);
+  // Phase 6: the per-pixel outputs. Samples cover stride x stride blocks of the search level;
+  // blow them up to input resolution.
+  cv::Mat sample_labels, sample_height;
+  WriteSampleImages(samples, labels, grid, &sample_labels, &sample_height, &r.zero_disparity_px,
+                    &r.height_measurements);
+  const int block = static_cast<int>(grid.SamplePx());
   cv::Mat labels_full, height_full;
-  cv::resize(sample_labels, labels_full, cv::Size(sample_cols * block, sample_rows * block), 0, 0,
+  cv::resize(sample_labels, labels_full, cv::Size(grid.cols * block, grid.rows * block), 0, 0,
              cv::INTER_NEAREST);
-  cv::resize(sample_height, height_full, cv::Size(sample_cols * block, sample_rows * block), 0, 0,
+  cv::resize(sample_height, height_full, cv::Size(grid.cols * block, grid.rows * block), 0, 0,
              cv::INTER_NEAREST);
   const cv::Rect roi(0, 0, std::min(size.width, labels_full.cols),
                      std::min(size.height, labels_full.rows));
@@ -1026,19 +1125,7 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
                           cv::INTER_NEAREST | cv::WARP_INVERSE_MAP, cv::BORDER_REPLICATE);
     }
   }
-  // The label counts from a histogram (no branch per pixel).
-  std::array<int, 256> count{};
-  for (int yy = 0; yy < r.labels.rows; ++yy) {
-    const std::uint8_t* p = r.labels.ptr<std::uint8_t>(yy);
-    for (int xx = 0; xx < r.labels.cols; ++xx) ++count[p[xx]];
-  }
-  const auto of = [&](PixelLabel label) { return count[static_cast<std::uint8_t>(label)]; };
-  r.num_floor = of(PixelLabel::kFloor);
-  r.num_obstacle = of(PixelLabel::kObstacle);
-  r.num_drop_off = of(PixelLabel::kDropOff);
-  r.num_moving = of(PixelLabel::kMoving);
-  r.num_unknown =
-      r.labels.rows * r.labels.cols - r.num_floor - r.num_obstacle - r.num_drop_off - r.num_moving;
+  CountLabels(&r);
   return r;
 }
 
