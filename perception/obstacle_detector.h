@@ -18,6 +18,11 @@
 
 namespace monoplane {
 
+// A result that knows nothing: an image of `size` with every pixel unknown, the local map of
+// `map_options` with every cell unknown, and the pair's status and message.
+FrameResult UnknownResult(const cv::Size& size, const LocalMapOptions& map_options,
+                          PairStatus status, const std::string& message);
+
 // Detects floor, obstacles, drop-offs and moving things in the second of two frames. Holds the
 // calibration's precomputed matrices and undistortion maps; no files, threads or clocks.
 // Const methods are thread-safe.
