@@ -28,7 +28,7 @@
 namespace monoplane::interfaces {
 namespace {
 
-constexpr int kDomain = 179;
+constexpr int kDomain = 187;
 
 // Hashes ROS 2 itself computed (rosidl_generator_type_description) for the public message
 // definitions. The hash depends on the definition only, so every distro since Iron whose
