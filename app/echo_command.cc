@@ -7,6 +7,7 @@
 
 #include "app/commands.h"
 #include "interfaces/map_subscriber.h"
+#include "interfaces/ros_node.h"
 
 namespace monoplane::app {
 namespace {
@@ -27,6 +28,19 @@ int Echo(const EchoOptions& o) {
   options.domain_id = o.domain_id;
   options.topic_prefix = o.prefix;
   std::string error;
+  if (!options.IsValid(&error)) {
+    std::cerr << "monoplane echo: " << error << "\n";
+    return kExitBadInput;
+  }
+  // ROS 2 sees a subscriber node "/monoplane_echo" (not "/monoplane", which run and serve use).
+  interfaces::RosNode::Options node_options;
+  node_options.domain_id = o.domain_id;
+  node_options.name = "monoplane_echo";
+  options.node = interfaces::RosNode::Create(node_options, &error);
+  if (!options.node) {
+    std::cerr << "monoplane echo: DDS: " << error << "\n";
+    return kExitError;
+  }
   auto subscriber = interfaces::MapSubscriber::Create(options, o.topic, &error);
   if (!subscriber) {
     std::cerr << "monoplane echo: " << error << "\n";

@@ -318,6 +318,7 @@ bool MapSink::Open(std::string* error) {
   if (m.request.publish) {
     interfaces::MapPublisher::Options publisher_options = config.dds.publisher;
     publisher_options.publish_clock = m.recorded_input;
+    // No Options::node: the publisher's own ROS 2 node, "/monoplane", owns the writers.
     m.publisher = interfaces::MapPublisher::Create(publisher_options, error);
     if (!m.publisher) {
       *error = "DDS: " + *error;

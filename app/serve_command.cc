@@ -11,6 +11,7 @@
 #include "app/commands.h"
 #include "interfaces/map_publisher.h"
 #include "interfaces/map_query_server.h"
+#include "interfaces/ros_node.h"
 #include "storage/map_database.h"
 #include "storage/map_query.h"
 
@@ -128,6 +129,16 @@ int Serve(const ServeOptions& o) {
     std::cerr << "monoplane serve: " << error << "\n";
     return kExitBadInput;
   }
+  // One ROS 2 node, "/monoplane", owns the map writers and the query endpoints.
+  interfaces::RosNode::Options node_options;
+  node_options.domain_id = o.domain_id;
+  node_options.name = "monoplane";
+  auto node = interfaces::RosNode::Create(node_options, &error);
+  if (!node) {
+    std::cerr << "monoplane serve: DDS: " << error << "\n";
+    return kExitError;
+  }
+  publisher_options.node = node;
   auto publisher = interfaces::MapPublisher::Create(publisher_options, &error);
   if (!publisher) {
     std::cerr << "monoplane serve: DDS: " << error << "\n";
@@ -136,6 +147,7 @@ int Serve(const ServeOptions& o) {
   interfaces::MapQueryServer::Options server_options;
   server_options.domain_id = o.domain_id;
   server_options.topic_prefix = o.prefix;
+  server_options.node = node;
   const TiledGrid* current = &grid;
   auto server = interfaces::MapQueryServer::Create(
       server_options,

@@ -2,6 +2,9 @@
 
 #include <dds/dds.h>
 
+#include <algorithm>
+#include <iterator>
+
 #include "interfaces/ros_type_hash.h"
 
 namespace monoplane::interfaces {
@@ -34,6 +37,7 @@ dds_qos_t* MakeQos(const EndpointQos& q, std::int32_t topic) {
   if (q.max_samples > 0) {
     dds_qset_resource_limits(qos, q.max_samples, DDS_LENGTH_UNLIMITED, DDS_LENGTH_UNLIMITED);
   }
+  if (q.ignore_local_participant) dds_qset_ignorelocal(qos, DDS_IGNORELOCAL_PARTICIPANT);
   // ROS 2 (rmw_cyclonedds) speaks XCDR1 for its final types; say so explicitly.
   const dds_data_representation_id_t xcdr1 = DDS_DATA_REPRESENTATION_XCDR1;
   dds_qset_data_representation(qos, 1, &xcdr1);
@@ -44,6 +48,29 @@ dds_qos_t* MakeQos(const EndpointQos& q, std::int32_t topic) {
 }
 
 }  // namespace
+
+RosGid EntityGid(std::int32_t entity) {
+  RosGid gid{};
+  dds_guid_t guid;
+  if (dds_get_guid(entity, &guid) == DDS_RETCODE_OK) {
+    static_assert(sizeof(guid.v) == std::tuple_size_v<RosGid>);
+    std::copy(std::begin(guid.v), std::end(guid.v), gid.begin());
+  }
+  return gid;
+}
+
+std::string LowerHex(const std::uint8_t* bytes, std::size_t size) {
+  static constexpr char kHex[] = "0123456789abcdef";
+  std::string hex;
+  hex.reserve(2 * size);
+  for (std::size_t i = 0; i < size; ++i) {
+    hex.push_back(kHex[bytes[i] >> 4]);
+    hex.push_back(kHex[bytes[i] & 0xf]);
+  }
+  return hex;
+}
+
+std::string GidHex(const RosGid& gid) { return LowerHex(gid.data(), gid.size()); }
 
 std::string RosTopicName(const std::string& prefix, const std::string& name) {
   const std::string p = Trim(prefix), n = Trim(name);
@@ -164,6 +191,7 @@ EndpointInfo ReadEndpointInfo(std::int32_t endpoint) {
     }
   }
   dds_delete_qos(qos);
+  info.gid = EntityGid(endpoint);
   return info;
 }
 

@@ -4,6 +4,8 @@
 // ROS 2 topic naming, QoS construction and read-back. Handles are Cyclone's dds_entity_t (an
 // int32_t), so this header needs no DDS header.
 
+#include <array>
+#include <cstddef>
 #include <cstdint>
 #include <string>
 
@@ -28,7 +30,19 @@ struct EndpointQos {
   int history_depth = 1;             // samples kept per instance, >= 1
   std::int64_t max_blocking_ns = 0;  // writers: longest a write waits for room, >= 0
   int max_samples = -1;              // readers: resource limit on queued samples, -1 = unlimited
+  bool ignore_local_participant = false;  // readers: not matched with their participant's writers
 };
+
+// A DDS entity's GUID as ROS 2 carries it (rmw_gid_t's data, rmw_dds_common/msg/Gid): the 16 bytes
+// of the GUID, prefix then entity id, as Cyclone's dds_guid_t holds them.
+using RosGid = std::array<std::uint8_t, 16>;
+
+// The gid of a participant, reader or writer; all zero when `entity` is not one.
+RosGid EntityGid(std::int32_t entity);
+// Lowercase hex of `size` bytes, two digits each.
+std::string LowerHex(const std::uint8_t* bytes, std::size_t size);
+// Lowercase hex of the 16 bytes, "0110..." (for messages).
+std::string GidHex(const RosGid& gid);
 
 // What a created endpoint really uses, read back from DDS (for tests and users).
 struct EndpointInfo {
@@ -41,6 +55,7 @@ struct EndpointInfo {
   std::int64_t max_blocking_ns = 0;
   std::string data_representation;  // "XCDR1", "XCDR2" or "XCDR1,XCDR2"
   std::string user_data;            // e.g. "typehash=RIHS01_<64 hex>;" (ROS 2's type hash)
+  RosGid gid{};                     // the endpoint's DDS GUID, as ROS 2's graph names it
 };
 
 // A participant on `domain_id` (0..232; Cyclone's configuration comes from CYCLONEDDS_URI).

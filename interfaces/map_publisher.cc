@@ -102,12 +102,10 @@ PublishStatus Worse(PublishStatus a, PublishStatus b) {
 
 struct MapPublisher::Impl {
   Options options;
-  dds_entity_t participant = 0;
+  std::unique_ptr<NodeEntities> entities;  // the node's participant holds the writers
   dds_entity_t writers[kNumEndpoints] = {};
   PublishStats stats[kNumEndpoints];
   dds_entity_t match_waitsets[kNumEndpoints] = {};  // trigger when readers come or go
-
-  ~Impl() { DeleteEntity(participant); }
 
   PublishStatus Write(Endpoint endpoint, const void* sample, std::string* error) {
     const dds_return_t rc = dds_write(writers[endpoint], sample);
@@ -159,8 +157,10 @@ std::unique_ptr<MapPublisher> MapPublisher::Create(const Options& options, std::
   if (!options.IsValid(error)) return nullptr;
   auto impl = std::make_unique<Impl>();
   impl->options = options;
-  impl->participant = CreateParticipant(options.domain_id, error);
-  if (impl->participant <= 0) return nullptr;
+  auto node = NodeOrNew(options.node, options.domain_id, "monoplane", error);
+  if (!node) return nullptr;
+  impl->entities = std::make_unique<NodeEntities>(std::move(node));
+  NodeEntities& e = *impl->entities;
 
   const auto max_blocking_ns = static_cast<std::int64_t>(options.max_blocking_time_s * 1e9);
   struct Spec {
@@ -193,9 +193,9 @@ std::unique_ptr<MapPublisher> MapPublisher::Create(const Options& options, std::
     // ROS 2 nodes read the time from /clock whatever the other topics' namespace.
     const std::string name =
         RosTopicName(i == kClock ? std::string() : options.topic_prefix, specs[i].name);
-    const dds_entity_t topic = CreateTopic(impl->participant, specs[i].descriptor, name, error);
+    const dds_entity_t topic = e.Topic(specs[i].descriptor, name, error);
     if (topic <= 0) return nullptr;
-    impl->writers[i] = CreateWriter(impl->participant, topic, specs[i].qos, error);
+    impl->writers[i] = e.Writer(topic, specs[i].qos, error);
     if (impl->writers[i] <= 0) {
       if (error) *error += " for " + name;
       return nullptr;
@@ -203,11 +203,10 @@ std::unique_ptr<MapPublisher> MapPublisher::Create(const Options& options, std::
   }
   for (int i = 0; i < kNumEndpoints; ++i) {
     if (impl->writers[i] == 0) continue;  // rt/clock when not asked for
-    impl->match_waitsets[i] = dds_create_waitset(impl->participant);
+    impl->match_waitsets[i] = e.Waitset(error);
+    if (impl->match_waitsets[i] <= 0) return nullptr;
     dds_set_status_mask(impl->writers[i], DDS_PUBLICATION_MATCHED_STATUS);
-    const dds_return_t rc = impl->match_waitsets[i] < 0
-                                ? impl->match_waitsets[i]
-                                : dds_waitset_attach(impl->match_waitsets[i], impl->writers[i], 0);
+    const dds_return_t rc = dds_waitset_attach(impl->match_waitsets[i], impl->writers[i], 0);
     if (rc < 0) {
       if (error) *error = DdsError(rc, "watching matched readers");
       return nullptr;

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "interfaces/dds_entities.h"
+#include "interfaces/ros_node.h"
 #include "perception/geometry/occupancy_grid.h"
 #include "perception/geometry/pose2.h"
 #include "perception/geometry/tiled_grid.h"
@@ -88,11 +89,15 @@ class MapPublisher {
     // prefixed), the time of recorded input, for ROS 2 nodes with use_sim_time (tf2 then accepts
     // the stamps).
     bool publish_clock = false;
+    // The ROS 2 node whose participant carries the writers (on domain_id); nullptr: a node of
+    // its own named "monoplane" (ros_node.h).
+    std::shared_ptr<RosNode> node;
 
     bool IsValid(std::string* error) const;
   };
 
-  // Creates the participant, topics and writers; nullptr with `error` set on failure.
+  // Creates the node (unless Options::node), topics and writers; nullptr with `error` set on
+  // failure.
   static std::unique_ptr<MapPublisher> Create(const Options& options, std::string* error);
   ~MapPublisher();
   MapPublisher(const MapPublisher&) = delete;

@@ -180,29 +180,26 @@ MapQueryReply FromIdl(const monoplane_msg_dds__MapQueryReply_& msg) {
   return r;
 }
 
-// Participant, request and reply topics, and a waitset on `reader`'s data.
+// The node's entities: request and reply topics, and a waitset on `reader`'s data.
 struct QueryEndpoints {
-  dds_entity_t participant = 0;
+  std::unique_ptr<NodeEntities> entities;
   dds_entity_t request_topic = 0;
   dds_entity_t reply_topic = 0;
   dds_entity_t waitset = 0;
-  ~QueryEndpoints() { DeleteEntity(participant); }
 
-  bool Open(int domain_id, const std::string& prefix, std::string* error) {
-    participant = CreateParticipant(domain_id, error);
-    if (participant <= 0) return false;
-    request_topic = CreateTopic(participant, &monoplane_msg_dds__MapQueryRequest__desc,
-                                MapQueryRequestTopic(prefix), error);
+  bool Open(const std::shared_ptr<RosNode>& node, int domain_id, const std::string& default_name,
+            const std::string& prefix, std::string* error) {
+    auto used = NodeOrNew(node, domain_id, default_name, error);
+    if (!used) return false;
+    entities = std::make_unique<NodeEntities>(std::move(used));
+    request_topic = entities->Topic(&monoplane_msg_dds__MapQueryRequest__desc,
+                                    MapQueryRequestTopic(prefix), error);
     if (request_topic <= 0) return false;
-    reply_topic = CreateTopic(participant, &monoplane_msg_dds__MapQueryReply__desc,
-                              MapQueryReplyTopic(prefix), error);
+    reply_topic =
+        entities->Topic(&monoplane_msg_dds__MapQueryReply__desc, MapQueryReplyTopic(prefix), error);
     if (reply_topic <= 0) return false;
-    waitset = dds_create_waitset(participant);
-    if (waitset < 0) {
-      if (error) *error = DdsError(waitset, "creating a waitset");
-      return false;
-    }
-    return true;
+    waitset = entities->Waitset(error);
+    return waitset > 0;
   }
   bool WatchData(dds_entity_t reader, std::string* error) {
     const dds_entity_t condition = dds_create_readcondition(reader, DDS_ANY_STATE);
@@ -260,11 +257,12 @@ std::unique_ptr<MapQueryServer> MapQueryServer::Create(const Options& options,
   auto impl = std::make_unique<Impl>();
   impl->handler = std::move(handler);
   QueryEndpoints& e = impl->endpoints;
-  if (!e.Open(options.domain_id, options.topic_prefix, error)) return nullptr;
+  if (!e.Open(options.node, options.domain_id, "monoplane", options.topic_prefix, error))
+    return nullptr;
   const EndpointQos qos = QueryQos(options.max_blocking_time_s);
-  impl->reader = CreateReader(e.participant, e.request_topic, qos, error);
+  impl->reader = e.entities->Reader(e.request_topic, qos, error);
   if (impl->reader <= 0) return nullptr;
-  impl->writer = CreateWriter(e.participant, e.reply_topic, qos, error);
+  impl->writer = e.entities->Writer(e.reply_topic, qos, error);
   if (impl->writer <= 0) return nullptr;
   if (!e.WatchData(impl->reader, error)) return nullptr;
   return std::unique_ptr<MapQueryServer>(new MapQueryServer(std::move(impl)));
@@ -351,17 +349,19 @@ std::unique_ptr<MapQueryClient> MapQueryClient::Create(const Options& options, s
     impl->client_id = "client-" + std::to_string(device()) + "-" + std::to_string(device());
   }
   QueryEndpoints& e = impl->endpoints;
-  if (!e.Open(options.domain_id, options.topic_prefix, error)) return nullptr;
+  if (!e.Open(options.node, options.domain_id, "monoplane_query_client", options.topic_prefix,
+              error))
+    return nullptr;
   const EndpointQos qos = QueryQos(0.05);
-  impl->writer = CreateWriter(e.participant, e.request_topic, qos, error);
+  impl->writer = e.entities->Writer(e.request_topic, qos, error);
   if (impl->writer <= 0) return nullptr;
-  impl->reader = CreateReader(e.participant, e.reply_topic, qos, error);
+  impl->reader = e.entities->Reader(e.reply_topic, qos, error);
   if (impl->reader <= 0) return nullptr;
   if (!e.WatchData(impl->reader, error)) return nullptr;
-  impl->match_waitset = dds_create_waitset(e.participant);
+  impl->match_waitset = e.entities->Waitset(error);
   dds_set_status_mask(impl->writer, DDS_PUBLICATION_MATCHED_STATUS);
   dds_set_status_mask(impl->reader, DDS_SUBSCRIPTION_MATCHED_STATUS);
-  if (impl->match_waitset < 0 || dds_waitset_attach(impl->match_waitset, impl->writer, 0) < 0 ||
+  if (impl->match_waitset <= 0 || dds_waitset_attach(impl->match_waitset, impl->writer, 0) < 0 ||
       dds_waitset_attach(impl->match_waitset, impl->reader, 0) < 0) {
     if (error) *error = "MapQueryClient: cannot watch matches";
     return nullptr;

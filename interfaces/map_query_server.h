@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "interfaces/dds_entities.h"
+#include "interfaces/ros_node.h"
 #include "perception/geometry/occupancy_grid.h"
 #include "perception/geometry/timestamp.h"
 
@@ -81,6 +82,9 @@ class MapQueryServer {
     int domain_id = 0;                  // [0, 232]
     std::string topic_prefix;           // as MapPublisher::Options::topic_prefix
     double max_blocking_time_s = 0.05;  // longest a reply write may wait, [0, 1]
+    // The ROS 2 node whose participant carries the endpoints (on domain_id); nullptr: a node of
+    // its own named "monoplane" (ros_node.h).
+    std::shared_ptr<RosNode> node;
     bool IsValid(std::string* error) const;
   };
 
@@ -110,6 +114,8 @@ class MapQueryClient {
     int domain_id = 0;
     std::string topic_prefix;
     std::string client_id;  // distinguishes this client's replies; "" = a random id
+    // As MapQueryServer::Options::node; nullptr: a node named "monoplane_query_client".
+    std::shared_ptr<RosNode> node;
     bool IsValid(std::string* error) const;
   };
   static std::unique_ptr<MapQueryClient> Create(const Options& options, std::string* error);

@@ -170,10 +170,9 @@ bool MapSubscriber::Options::IsValid(std::string* error) const {
 struct MapSubscriber::Impl {
   MessageKind kind = MessageKind::kOccupancyGrid;
   std::string topic_name;
-  dds_entity_t participant = 0;
+  std::unique_ptr<NodeEntities> entities;  // the node's participant holds the reader
   dds_entity_t reader = 0;
   dds_entity_t waitset = 0;
-  ~Impl() { DeleteEntity(participant); }
 };
 
 MapSubscriber::MapSubscriber(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
@@ -210,17 +209,18 @@ std::unique_ptr<MapSubscriber> MapSubscriber::Create(const Options& options,
                "\" (known: map, map_updates, odom, tf, clock, monoplane/local_map)";
     return nullptr;
   }
-  impl->participant = CreateParticipant(options.domain_id, error);
-  if (impl->participant <= 0) return nullptr;
-  const dds_entity_t t = CreateTopic(impl->participant, descriptor, impl->topic_name, error);
+  auto node = NodeOrNew(options.node, options.domain_id, "monoplane_subscriber", error);
+  if (!node) return nullptr;
+  impl->entities = std::make_unique<NodeEntities>(std::move(node));
+  const dds_entity_t t = impl->entities->Topic(descriptor, impl->topic_name, error);
   if (t <= 0) return nullptr;
-  impl->reader = CreateReader(impl->participant, t, qos, error);
+  impl->reader = impl->entities->Reader(t, qos, error);
   if (impl->reader <= 0) return nullptr;
-  impl->waitset = dds_create_waitset(impl->participant);
+  impl->waitset = impl->entities->Waitset(error);
+  if (impl->waitset <= 0) return nullptr;
   const dds_entity_t condition = dds_create_readcondition(impl->reader, DDS_ANY_STATE);
-  if (impl->waitset < 0 || condition < 0) {
-    if (error)
-      *error = DdsError(impl->waitset < 0 ? impl->waitset : condition, "creating a waitset");
+  if (condition < 0) {
+    if (error) *error = DdsError(condition, "creating a read condition");
     return nullptr;
   }
   const dds_return_t rc = dds_waitset_attach(impl->waitset, condition, condition);

@@ -9,6 +9,7 @@
 
 #include "interfaces/dds_entities.h"
 #include "interfaces/map_publisher.h"
+#include "interfaces/ros_node.h"
 #include "perception/geometry/occupancy_grid.h"
 #include "perception/geometry/pose2.h"
 #include "perception/geometry/timestamp.h"
@@ -67,6 +68,9 @@ class MapSubscriber {
     int domain_id = 0;         // [0, 232]
     std::string topic_prefix;  // as MapPublisher::Options::topic_prefix
     int history_depth = 16;    // samples queued before the oldest is dropped, [1, 10000]
+    // The ROS 2 node whose participant carries the reader (on domain_id); nullptr: a node of its
+    // own named "monoplane_subscriber" (ros_node.h).
+    std::shared_ptr<RosNode> node;
     bool IsValid(std::string* error) const;
   };
 

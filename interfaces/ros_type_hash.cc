@@ -7,12 +7,19 @@
 #include <cstdlib>
 #include <set>
 
+#include "interfaces/dds_entities.h"
+
 namespace monoplane::interfaces {
 
 namespace {
 
 RosField Plain(std::string name, std::uint8_t type_id, std::uint64_t capacity = 0) {
   return {std::move(name), type_id, capacity, 0, ""};
+}
+
+// A `string<=bound` field.
+RosField BoundedString(std::string name, std::uint64_t bound) {
+  return {std::move(name), kRosBoundedString, 0, bound, ""};
 }
 
 // A field of a message type; `offset` makes it an array (with `capacity` elements) or sequence.
@@ -34,6 +41,8 @@ std::vector<RosTypeDescription> MakeDescriptions() {
   const std::string vector3 = "geometry_msgs/msg/Vector3";
   const std::string twist = "geometry_msgs/msg/Twist";
   const std::string transform = "geometry_msgs/msg/Transform";
+  const std::string gid = "rmw_dds_common/msg/Gid";
+  const std::string node_entities = "rmw_dds_common/msg/NodeEntitiesInfo";
   std::vector<RosTypeDescription> types = {
       {time, {Plain("sec", kRosInt32), Plain("nanosec", kRosUint32)}},
       {header, {Nested("stamp", time), Plain("frame_id", kRosString)}},
@@ -87,6 +96,14 @@ std::vector<RosTypeDescription> MakeDescriptions() {
         Plain("k", kRosDouble + kRosArray, 9), Plain("r", kRosDouble + kRosArray, 9),
         Plain("p", kRosDouble + kRosArray, 12), Plain("binning_x", kRosUint32),
         Plain("binning_y", kRosUint32), Nested("roi", "sensor_msgs/msg/RegionOfInterest")}},
+      // The ROS 2 graph on ros_discovery_info, as Iron and later define it (Gid of 16 bytes; the
+      // msg's char[16] is uint8[16] in ROS 2 IDL).
+      {gid, {Plain("data", kRosUint8 + kRosArray, 16)}},
+      {node_entities,
+       {BoundedString("node_namespace", 256), BoundedString("node_name", 256),
+        Nested("reader_gid_seq", gid, kSequence), Nested("writer_gid_seq", gid, kSequence)}},
+      {"rmw_dds_common/msg/ParticipantEntitiesInfo",
+       {Nested("gid", gid), Nested("node_entities_info_seq", node_entities, kSequence)}},
       {"monoplane/msg/MapQueryRequest",
        {Plain("client_id", kRosString), Plain("request_id", kRosUint64), Plain("kind", kRosInt32),
         Plain("x_m", kRosDouble), Plain("y_m", kRosDouble), Plain("x2_m", kRosDouble),
@@ -204,14 +221,7 @@ std::string Sha256Hex(std::string_view data) {
     std::fprintf(stderr, "RosTypeHash: OpenSSL EVP_Digest(sha256) failed\n");
     std::abort();
   }
-  static constexpr char kHex[] = "0123456789abcdef";
-  std::string hex;
-  hex.reserve(2 * size);
-  for (unsigned int i = 0; i < size; ++i) {
-    hex.push_back(kHex[digest[i] >> 4]);
-    hex.push_back(kHex[digest[i] & 0xf]);
-  }
-  return hex;
+  return LowerHex(digest, size);
 }
 
 }  // namespace

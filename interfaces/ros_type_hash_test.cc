@@ -15,6 +15,7 @@
 #include "idl/map_msgs.h"
 #include "idl/monoplane_msgs.h"
 #include "idl/nav_msgs.h"
+#include "idl/rmw_dds_common.h"
 #include "idl/rosgraph_msgs.h"
 #include "idl/sensor_msgs.h"
 #include "idl/tf2_msgs.h"
@@ -27,7 +28,7 @@
 namespace monoplane::interfaces {
 namespace {
 
-constexpr int kDomain = 179;
+constexpr int kDomain = 187;
 
 // Hashes ROS 2 itself computed (rosidl_generator_type_description) for the public message
 // definitions. The hash depends on the definition only, so every distro since Iron whose
@@ -42,6 +43,10 @@ constexpr int kDomain = 179;
 //      map_msgs/msg/OccupancyGridUpdate.
 //  [G] a rosidl_generator_c `occupancy_grid_update__description.c` of map_msgs (a Windows
 //      build in a public repository).
+//  [R] rosidl_generator_c output of rmw_dds_common as Iron and later define it (Gid of char[16]):
+//      the `get_type_hash` bytes and `__EXPECTED_HASH` of referenced types in
+//      rmw_dds_common/msg/detail/{participant_entities_info,node_entities_info,gid}__description.c
+//      of a public repository's generated headers.
 //  [J] Jazzy's installed /opt/ros/jazzy/share/<pkg>/msg/<Type>.json as quoted in CARLA's ROS 2
 //      type-hash golden test (tf2_msgs/msg/TFMessage, rosgraph_msgs/msg/Clock).
 struct Golden {
@@ -92,6 +97,12 @@ constexpr Golden kGoldens[] = {
      "RIHS01_49f574f033f095d8b6cd1beaca5ca7925e296e84af1716d16c89d38b059c8c18", "[E] [J]"},
     {"geometry_msgs/msg/Transform",
      "RIHS01_beb83fbe698636351461f6f35d1abb20010c43d55374d81bd041f1ba2581fddc", "[J]"},
+    {"rmw_dds_common/msg/ParticipantEntitiesInfo",
+     "RIHS01_91a0593bacdcc50ea9bdcf849a938b128412cc1ea821245c663bcd26f83c295e", "[R]"},
+    {"rmw_dds_common/msg/NodeEntitiesInfo",
+     "RIHS01_8ffef65ee2d088c63b1e8fcd31e800ba9fc8dbe0ee15ca60d1676de5218087a7", "[R]"},
+    {"rmw_dds_common/msg/Gid",
+     "RIHS01_ab6f21cfbb0a6dbb837161e1110c2051a2850ed9f9c53944d7115d9bcebedf71", "[R]"},
     {"geometry_msgs/msg/TransformStamped",
      "RIHS01_0a241f87d04668d94099cbb5ba11691d5ad32c2f29682e4eb5653424bd275206", "[J]"},
 };
@@ -132,11 +143,17 @@ TEST(RosTypeHashTest, UnknownTypesHaveNoHash) {
 // Every type a monoplane endpoint uses has a description, so every endpoint carries a hash.
 TEST(RosTypeHashTest, EveryEndpointTypeIsDescribed) {
   const dds_topic_descriptor_t* descriptors[] = {
-      &nav_msgs_msg_dds__OccupancyGrid__desc,      &map_msgs_msg_dds__OccupancyGridUpdate__desc,
-      &nav_msgs_msg_dds__Odometry__desc,           &tf2_msgs_msg_dds__TFMessage__desc,
-      &rosgraph_msgs_msg_dds__Clock__desc,         &monoplane_msg_dds__MapQueryRequest__desc,
-      &monoplane_msg_dds__MapQueryReply__desc,     &sensor_msgs_msg_dds__Image__desc,
-      &sensor_msgs_msg_dds__CompressedImage__desc, &sensor_msgs_msg_dds__CameraInfo__desc,
+      &nav_msgs_msg_dds__OccupancyGrid__desc,
+      &map_msgs_msg_dds__OccupancyGridUpdate__desc,
+      &nav_msgs_msg_dds__Odometry__desc,
+      &tf2_msgs_msg_dds__TFMessage__desc,
+      &rosgraph_msgs_msg_dds__Clock__desc,
+      &monoplane_msg_dds__MapQueryRequest__desc,
+      &monoplane_msg_dds__MapQueryReply__desc,
+      &sensor_msgs_msg_dds__Image__desc,
+      &sensor_msgs_msg_dds__CompressedImage__desc,
+      &sensor_msgs_msg_dds__CameraInfo__desc,
+      &rmw_dds_common_msg_dds__ParticipantEntitiesInfo__desc,
   };
   for (const dds_topic_descriptor_t* d : descriptors) {
     EXPECT_NE(RosTypeHashUserData(d->m_typename), "") << d->m_typename;
@@ -166,6 +183,11 @@ RosField FieldFromIdl(const std::string& package, const std::string& idl_type,
   std::string element = idl_type;
   std::uint8_t offset = 0;
   std::smatch m;
+  if (std::regex_match(idl_type, m, std::regex(R"(string<\s*(\d+)\s*>)"))) {
+    field.type_id = kRosBoundedString;
+    field.string_capacity = std::stoull(m[1]);
+    return field;
+  }
   if (std::regex_match(idl_type, m, std::regex(R"(sequence<\s*([\w:]+)\s*>)"))) {
     element = m[1];
     offset = kRosUnboundedSequence;
@@ -192,7 +214,7 @@ TEST(RosTypeHashTest, DescriptionsMatchTheIdl) {
   int structs_checked = 0;
   for (const char* file :
        {"builtin_interfaces", "std_msgs", "geometry_msgs", "nav_msgs", "map_msgs", "tf2_msgs",
-        "rosgraph_msgs", "sensor_msgs", "monoplane_msgs"}) {
+        "rosgraph_msgs", "sensor_msgs", "monoplane_msgs", "rmw_dds_common"}) {
     const std::string text =
         ReadFile(std::string(MONOPLANE_SOURCE_DIR) + "/interfaces/idl/" + file + ".idl");
     ASSERT_FALSE(text.empty()) << file;
@@ -221,6 +243,7 @@ TEST(RosTypeHashTest, DescriptionsMatchTheIdl) {
         EXPECT_EQ(have.name, want.name) << type_name << " field " << i;
         EXPECT_EQ(have.type_id, want.type_id) << type_name << "." << want.name;
         EXPECT_EQ(have.capacity, want.capacity) << type_name << "." << want.name;
+        EXPECT_EQ(have.string_capacity, want.string_capacity) << type_name << "." << want.name;
         EXPECT_EQ(have.nested_type_name, want.nested_type_name) << type_name << "." << want.name;
       }
       ++structs_checked;

@@ -1,17 +1,26 @@
 // `monoplane serve` end to end, as a separate process on loopback DDS: a late-joining reader with
 // its own copy of the nav_msgs/OccupancyGrid layout receives the saved map exactly as the database
 // holds it; map queries over DDS answer what storage's queries answer on the same file; a change
-// written to the file by another process is published again; Ctrl-C stops it with exit 130.
+// written to the file by another process is published again; Ctrl-C stops it with exit 130. ROS 2
+// sees it as the node /monoplane (ros_discovery_info).
 #include <dds/dds.h>
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cstdint>
 #include <cstdlib>
 #include <filesystem>
+#include <map>
+#include <set>
 #include <string>
+#include <utility>
 
+#include "idl/rmw_dds_common.h"
 #include "interfaces/map_query_server.h"
 #include "interfaces/test/loopback.h"
 #include "storage/map_database.h"
@@ -67,6 +76,80 @@ class IndependentMapReader {
   dds_entity_t participant_, reader_, waitset_;
   std::string frame_id_;
 };
+
+using Gid = std::array<std::uint8_t, 16>;
+
+// The ROS 2 graph as a ROS 2 tool on another process reads it: within timeout_s, a participant
+// announces on ros_discovery_info a node "monoplane" in "/" with `writers` writers and `readers`
+// readers, and DDS discovery reports an rt/map writer of that participant whose GUID is one of
+// the node's writer gids.
+bool ServeIsNodeMonoplane(double timeout_s, std::size_t writers, std::size_t readers) {
+  const dds_entity_t participant = dds_create_participant(kDomain, nullptr, nullptr);
+  const dds_entity_t topic =
+      dds_create_topic(participant, &rmw_dds_common_msg_dds__ParticipantEntitiesInfo__desc,
+                       "ros_discovery_info", nullptr, nullptr);
+  dds_qos_t* qos = dds_create_qos();
+  dds_qset_reliability(qos, DDS_RELIABILITY_RELIABLE, DDS_MSECS(100));
+  dds_qset_durability(qos, DDS_DURABILITY_TRANSIENT_LOCAL);
+  dds_qset_history(qos, DDS_HISTORY_KEEP_ALL, 0);
+  const dds_entity_t graph = dds_create_reader(participant, topic, qos, nullptr);
+  dds_delete_qos(qos);
+  const dds_entity_t publications =
+      dds_create_reader(participant, DDS_BUILTIN_TOPIC_DCPSPUBLICATION, nullptr, nullptr);
+  const dds_entity_t waitset = dds_create_waitset(participant);
+  dds_waitset_attach(waitset, dds_create_readcondition(graph, DDS_ANY_STATE), 0);
+  dds_waitset_attach(waitset, dds_create_readcondition(publications, DDS_ANY_STATE), 0);
+  const auto to_gid = [](const std::uint8_t* bytes) {
+    Gid gid;
+    std::copy(bytes, bytes + gid.size(), gid.begin());
+    return gid;
+  };
+  std::map<Gid, std::set<Gid>> monoplane_writers;  // by participant gid
+  std::set<std::pair<Gid, Gid>> map_writers;       // (participant, writer) of rt/map
+  const auto found = [&] {
+    for (const auto& [owner, writer] : map_writers) {
+      const auto it = monoplane_writers.find(owner);
+      if (it != monoplane_writers.end() && it->second.count(writer) > 0) return true;
+    }
+    return false;
+  };
+  const auto deadline = std::chrono::steady_clock::now() +
+                        std::chrono::milliseconds(static_cast<int>(timeout_s * 1000));
+  while (!found() && std::chrono::steady_clock::now() < deadline) {
+    void* samples[1] = {nullptr};
+    dds_sample_info_t info;
+    if (dds_take(graph, samples, &info, 1, 1) == 1) {
+      const auto* msg =
+          static_cast<const rmw_dds_common_msg_dds__ParticipantEntitiesInfo_*>(samples[0]);
+      for (uint32_t i = 0; info.valid_data && i < msg->node_entities_info_seq._length; ++i) {
+        const auto& node = msg->node_entities_info_seq._buffer[i];
+        if (std::string(node.node_name) != "monoplane" || std::string(node.node_namespace) != "/" ||
+            node.writer_gid_seq._length != writers || node.reader_gid_seq._length != readers) {
+          continue;
+        }
+        std::set<Gid>& gids = monoplane_writers[to_gid(msg->gid.data)];
+        for (uint32_t j = 0; j < node.writer_gid_seq._length; ++j)
+          gids.insert(to_gid(node.writer_gid_seq._buffer[j].data));
+      }
+      dds_return_loan(graph, samples, 1);
+      continue;
+    }
+    if (dds_take(publications, samples, &info, 1, 1) == 1) {
+      const auto* e = static_cast<const dds_builtintopic_endpoint_t*>(samples[0]);
+      if (info.valid_data && std::string(e->topic_name) == "rt/map")
+        map_writers.emplace(to_gid(e->participant_key.v), to_gid(e->key.v));
+      dds_return_loan(publications, samples, 1);
+      continue;
+    }
+    const auto left_ns = std::chrono::duration_cast<std::chrono::nanoseconds>(
+                             deadline - std::chrono::steady_clock::now())
+                             .count();
+    dds_waitset_wait(waitset, nullptr, 0, std::max<std::int64_t>(0, left_ns));
+  }
+  const bool ok = found();
+  dds_delete(participant);
+  return ok;
+}
 
 TiledGrid LoadGrid(const std::string& path) {
   std::unique_ptr<MapDatabase> db;
@@ -147,6 +230,9 @@ TEST(ServeTest, PublishesAnswersReloadsAndStops) {
   EXPECT_EQ(reader.frame_id(), "map");
   ExpectSameGrid(received, ToOccupancyGrid(saved));
   ExpectNavigatorReadsTheSameMap(received, map, dir);
+  // ...and `ros2 node list` shows it: one node "/monoplane" owning the five map writers and the
+  // query reply writer, and the query request reader.
+  EXPECT_TRUE(ServeIsNodeMonoplane(15.0, 6, 1));
 
   // 2. Queries over DDS answer what storage answers.
   std::string error;
