@@ -837,6 +837,22 @@ void WriteSampleImages(const std::vector<Sample>& samples, const std::vector<Pix
   }
 }
 
+// The length, up to max_run, of the run of samples that are not floor above floor sample (i, j)
+// in its image column, when that run starts within `reach` samples of it (the floor samples in
+// between are within the matching window's reach of it too); 0 when there is none.
+int NotFloorRunAbove(const std::vector<PixelLabel>& labels, const SampleGrid& grid, int i, int j,
+                     int reach, int max_run) {
+  int edge = i - 1;
+  while (edge >= 0 && i - edge <= reach && labels[grid.Index(edge, j)] == PixelLabel::kFloor)
+    --edge;
+  if (edge < 0 || i - edge > reach) return 0;
+  int run = 0;
+  while (run < max_run && edge - run >= 0 &&
+         labels[grid.Index(edge - run, j)] != PixelLabel::kFloor)
+    ++run;
+  return run;
+}
+
 // Where each labelled sample's obstacle point may be placed in the top view.
 struct Placement {
   std::vector<std::uint8_t> footprint_known;   // footprint known well enough to be placed at all
@@ -871,17 +887,8 @@ void BuildTopView(const std::vector<Sample>& samples, const std::vector<PixelLab
         // A sample whose matching window reaches the edge counts as the edge: the window of a
         // wall's or a box's lowest (textureless) pixels holds the floor below them, so the floor
         // label climbs a sample or so onto them, and the last floor samples lie on the base.
-        int edge = i - 1;  // the first sample above that is not floor, within the window's reach
-        while (edge >= 0 && i - edge <= edge_reach_samples &&
-               labels[grid.Index(edge, j)] == PixelLabel::kFloor) {
-          --edge;
-        }
-        int not_floor_above = 0;
-        while (co.floor_edge_samples > 0 && i - edge <= edge_reach_samples &&
-               not_floor_above < co.floor_edge_samples && edge - not_floor_above >= 0 &&
-               labels[grid.Index(edge - not_floor_above, j)] != PixelLabel::kFloor) {
-          ++not_floor_above;
-        }
+        const int not_floor_above =
+            NotFloorRunAbove(labels, grid, i, j, edge_reach_samples, co.floor_edge_samples);
         if (auto cell = g.CellOf(sample.floor_in_base2)) {
           const std::size_t c = g.Index(cell->x(), cell->y());
           if (not_floor_above == 0) {
