@@ -317,7 +317,7 @@ bool MapSink::Open(std::string* error) {
   }
   if (m.request.publish) {
     interfaces::MapPublisher::Options publisher_options = config.dds.publisher;
-    publisher_options.publish_clock = m.recorded_input;
+    publisher_options.publish_clock = m.recorded_input && !m.request.wall_stamps;
     // No Options::node: the publisher's own ROS 2 node, "/monoplane", owns the writers.
     m.publisher = interfaces::MapPublisher::Create(publisher_options, error);
     if (!m.publisher) {
@@ -397,11 +397,12 @@ bool MapSink::Add(const InputFrame& frame, const SequenceDetector::Output& outpu
     }
   }
   if (m.publisher) {
+    const TimestampNs stamp_ns = m.request.wall_stamps ? WallClockNs() : frame.stamp_ns;
     const auto [velocity, uncertainty] = m.OdometryOf(frame.stamp_ns, output.step);
     const Pose2 map_from_odom = update.map_from_base * output.odom_from_base.Inverse();
     std::optional<OccupancyGrid> local_map;
     if (output.result) local_map = output.result->local_map;
-    m.Enqueue([&m, map_from_odom, odom = output.odom_from_base, stamp = frame.stamp_ns,
+    m.Enqueue([&m, map_from_odom, odom = output.odom_from_base, stamp = stamp_ns,
                velocity = velocity, uncertainty = uncertainty,
                local_map = std::move(local_map)](std::string* e) {
       // Dropped samples (a full reader backlog) are counted by the publisher; only errors stop.
@@ -415,7 +416,7 @@ bool MapSink::Add(const InputFrame& frame, const SequenceDetector::Output& outpu
         return false;
       return true;
     });
-    if (update.keyframe || update.map_rebuilt) m.PublishMap(frame.stamp_ns, update.map_rebuilt);
+    if (update.keyframe || update.map_rebuilt) m.PublishMap(stamp_ns, update.map_rebuilt);
   }
   return true;
 }
@@ -465,7 +466,12 @@ bool MapSink::Close(std::string* error) {
       return st.ok();
     });
   }
-  if (m.publisher) m.PublishMap(s.trajectory.empty() ? 0 : s.trajectory.back().second, true);
+  if (m.publisher) {
+    m.PublishMap(m.request.wall_stamps  ? WallClockNs()
+                 : s.trajectory.empty() ? 0
+                                        : s.trajectory.back().second,
+                 true);
+  }
   if (m.writer.joinable()) {
     m.jobs.Close();
     m.writer.join();

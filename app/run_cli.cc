@@ -29,7 +29,8 @@ struct RunCli {
   double fps = std::numeric_limits<double>::quiet_NaN();
   long long max_frames = std::numeric_limits<long long>::min();
   long long domain_id = std::numeric_limits<long long>::min();
-  std::string topic;  // rosbag2 input's image topic
+  std::string topic;                // rosbag2 input's image topic
+  std::string stamps = "recorded";  // --stamps
 };
 
 void PrintPercent(const char* name, const std::optional<double>& v) {
@@ -155,6 +156,7 @@ int RunCommand(RunCli* cli) {
     cli->request.publish = true;
   }
   cli->request.config.input.topic = cli->topic;
+  cli->request.wall_stamps = cli->stamps == "wall";
   if (!ValidateConfig(cli->request.config, &error)) {
     std::cerr << "monoplane run: " << error << "\n";
     return kExitBadInput;
@@ -248,6 +250,10 @@ void RegisterRunCommand(CLI::App* app, int* exit_code) {
   cmd->add_flag("--scale-calibration", cli.request.scale_calibration,
                 "Scale the intrinsics when the images are another size than the calibration");
   cmd->add_flag("--publish", cli.request.publish, "Publish over DDS while mapping");
+  cmd->add_option("--stamps", cli.stamps,
+                  "DDS message stamps: 'recorded' (the frames' own; with recorded input rt/clock "
+                  "carries them, for use_sim_time) or 'wall' (the wall clock at publishing)")
+      ->check(CLI::IsMember({"recorded", "wall"}));
   cmd->add_option("--domain", cli.domain_id,
                   "DDS domain id, 0-232 (implies --publish; default: config dds.domain_id, 0)");
   cmd->add_flag("--quiet,-q", cli.request.quiet, "Only errors and the summary");

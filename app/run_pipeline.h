@@ -22,6 +22,9 @@ struct RunRequest {
   std::string map_path;    // SQLite map; empty: no map written
   std::string frames_out;  // per-frame outputs; empty: none
   bool publish = false;    // DDS
+  // DDS stamps: the frames' own (false; with recorded input rt/clock carries them) or the wall
+  // clock when each frame's messages are published (true, --stamps wall; no rt/clock).
+  bool wall_stamps = false;
   bool quiet = false;
   bool scale_calibration = false;  // scale the intrinsics to the image size
   int max_frames = -1;             // stop after this many frames (-1: all)

@@ -1,5 +1,5 @@
 // monoplane serve MAP: publishes a saved map over DDS (rt/map, transient-local, as the ROS 2
-// map_server does) and answers map queries on rt/monoplane/map_query/{request,reply} until Ctrl-C.
+// map_server does) and answers map queries as the ROS 2 service /monoplane/map_query until Ctrl-C.
 // When another process extends the map file, the new map is loaded and published.
 #include <chrono>
 #include <csignal>
@@ -161,12 +161,12 @@ int Serve(const ServeOptions& o) {
     return kExitError;
   }
   const OccupancyGrid published = ToOccupancyGrid(grid);
-  std::fprintf(
-      stderr,
-      "serving %s on domain %d: %dx%d cells at %.3f m on %s, queries on %s (Ctrl-C stops)\n",
-      o.map.c_str(), o.domain_id, published.geometry.width, published.geometry.height,
-      grid.resolution_m(), publisher->Endpoints()[0].topic_name.c_str(),
-      interfaces::MapQueryRequestTopic(o.prefix).c_str());
+  std::fprintf(stderr,
+               "serving %s on domain %d: %dx%d cells at %.3f m on %s, queries on service %s "
+               "(Ctrl-C stops)\n",
+               o.map.c_str(), o.domain_id, published.geometry.width, published.geometry.height,
+               grid.resolution_m(), publisher->Endpoints()[0].topic_name.c_str(),
+               interfaces::MapQueryServiceName(o.prefix).c_str());
   std::signal(SIGINT, OnSigint);
   std::signal(SIGTERM, OnSigint);
   std::signal(SIGHUP, OnSigint);

@@ -42,7 +42,7 @@ dds_qos_t* MakeQos(const EndpointQos& q, std::int32_t topic) {
   const dds_data_representation_id_t xcdr1 = DDS_DATA_REPRESENTATION_XCDR1;
   dds_qset_data_representation(qos, 1, &xcdr1);
   // ROS 2 (Iron and later) reads the type hash from every endpoint's USER_DATA.
-  const std::string user_data = RosUserData(topic);
+  const std::string user_data = q.user_data + RosUserData(topic);
   if (!user_data.empty()) dds_qset_userdata(qos, user_data.data(), user_data.size());
   return qos;
 }

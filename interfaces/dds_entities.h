@@ -31,6 +31,9 @@ struct EndpointQos {
   std::int64_t max_blocking_ns = 0;  // writers: longest a write waits for room, >= 0
   int max_samples = -1;              // readers: resource limit on queued samples, -1 = unlimited
   bool ignore_local_participant = false;  // readers: not matched with their participant's writers
+  // USER_DATA ahead of the type hash, "key=value;" pairs (a ROS 2 service's "serviceid=...;" or
+  // client's "clientid=...;", as rmw_cyclonedds writes them).
+  std::string user_data;
 };
 
 // A DDS entity's GUID as ROS 2 carries it (rmw_gid_t's data, rmw_dds_common/msg/Gid): the 16 bytes

@@ -6,9 +6,10 @@
 #include <chrono>
 #include <cmath>
 #include <random>
+#include <string_view>
 #include <utility>
 
-#include "idl/monoplane_msgs.h"
+#include "idl/monoplane_interfaces.h"
 
 namespace monoplane::interfaces {
 
@@ -16,11 +17,49 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-EndpointQos QueryQos(double max_blocking_time_s) {
+// Reliable, volatile, as ROS 2's services default; `user_data` names the service or client to
+// the other side ("serviceid=...;" / "clientid=...;").
+EndpointQos QueryQos(double max_blocking_time_s, const std::string& user_data) {
   EndpointQos qos;
   qos.history_depth = 64;
   qos.max_blocking_ns = static_cast<std::int64_t>(max_blocking_time_s * 1e9);
+  qos.user_data = user_data;
   return qos;
+}
+
+// A random id for "serviceid=" / "clientid=": rmw_cyclonedds only compares them for equality.
+std::string RandomEndpointId() {
+  std::random_device device;
+  std::uint8_t bytes[16];
+  for (std::uint8_t& b : bytes) b = static_cast<std::uint8_t>(device());
+  return LowerHex(bytes, sizeof(bytes));
+}
+
+// The value of `key` in USER_DATA "k1=v1;k2=v2;" (rmw's key=value; pairs), or "".
+std::string UserDataValue(const void* data, std::size_t size, std::string_view key) {
+  if (data == nullptr) return "";
+  const std::string_view text(static_cast<const char*>(data), size);
+  std::size_t begin = 0;
+  while (begin < text.size()) {
+    const std::size_t end = text.find(';', begin);
+    if (end == std::string_view::npos) break;
+    const std::string_view pair = text.substr(begin, end - begin);
+    const std::size_t equals = pair.find('=');
+    if (equals != std::string_view::npos && pair.substr(0, equals) == key)
+      return std::string(pair.substr(equals + 1));
+    begin = end + 1;
+  }
+  return "";
+}
+
+std::string UserDataValue(const dds_builtintopic_endpoint_t* endpoint, std::string_view key) {
+  if (endpoint == nullptr || endpoint->qos == nullptr) return "";
+  void* data = nullptr;
+  std::size_t size = 0;
+  std::string value;
+  if (dds_qget_userdata(endpoint->qos, &data, &size)) value = UserDataValue(data, size, key);
+  dds_free(data);
+  return value;
 }
 
 bool ValidDomain(int domain_id, const char* owner, std::string* error) {
@@ -43,7 +82,7 @@ Clock::time_point DeadlineIn(double seconds) {
 }
 
 // Request <-> IDL.
-MapQueryRequest FromIdl(const monoplane_msg_dds__MapQueryRequest_& msg) {
+MapQueryRequest FromIdl(const monoplane_interfaces_srv_dds__MapQuery_Request_& msg) {
   MapQueryRequest r;
   r.kind = static_cast<MapQueryRequest::Kind>(msg.kind);
   r.point_m = {msg.x_m, msg.y_m};
@@ -78,12 +117,13 @@ std::string RequestProblem(const MapQueryRequest& r) {
   return "";
 }
 
-// Fills `msg` from `reply`; strings and the raster are borrowed from `reply`/`client_id`.
-void ToIdl(const MapQueryReply& reply, const std::string& client_id, uint64_t request_id,
-           int32_t kind, monoplane_msg_dds__MapQueryReply_* msg) {
-  *msg = monoplane_msg_dds__MapQueryReply_{};
-  msg->client_id = const_cast<char*>(client_id.c_str());
-  msg->request_id = request_id;
+// Fills `msg` from `reply` and the request's header; strings and the raster are borrowed from
+// `reply`.
+void ToIdl(const MapQueryReply& reply, uint64_t rmw_client_id, int64_t rmw_sequence_number,
+           int32_t kind, monoplane_interfaces_srv_dds__MapQuery_Response_* msg) {
+  *msg = monoplane_interfaces_srv_dds__MapQuery_Response_{};
+  msg->rmw_client_id = rmw_client_id;
+  msg->rmw_sequence_number = rmw_sequence_number;
   msg->kind = kind;
   msg->ok = reply.ok;
   msg->error = const_cast<char*>(reply.error.c_str());
@@ -136,7 +176,7 @@ void ToIdl(const MapQueryReply& reply, const std::string& client_id, uint64_t re
   msg->cells_checked = reply.cells_checked;
 }
 
-MapQueryReply FromIdl(const monoplane_msg_dds__MapQueryReply_& msg) {
+MapQueryReply FromIdl(const monoplane_interfaces_srv_dds__MapQuery_Response_& msg) {
   MapQueryReply r;
   r.ok = msg.ok;
   r.error = msg.error ? msg.error : "";
@@ -192,11 +232,11 @@ struct QueryEndpoints {
     auto used = NodeOrNew(node, domain_id, default_name, error);
     if (!used) return false;
     entities = std::make_unique<NodeEntities>(std::move(used));
-    request_topic = entities->Topic(&monoplane_msg_dds__MapQueryRequest__desc,
+    request_topic = entities->Topic(&monoplane_interfaces_srv_dds__MapQuery_Request__desc,
                                     MapQueryRequestTopic(prefix), error);
     if (request_topic <= 0) return false;
-    reply_topic =
-        entities->Topic(&monoplane_msg_dds__MapQueryReply__desc, MapQueryReplyTopic(prefix), error);
+    reply_topic = entities->Topic(&monoplane_interfaces_srv_dds__MapQuery_Response__desc,
+                                  MapQueryReplyTopic(prefix), error);
     if (reply_topic <= 0) return false;
     waitset = entities->Waitset(error);
     return waitset > 0;
@@ -214,11 +254,15 @@ struct QueryEndpoints {
 
 }  // namespace
 
+std::string MapQueryServiceName(const std::string& prefix) {
+  // RosTopicName's trimming of slashes, without its "rt/".
+  return "/" + RosTopicName(prefix, "monoplane/map_query").substr(3);
+}
 std::string MapQueryRequestTopic(const std::string& prefix) {
-  return RosTopicName(prefix, "monoplane/map_query/request");
+  return "rq" + MapQueryServiceName(prefix) + "Request";
 }
 std::string MapQueryReplyTopic(const std::string& prefix) {
-  return RosTopicName(prefix, "monoplane/map_query/reply");
+  return "rr" + MapQueryServiceName(prefix) + "Reply";
 }
 
 bool MapQueryServer::Options::IsValid(std::string* error) const {
@@ -241,6 +285,32 @@ struct MapQueryServer::Impl {
   // Read by other threads (answered()); counted before the reply is written, so that a client
   // holding its reply never sees a count without it.
   std::atomic<std::int64_t> answered{0};
+
+  // As rmw_cyclonedds before it replies: a client whose request writer says "clientid=X;" has a
+  // reply reader with the same id, which this side may not have discovered yet when the request
+  // arrives (a volatile reply written before would be lost). Waits up to 100 ms for it. False
+  // when the request's writer is gone.
+  bool ClientReaderMatched(dds_instance_handle_t request_writer) const {
+    dds_builtintopic_endpoint_t* writer_data =
+        dds_get_matched_publication_data(reader, request_writer);
+    if (writer_data == nullptr) return false;
+    const std::string client_id = UserDataValue(writer_data, "clientid");
+    dds_builtintopic_free_endpoint(writer_data);
+    if (client_id.empty()) return true;  // a client that does not say: answer at once
+    const auto deadline = DeadlineIn(0.1);
+    while (true) {
+      dds_instance_handle_t handles[64];
+      const dds_return_t n = dds_get_matched_subscriptions(writer, handles, 64);
+      for (dds_return_t i = 0; i < std::min<dds_return_t>(n, 64); ++i) {
+        dds_builtintopic_endpoint_t* data = dds_get_matched_subscription_data(writer, handles[i]);
+        const bool same = UserDataValue(data, "clientid") == client_id;
+        if (data != nullptr) dds_builtintopic_free_endpoint(data);
+        if (same) return true;
+      }
+      if (RemainingNs(deadline) == 0) return true;  // write anyway; the client asks again
+      dds_sleepfor(DDS_MSECS(10));
+    }
+  }
 };
 
 MapQueryServer::MapQueryServer(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
@@ -259,7 +329,10 @@ std::unique_ptr<MapQueryServer> MapQueryServer::Create(const Options& options,
   QueryEndpoints& e = impl->endpoints;
   if (!e.Open(options.node, options.domain_id, "monoplane", options.topic_prefix, error))
     return nullptr;
-  const EndpointQos qos = QueryQos(options.max_blocking_time_s);
+  // The same serviceid on both endpoints: a ROS 2 client takes the service as available once the
+  // request reader and the reply writer it matched carry the same one.
+  const EndpointQos qos =
+      QueryQos(options.max_blocking_time_s, "serviceid=" + RandomEndpointId() + ";");
   impl->reader = e.entities->Reader(e.request_topic, qos, error);
   if (impl->reader <= 0) return nullptr;
   impl->writer = e.entities->Writer(e.reply_topic, qos, error);
@@ -287,9 +360,10 @@ int MapQueryServer::Serve(double timeout_s, std::string* error) {
     }
     if (n == 0) break;
     if (info.valid_data) {
-      const auto& msg = *static_cast<const monoplane_msg_dds__MapQueryRequest_*>(samples[0]);
-      const std::string client_id = msg.client_id ? msg.client_id : "";
-      const uint64_t request_id = msg.request_id;
+      const auto& msg =
+          *static_cast<const monoplane_interfaces_srv_dds__MapQuery_Request_*>(samples[0]);
+      const uint64_t rmw_client_id = msg.rmw_client_id;
+      const int64_t rmw_sequence_number = msg.rmw_sequence_number;
       const int32_t kind = msg.kind;
       const MapQueryRequest request = FromIdl(msg);
       dds_return_loan(impl_->reader, samples, n);
@@ -301,8 +375,11 @@ int MapQueryServer::Serve(double timeout_s, std::string* error) {
         reply.ok = false;
         reply.error = problem;
       }
-      monoplane_msg_dds__MapQueryReply_ out;
-      ToIdl(reply, client_id, request_id, kind, &out);
+      monoplane_interfaces_srv_dds__MapQuery_Response_ out;
+      ToIdl(reply, rmw_client_id, rmw_sequence_number, kind, &out);
+      if (!impl_->ClientReaderMatched(info.publication_handle)) {
+        continue;  // the client is gone: nobody to answer
+      }
       ++impl_->answered;
       const dds_return_t rc = dds_write(impl_->writer, &out);
       if (rc < 0 && rc != DDS_RETCODE_TIMEOUT) {
@@ -329,12 +406,13 @@ bool MapQueryClient::Options::IsValid(std::string* error) const {
 }
 
 struct MapQueryClient::Impl {
-  std::string client_id;
   QueryEndpoints endpoints;
   dds_entity_t reader = 0;
   dds_entity_t writer = 0;
   dds_entity_t match_waitset = 0;
-  uint64_t next_request_id = 1;
+  // rmw_cyclonedds' request header: the request writer's instance handle and a sequence number.
+  uint64_t rmw_client_id = 0;
+  int64_t next_sequence_number = 1;
 };
 
 MapQueryClient::MapQueryClient(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
@@ -343,18 +421,21 @@ MapQueryClient::~MapQueryClient() = default;
 std::unique_ptr<MapQueryClient> MapQueryClient::Create(const Options& options, std::string* error) {
   if (!options.IsValid(error)) return nullptr;
   auto impl = std::make_unique<Impl>();
-  impl->client_id = options.client_id;
-  if (impl->client_id.empty()) {
-    std::random_device device;
-    impl->client_id = "client-" + std::to_string(device()) + "-" + std::to_string(device());
-  }
   QueryEndpoints& e = impl->endpoints;
   if (!e.Open(options.node, options.domain_id, "monoplane_query_client", options.topic_prefix,
               error))
     return nullptr;
-  const EndpointQos qos = QueryQos(0.05);
+  // The same clientid on both endpoints: a ROS 2 service waits for the reply reader that carries
+  // the request writer's id before it answers.
+  const EndpointQos qos = QueryQos(0.05, "clientid=" + RandomEndpointId() + ";");
   impl->writer = e.entities->Writer(e.request_topic, qos, error);
   if (impl->writer <= 0) return nullptr;
+  dds_instance_handle_t handle = 0;
+  if (dds_get_instance_handle(impl->writer, &handle) < 0) {
+    if (error) *error = "MapQueryClient: no instance handle for the request writer";
+    return nullptr;
+  }
+  impl->rmw_client_id = handle;
   impl->reader = e.entities->Reader(e.reply_topic, qos, error);
   if (impl->reader <= 0) return nullptr;
   if (!e.WatchData(impl->reader, error)) return nullptr;
@@ -388,12 +469,12 @@ bool MapQueryClient::WaitForServer(double match_timeout_s) {
 
 std::optional<MapQueryReply> MapQueryClient::Query(const MapQueryRequest& request, double timeout_s,
                                                    std::string* error) {
-  const uint64_t request_id = impl_->next_request_id++;
+  const int64_t sequence_number = impl_->next_sequence_number++;
   std::vector<geometry_msgs_msg_dds__Point_> path;
   for (const auto& p : request.path_m) path.push_back({p.x(), p.y(), 0.0});
-  monoplane_msg_dds__MapQueryRequest_ msg{};
-  msg.client_id = const_cast<char*>(impl_->client_id.c_str());
-  msg.request_id = request_id;
+  monoplane_interfaces_srv_dds__MapQuery_Request_ msg{};
+  msg.rmw_client_id = impl_->rmw_client_id;
+  msg.rmw_sequence_number = sequence_number;
   msg.kind = static_cast<int32_t>(request.kind);
   msg.x_m = request.point_m.x();
   msg.y_m = request.point_m.y();
@@ -436,9 +517,10 @@ std::optional<MapQueryReply> MapQueryClient::Query(const MapQueryRequest& reques
     if (n > 0) {
       std::optional<MapQueryReply> reply;
       if (info.valid_data) {
-        const auto& r = *static_cast<const monoplane_msg_dds__MapQueryReply_*>(samples[0]);
+        const auto& r =
+            *static_cast<const monoplane_interfaces_srv_dds__MapQuery_Response_*>(samples[0]);
         // Replies to other clients, or to requests this client gave up on, are skipped.
-        if (r.request_id == request_id && r.client_id && impl_->client_id == r.client_id) {
+        if (r.rmw_client_id == impl_->rmw_client_id && r.rmw_sequence_number == sequence_number) {
           reply = FromIdl(r);
         }
       }
@@ -449,7 +531,7 @@ std::optional<MapQueryReply> MapQueryClient::Query(const MapQueryRequest& reques
     const std::int64_t remaining = RemainingNs(deadline);
     if (remaining == 0) {
       if (error)
-        *error = "no reply to map query " + std::to_string(request_id) + " within " +
+        *error = "no reply to map query " + std::to_string(sequence_number) + " within " +
                  std::to_string(timeout_s) + " s";
       return std::nullopt;
     }

@@ -15,7 +15,8 @@
 
 namespace monoplane::interfaces {
 
-// A map query as it travels over DDS (monoplane::msg::dds_::MapQueryRequest_), in map-frame metres.
+// A map query (the request of the ROS 2 service monoplane_interfaces/srv/MapQuery), in map-frame
+// metres.
 struct MapQueryRequest {
   enum class Kind { kPoint = 1, kRegion = 2, kNearestObstacle = 3, kPathClearance = 4 };
   Kind kind = Kind::kPoint;
@@ -28,7 +29,7 @@ struct MapQueryRequest {
   double robot_radius_m = 0.0;                           // path clearance, >= 0
 };
 
-// The answer (monoplane::msg::dds_::MapQueryReply_). Fields of other kinds stay at their defaults.
+// The answer (the service's response). Fields of other kinds stay at their defaults.
 struct MapQueryReply {
   bool ok = true;
   std::string error;  // when !ok
@@ -67,14 +68,21 @@ struct MapQueryReply {
 // map). Called on the thread that calls MapQueryServer::Serve.
 using MapQueryHandler = std::function<MapQueryReply(const MapQueryRequest&)>;
 
-// Topic names of the query pair under `prefix`: rt/[prefix/]monoplane/map_query/request, .../reply.
+// The map queries are the ROS 2 service /[prefix/]monoplane/map_query of type
+// monoplane_interfaces/srv/MapQuery (interfaces/ros2/monoplane_interfaces), on DDS as
+// rmw_cyclonedds puts services: requests on rq/[prefix/]monoplane/map_queryRequest, replies on
+// rr/[prefix/]monoplane/map_queryReply, each sample led by rmw_cyclonedds' request header (the
+// client's id and the request's sequence number, echoed in the reply). `ros2 service call` and
+// rclcpp/rclpy clients on rmw_cyclonedds_cpp reach it.
+std::string MapQueryServiceName(const std::string& prefix);  // "/[prefix/]monoplane/map_query"
 std::string MapQueryRequestTopic(const std::string& prefix);
 std::string MapQueryReplyTopic(const std::string& prefix);
 
-// Answers map queries over DDS: takes requests from .../map_query/request, calls the handler and
-// writes the reply (with the request's client_id and request_id) to .../map_query/reply.
-// Both topics: reliable, volatile, keep-last 64. Invalid requests (unknown kind, empty path,
-// negative radius, NaN) are answered with ok = false without calling the handler.
+// Answers map queries: takes requests, calls the handler and writes the reply with the request's
+// header. Both topics: reliable, volatile, keep-last 64; both endpoints carry the same
+// "serviceid=...;" in USER_DATA, and a reply waits (up to 100 ms) until the client's reply reader,
+// named by the "clientid=...;" of its request writer, is matched. Invalid requests (unknown kind,
+// empty path, negative radius, NaN) are answered with ok = false without calling the handler.
 // Not thread-safe: call Serve from one thread (the app owns that thread).
 class MapQueryServer {
  public:
@@ -107,13 +115,14 @@ class MapQueryServer {
   std::unique_ptr<Impl> impl_;
 };
 
-// Sends queries and waits for their replies (for programs and tests). Not thread-safe.
+// Sends queries and waits for their replies (for programs and tests), as an rmw_cyclonedds client
+// does: "clientid=...;" on both endpoints, its request writer's instance handle and a sequence
+// number in each request's header, only replies with both kept. Not thread-safe.
 class MapQueryClient {
  public:
   struct Options {
     int domain_id = 0;
     std::string topic_prefix;
-    std::string client_id;  // distinguishes this client's replies; "" = a random id
     // As MapQueryServer::Options::node; nullptr: a node named "monoplane_query_client".
     std::shared_ptr<RosNode> node;
     bool IsValid(std::string* error) const;

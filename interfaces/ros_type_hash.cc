@@ -29,8 +29,9 @@ RosField Nested(std::string name, std::string type_name, std::uint8_t offset = 0
           std::move(type_name)};
 }
 
-// The public ROS 2 message definitions of the types in idl/*.idl, and monoplane's own map query
-// types as idl/monoplane_msgs.idl declares them. Field order is the message's.
+// The public ROS 2 message definitions of the types in idl/*.idl, and the messages of monoplane's
+// map query service as idl/monoplane_interfaces.idl declares them (without rmw_cyclonedds' request
+// header). Field order is the message's.
 std::vector<RosTypeDescription> MakeDescriptions() {
   constexpr std::uint8_t kSequence = kRosUnboundedSequence;
   const std::string time = "builtin_interfaces/msg/Time";
@@ -104,16 +105,15 @@ std::vector<RosTypeDescription> MakeDescriptions() {
         Nested("reader_gid_seq", gid, kSequence), Nested("writer_gid_seq", gid, kSequence)}},
       {"rmw_dds_common/msg/ParticipantEntitiesInfo",
        {Nested("gid", gid), Nested("node_entities_info_seq", node_entities, kSequence)}},
-      {"monoplane/msg/MapQueryRequest",
-       {Plain("client_id", kRosString), Plain("request_id", kRosUint64), Plain("kind", kRosInt32),
-        Plain("x_m", kRosDouble), Plain("y_m", kRosDouble), Plain("x2_m", kRosDouble),
-        Plain("y2_m", kRosDouble), Plain("want_raster", kRosBoolean),
+      // monoplane_interfaces/srv/MapQuery (interfaces/ros2/monoplane_interfaces/srv/MapQuery.srv):
+      // each endpoint of a service carries its message's hash (rmw_cyclonedds).
+      {"monoplane_interfaces/srv/MapQuery_Request",
+       {Plain("kind", kRosInt32), Plain("x_m", kRosDouble), Plain("y_m", kRosDouble),
+        Plain("x2_m", kRosDouble), Plain("y2_m", kRosDouble), Plain("want_raster", kRosBoolean),
         Plain("max_radius_m", kRosDouble), Nested("path", point, kSequence),
         Plain("robot_radius_m", kRosDouble)}},
-      {"monoplane/msg/MapQueryReply",
-       {Plain("client_id", kRosString),
-        Plain("request_id", kRosUint64),
-        Plain("kind", kRosInt32),
+      {"monoplane_interfaces/srv/MapQuery_Response",
+       {Plain("kind", kRosInt32),
         Plain("ok", kRosBoolean),
         Plain("error", kRosString),
         Plain("cell_x", kRosInt32),
@@ -202,13 +202,22 @@ void AppendIndividualJson(const RosTypeDescription& type, std::string* out) {
 
 // Adds the names of the types `type` refers to, directly or indirectly, to `names`. False when one
 // of them is not described.
-bool CollectReferenced(const RosTypeDescription& type, std::set<std::string>* names) {
+const RosTypeDescription* FindIn(const std::vector<RosTypeDescription>& types,
+                                 std::string_view ros_type_name) {
+  const auto it = std::find_if(types.begin(), types.end(), [&](const RosTypeDescription& t) {
+    return t.type_name == ros_type_name;
+  });
+  return it != types.end() ? &*it : nullptr;
+}
+
+bool CollectReferenced(const std::vector<RosTypeDescription>& types, const RosTypeDescription& type,
+                       std::set<std::string>* names) {
   for (const RosField& f : type.fields) {
     if (f.nested_type_name.empty() || names->count(f.nested_type_name) > 0) continue;
-    const RosTypeDescription* nested = FindRosTypeDescription(f.nested_type_name);
+    const RosTypeDescription* nested = FindIn(types, f.nested_type_name);
     if (nested == nullptr) return false;
     names->insert(f.nested_type_name);
-    if (!CollectReferenced(*nested, names)) return false;
+    if (!CollectReferenced(types, *nested, names)) return false;
   }
   return true;
 }
@@ -240,9 +249,14 @@ const RosTypeDescription* FindRosTypeDescription(std::string_view ros_type_name)
 }
 
 std::string RosTypeDescriptionJson(std::string_view ros_type_name) {
-  const RosTypeDescription* type = FindRosTypeDescription(ros_type_name);
+  return RosTypeDescriptionJson(ros_type_name, RosTypeDescriptions());
+}
+
+std::string RosTypeDescriptionJson(std::string_view ros_type_name,
+                                   const std::vector<RosTypeDescription>& types) {
+  const RosTypeDescription* type = FindIn(types, ros_type_name);
   std::set<std::string> referenced;  // sorted by name, as ROS 2 lists them
-  if (type == nullptr || !CollectReferenced(*type, &referenced)) return "";
+  if (type == nullptr || !CollectReferenced(types, *type, &referenced)) return "";
   std::string json = "{\"type_description\": ";
   AppendIndividualJson(*type, &json);
   json.append(", \"referenced_type_descriptions\": [");
@@ -250,30 +264,38 @@ std::string RosTypeDescriptionJson(std::string_view ros_type_name) {
   for (const std::string& name : referenced) {
     if (!first) json.append(", ");
     first = false;
-    AppendIndividualJson(*FindRosTypeDescription(name), &json);
+    AppendIndividualJson(*FindIn(types, name), &json);
   }
   json.append("]}");
   return json;
 }
 
 std::string RosTypeHash(std::string_view ros_type_name) {
-  const std::string json = RosTypeDescriptionJson(ros_type_name);
+  return RosTypeHash(ros_type_name, RosTypeDescriptions());
+}
+
+std::string RosTypeHash(std::string_view ros_type_name,
+                        const std::vector<RosTypeDescription>& types) {
+  const std::string json = RosTypeDescriptionJson(ros_type_name, types);
   return json.empty() ? "" : "RIHS01_" + Sha256Hex(json);
 }
 
 std::string RosTypeNameFromDds(std::string_view dds_type_name) {
-  // <package>::msg::dds_::<Name>_
-  constexpr std::string_view kMiddle = "::msg::dds_::";
-  const std::size_t middle = dds_type_name.find(kMiddle);
-  if (middle == std::string_view::npos || middle == 0) return "";
-  const std::string_view package = dds_type_name.substr(0, middle);
-  std::string_view name = dds_type_name.substr(middle + kMiddle.size());
-  if (name.size() < 2 || name.back() != '_' || package.find(':') != std::string_view::npos ||
-      name.find(':') != std::string_view::npos) {
-    return "";
+  // <package>::msg::dds_::<Name>_, or <package>::srv::dds_::<Service>_Request_ (and _Response_)
+  for (const std::string_view kind : {"msg", "srv"}) {
+    const std::string middle_text = "::" + std::string(kind) + "::dds_::";
+    const std::size_t middle = dds_type_name.find(middle_text);
+    if (middle == std::string_view::npos || middle == 0) continue;
+    const std::string_view package = dds_type_name.substr(0, middle);
+    std::string_view name = dds_type_name.substr(middle + middle_text.size());
+    if (name.size() < 2 || name.back() != '_' || package.find(':') != std::string_view::npos ||
+        name.find(':') != std::string_view::npos) {
+      return "";
+    }
+    name.remove_suffix(1);
+    return std::string(package) + "/" + std::string(kind) + "/" + std::string(name);
   }
-  name.remove_suffix(1);
-  return std::string(package) + "/msg/" + std::string(name);
+  return "";
 }
 
 std::string RosTypeHashUserData(std::string_view dds_type_name) {

@@ -80,8 +80,16 @@ std::string RosTypeDescriptionJson(std::string_view ros_type_name);
 // "RIHS01_" + the lowercase hex sha256 of RosTypeDescriptionJson; empty when not described.
 std::string RosTypeHash(std::string_view ros_type_name);
 
+// The same over the descriptions `types` instead of RosTypeDescriptions() (any order).
+std::string RosTypeDescriptionJson(std::string_view ros_type_name,
+                                   const std::vector<RosTypeDescription>& types);
+std::string RosTypeHash(std::string_view ros_type_name,
+                        const std::vector<RosTypeDescription>& types);
+
 // The ROS 2 name of an rmw_cyclonedds DDS type name: "nav_msgs::msg::dds_::OccupancyGrid_" ->
-// "nav_msgs/msg/OccupancyGrid". Empty when the name does not have that form.
+// "nav_msgs/msg/OccupancyGrid", and a service's messages:
+// "example_interfaces::srv::dds_::AddTwoInts_Request_" ->
+// "example_interfaces/srv/AddTwoInts_Request". Empty when the name does not have that form.
 std::string RosTypeNameFromDds(std::string_view dds_type_name);
 
 // The USER_DATA an endpoint of DDS type `dds_type_name` carries for ROS 2, as rmw_dds_common

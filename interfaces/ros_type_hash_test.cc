@@ -13,7 +13,7 @@
 #include <vector>
 
 #include "idl/map_msgs.h"
-#include "idl/monoplane_msgs.h"
+#include "idl/monoplane_interfaces.h"
 #include "idl/nav_msgs.h"
 #include "idl/rmw_dds_common.h"
 #include "idl/rosgraph_msgs.h"
@@ -114,6 +114,24 @@ TEST(RosTypeHashTest, MatchesTheHashesRos2Publishes) {
   }
 }
 
+// A service's messages are hashed as messages named <pkg>/srv/<Service>_Request and _Response,
+// the hash rmw_cyclonedds puts on the service's endpoints. Golden: rosidl_generator_c output of
+// example_interfaces/srv/AddTwoInts (add_two_ints__description.c, the `get_type_hash` bytes of
+// the request and response messages), a public repository's generated headers.
+TEST(RosTypeHashTest, ServiceMessagesHashAsRos2Does) {
+  const std::vector<RosTypeDescription> types = {
+      {"example_interfaces/srv/AddTwoInts_Request",
+       {{"a", kRosInt64, 0, 0, ""}, {"b", kRosInt64, 0, 0, ""}}},
+      {"example_interfaces/srv/AddTwoInts_Response", {{"sum", kRosInt64, 0, 0, ""}}},
+  };
+  EXPECT_EQ(RosTypeHash("example_interfaces/srv/AddTwoInts_Request", types),
+            "RIHS01_000c5fd92d6b2e1a05949348f584d6d652adea1e92d691792011ac2273508302");
+  EXPECT_EQ(RosTypeHash("example_interfaces/srv/AddTwoInts_Response", types),
+            "RIHS01_de5c030d4af33cba2749310b249737b631594703f9300495f48bffb2b44dcc2f");
+  EXPECT_EQ(RosTypeNameFromDds("example_interfaces::srv::dds_::AddTwoInts_Request_"),
+            "example_interfaces/srv/AddTwoInts_Request");
+}
+
 // The JSON REP 2011 hashes, spelled out for the smallest type: python's json.dumps with ", " and
 // ": " separators, keys in rosidl_generator_type_description's order, no default values.
 TEST(RosTypeHashTest, HashesTheCanonicalJson) {
@@ -148,8 +166,8 @@ TEST(RosTypeHashTest, EveryEndpointTypeIsDescribed) {
       &nav_msgs_msg_dds__Odometry__desc,
       &tf2_msgs_msg_dds__TFMessage__desc,
       &rosgraph_msgs_msg_dds__Clock__desc,
-      &monoplane_msg_dds__MapQueryRequest__desc,
-      &monoplane_msg_dds__MapQueryReply__desc,
+      &monoplane_interfaces_srv_dds__MapQuery_Request__desc,
+      &monoplane_interfaces_srv_dds__MapQuery_Response__desc,
       &sensor_msgs_msg_dds__Image__desc,
       &sensor_msgs_msg_dds__CompressedImage__desc,
       &sensor_msgs_msg_dds__CameraInfo__desc,
@@ -208,24 +226,24 @@ RosField FieldFromIdl(const std::string& package, const std::string& idl_type,
 }
 
 TEST(RosTypeHashTest, DescriptionsMatchTheIdl) {
-  const std::regex module_re(R"(module\s+(\w+)\s*\{)");
+  const std::regex module_re(R"(module\s+(\w+)\s*\{\s*module\s+(\w+))");
   const std::regex struct_re(R"(struct\s+(\w+)\s*\{([^}]*)\})");
   const std::regex member_re(R"(^\s*([\w:]+(?:<\s*[\w:]+\s*>)?)\s+(\w+)\s*(?:\[(\d+)\])?\s*;)");
   int structs_checked = 0;
   for (const char* file :
        {"builtin_interfaces", "std_msgs", "geometry_msgs", "nav_msgs", "map_msgs", "tf2_msgs",
-        "rosgraph_msgs", "sensor_msgs", "monoplane_msgs", "rmw_dds_common"}) {
+        "rosgraph_msgs", "sensor_msgs", "monoplane_interfaces", "rmw_dds_common"}) {
     const std::string text =
         ReadFile(std::string(MONOPLANE_SOURCE_DIR) + "/interfaces/idl/" + file + ".idl");
     ASSERT_FALSE(text.empty()) << file;
     std::smatch module;
     ASSERT_TRUE(std::regex_search(text, module, module_re)) << file;
-    const std::string package = module[1];
+    const std::string package = module[1], kind = module[2];  // kind: msg or srv
     for (auto it = std::sregex_iterator(text.begin(), text.end(), struct_re);
          it != std::sregex_iterator(); ++it) {
       std::string name = (*it)[1];
       name.pop_back();  // the trailing '_' of the DDS name
-      const std::string type_name = package + "/msg/" + name;
+      const std::string type_name = package + "/" + kind + "/" + name;
       const RosTypeDescription* description = FindRosTypeDescription(type_name);
       ASSERT_NE(description, nullptr) << type_name << " is in " << file << ".idl";
       std::vector<RosField> fields;
@@ -234,6 +252,8 @@ TEST(RosTypeHashTest, DescriptionsMatchTheIdl) {
         line = line.substr(0, line.find("//"));
         std::smatch member;
         if (!std::regex_search(line, member, member_re)) continue;
+        // rmw_cyclonedds' request header leads a service's samples; it is not part of the type.
+        if (kind == "srv" && member[2].str().rfind("rmw_", 0) == 0) continue;
         fields.push_back(FieldFromIdl(package, member[1], member[2], member[3]));
       }
       ASSERT_EQ(fields.size(), description->fields.size()) << type_name;
@@ -250,6 +270,61 @@ TEST(RosTypeHashTest, DescriptionsMatchTheIdl) {
     }
   }
   EXPECT_EQ(structs_checked, static_cast<int>(RosTypeDescriptions().size()));
+}
+
+// The service's messages are what the ROS 2 interface package a ROS user builds declares
+// (interfaces/ros2/monoplane_interfaces/srv/MapQuery.srv): same fields, order and types.
+TEST(RosTypeHashTest, MapQueryMessagesMatchTheSrvFile) {
+  static const std::map<std::string, std::uint8_t> kPrimitive = {
+      {"bool", kRosBoolean},  {"int8", kRosInt8},   {"uint8", kRosUint8},    {"int32", kRosInt32},
+      {"uint32", kRosUint32}, {"int64", kRosInt64}, {"float64", kRosDouble}, {"string", kRosString},
+  };
+  const std::string text = ReadFile(std::string(MONOPLANE_SOURCE_DIR) +
+                                    "/interfaces/ros2/monoplane_interfaces/srv/MapQuery.srv");
+  ASSERT_FALSE(text.empty());
+  std::vector<RosField> parts[2];
+  int part = 0;
+  std::istringstream lines(text);
+  const std::regex field_re(R"(^\s*([\w/]+)(\[\])?\s+(\w+)\s*$)");
+  for (std::string line; std::getline(lines, line);) {
+    line = line.substr(0, line.find('#'));
+    if (line.find("---") != std::string::npos) {
+      ++part;
+      continue;
+    }
+    std::smatch m;
+    if (line.find('=') != std::string::npos || !std::regex_match(line, m, field_re)) continue;
+    RosField field;
+    field.name = m[3];
+    const std::uint8_t offset = m[2].matched ? kRosUnboundedSequence : 0;
+    const auto primitive = kPrimitive.find(m[1]);
+    if (primitive != kPrimitive.end()) {
+      field.type_id = static_cast<std::uint8_t>(primitive->second + offset);
+    } else {
+      const std::string type = m[1];
+      const std::size_t slash = type.find('/');
+      ASSERT_NE(slash, std::string::npos) << type;
+      field.type_id = static_cast<std::uint8_t>(kRosNestedType + offset);
+      field.nested_type_name = type.substr(0, slash) + "/msg/" + type.substr(slash + 1);
+    }
+    ASSERT_LT(part, 2);
+    parts[part].push_back(field);
+  }
+  ASSERT_EQ(part, 1);
+  const char* names[2] = {"monoplane_interfaces/srv/MapQuery_Request",
+                          "monoplane_interfaces/srv/MapQuery_Response"};
+  for (int k = 0; k < 2; ++k) {
+    const RosTypeDescription* description = FindRosTypeDescription(names[k]);
+    ASSERT_NE(description, nullptr) << names[k];
+    ASSERT_EQ(parts[k].size(), description->fields.size()) << names[k];
+    for (std::size_t i = 0; i < parts[k].size(); ++i) {
+      EXPECT_EQ(description->fields[i].name, parts[k][i].name) << names[k] << " field " << i;
+      EXPECT_EQ(description->fields[i].type_id, parts[k][i].type_id)
+          << names[k] << "." << parts[k][i].name;
+      EXPECT_EQ(description->fields[i].nested_type_name, parts[k][i].nested_type_name)
+          << names[k] << "." << parts[k][i].name;
+    }
+  }
 }
 
 // USER_DATA as a remote participant sees it: read back from the entity's QoS.
@@ -321,11 +396,21 @@ TEST(RosTypeHashTest, EveryMonoplaneEndpointCarriesItsTypeHash) {
   for (const EndpointInfo& e : endpoints) {
     const std::string hash = RosTypeHash(RosTypeNameFromDds(e.type_name));
     ASSERT_FALSE(hash.empty()) << e.topic_name << " " << e.type_name;
-    EXPECT_EQ(e.user_data, "typehash=" + hash + ";") << e.topic_name;
+    // The service's endpoints name it first ("serviceid=...;"), as rmw_cyclonedds writes them.
+    const bool service = e.topic_name.rfind("rq/", 0) == 0 || e.topic_name.rfind("rr/", 0) == 0;
+    const std::string expected = "typehash=" + hash + ";";
+    if (service) {
+      EXPECT_TRUE(
+          e.user_data.rfind("serviceid=", 0) == 0 && e.user_data.size() > expected.size() &&
+          e.user_data.compare(e.user_data.size() - expected.size(), expected.size(), expected) == 0)
+          << e.topic_name << ": " << e.user_data;
+    } else {
+      EXPECT_EQ(e.user_data, expected) << e.topic_name;
+    }
     ++per_type[e.type_name];
   }
   EXPECT_EQ(per_type.count("rosgraph_msgs::msg::dds_::Clock_"), 1u);
-  EXPECT_EQ(per_type.count("monoplane::msg::dds_::MapQueryRequest_"), 1u);
+  EXPECT_EQ(per_type.count("monoplane_interfaces::srv::dds_::MapQuery_Request_"), 1u);
 }
 
 }  // namespace
