@@ -1,6 +1,9 @@
 #pragma once
 
 #include <CLI/CLI.hpp>
+#include <string>
+
+#include "perception/geometry/timestamp.h"
 
 namespace monoplane::app {
 
@@ -19,6 +22,15 @@ void RegisterRunCommand(CLI::App* app, int* exit_code);        // app/run_cli.cc
 void RegisterEchoCommand(CLI::App* app, int* exit_code);       // app/echo_command.cc
 void RegisterMapCommands(CLI::App* app,
                          int* exit_code);  // app/map_commands.cc: info, query, export
-void RegisterServeCommand(CLI::App* app, int* exit_code);  // app/serve_command.cc
+void RegisterServeCommand(CLI::App* app, int* exit_code);   // app/serve_command.cc
+void RegisterReportCommand(CLI::App* app, int* exit_code);  // app/report_command.cc
+
+// A wall-clock time for people: "2026-12-02 07:09:55 UTC" (app/map_commands.cc).
+std::string UtcTime(TimestampNs ns);
+
+// `monoplane report MAP --out HTML [--frames DIR --panels N]`, for the demo: prints the report's
+// line (or the error) and returns the exit code.
+int WriteMapReport(const std::string& map_path, const std::string& html_path,
+                   const std::string& frames_dir, int panels);
 
 }  // namespace monoplane::app

@@ -27,6 +27,7 @@ int main(int argc, char** argv) {
   RegisterEchoCommand(&app, &exit_code);
   RegisterMapCommands(&app, &exit_code);
   RegisterServeCommand(&app, &exit_code);
+  RegisterReportCommand(&app, &exit_code);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

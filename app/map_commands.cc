@@ -57,17 +57,6 @@ std::string Cell(const Eigen::Vector2i& c) {
 
 std::string Seconds(TimestampNs ns) { return Num(NsToSeconds(ns), 9); }
 
-// A run's wall-clock time for people: "2026-12-02 07:09:55 UTC".
-std::string UtcTime(TimestampNs ns) {
-  const std::time_t t = static_cast<std::time_t>(ns / 1'000'000'000LL);
-  std::tm tm{};
-  char text[64];
-  if (gmtime_r(&t, &tm) == nullptr ||
-      std::strftime(text, sizeof(text), "%Y-%m-%d %H:%M:%S UTC", &tm) == 0)
-    return Seconds(ns) + " s";
-  return text;
-}
-
 StorageStatus OpenMap(const std::string& path, std::unique_ptr<MapDatabase>* db) {
   return MapDatabase::Open(path, OpenMode::kReadOnly, db);
 }
@@ -397,6 +386,16 @@ int ExportCommand(const ExportArgs& args) {
 }
 
 }  // namespace
+
+std::string UtcTime(TimestampNs ns) {
+  const std::time_t t = static_cast<std::time_t>(ns / 1'000'000'000LL);
+  std::tm tm{};
+  char text[64];
+  if (gmtime_r(&t, &tm) == nullptr ||
+      std::strftime(text, sizeof(text), "%Y-%m-%d %H:%M:%S UTC", &tm) == 0)
+    return Seconds(ns) + " s";
+  return text;
+}
 
 void RegisterMapCommands(CLI::App* app, int* exit_code) {
   // CLI11 keeps pointers to these; they live as long as the program.

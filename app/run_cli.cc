@@ -89,6 +89,10 @@ int RunDemo(RunCli* cli) {
     return kExitError;
   }
   std::printf("  map picture: %s\n", picture.c_str());
+  const std::string report = (root / "report.html").string();
+  if (const int report_code = WriteMapReport(r.map_path, report, r.frames_out, 6);
+      report_code != kExitOk)
+    return report_code;
   eval::LabelEvalResult labels;
   if (!eval::EvaluateLabelSequence(r.frames_out, sequence.string(), eval::LabelEvalOptions{},
                                    &labels, &error)) {
