@@ -22,6 +22,8 @@ packages=(
   # Test only: clang's libFuzzer and sanitizers build the fuzz targets (the fuzz preset), which the
   # test suite runs for a fixed number of inputs; clang-format checks the sources' format.
   clang libclang-rt-dev clang-format
+  # Test only: a second DDS vendor (Fast DDS) reads what monoplane publishes.
+  libfastrtps-dev libfastcdr-dev fastddsgen
 )
 
 missing=()
