@@ -24,6 +24,8 @@ packages=(
   clang libclang-rt-dev clang-format
   # Test only: a second DDS vendor (Fast DDS) reads what monoplane publishes.
   libfastrtps-dev libfastcdr-dev fastddsgen
+  # Test only: a real browser (headless) renders `monoplane report`'s page in a test.
+  chromium
 )
 
 missing=()
