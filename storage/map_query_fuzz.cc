@@ -121,8 +121,10 @@ void FuzzRegion(Reader* in) {
   const Eigen::Vector2d a(in->Number(), in->Number()), b(in->Number(), in->Number());
   const bool raster = in->Byte() % 2;
   if (!RegionQueryProblem(a, b, Grid().resolution_m()).empty()) return;
+  // Larger regions are answered, but slowly to check cell by cell. The bound counts the cells the
+  // region spans (a zero-width region 1e9 cells long still spans 1e9 cells).
   const Eigen::Vector2d size = (a - b).cwiseAbs() / Grid().resolution_m();
-  if (size.x() * size.y() > 200) return;  // larger regions are answered, but slowly to check
+  if ((size.x() + 2) * (size.y() + 2) > 400) return;
   const RegionQuery r = QueryRegion(Grid(), a, b, raster);
   const std::int64_t cells = static_cast<std::int64_t>(r.max_cell.x() - r.min_cell.x() + 1) *
                              (r.max_cell.y() - r.min_cell.y() + 1);
