@@ -1,0 +1,174 @@
+// Module-private (not part of perception's API): the types and stages ObstacleDetector::Detect
+// runs on its sample grid, in obstacle_detector.cc (the orchestrator), sample_measurement.cc,
+// label_rules.cc and top_view.cc.
+#pragma once
+
+#include <Eigen/Core>
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <opencv2/core.hpp>
+#include <vector>
+
+#include "perception/detector_options.h"
+#include "perception/frame_types.h"
+#include "perception/geometry/camera_model.h"
+#include "perception/geometry/occupancy_grid.h"
+#include "perception/geometry/pose2.h"
+#include "perception/height_filter.h"
+#include "perception/zero_disparity.h"
+
+namespace monoplane::detector_stages {
+
+// One sample of the search grid.
+struct Sample {
+  PixelLabel raw = PixelLabel::kUnknown;  // from this sample alone
+  bool measured = false;                  // has a height
+  bool significant = false;               // zero disparity clearly not zero
+  double s_px = NAN;
+  double height_m = NAN;
+  double height_sigma_m = NAN;
+  double height_m_per_px = NAN;    // height change per input pixel of zero disparity
+  double footprint_sigma_m = NAN;  // how far one sigma of zero disparity moves point_in_base2
+  double below_horizon_px = 0.0;
+  Eigen::Vector2d point_in_base2{NAN, NAN};  // triangulated footprint
+  Eigen::Vector2d floor_in_base2{NAN, NAN};  // where the pixel's ray meets the floor
+  // The floor hypothesis fits the sample's own neighbourhood about as well as its zero disparity
+  // (check_floor_hypothesis): its window carried a neighbour's parallax, it cannot be significant.
+  bool floor_explains = false;
+  // After alignment the sample did not match (max_residual): what was there may have changed or
+  // been covered (a moving thing); an earlier estimate is not carried onto it.
+  bool mismatched = false;
+  bool textured = false;  // enough texture along the epipolar line to be measured (min_texture)
+  // Labelled from an earlier frame's estimate without a measurement in this pair: it labels the
+  // image, but gives the top view no vote (the map counted it when it was measured).
+  bool carried = false;
+  // Measurements fused into the point's height estimate after this pair (HeightFilterOptions; 0
+  // when the filter is off or the sample has none).
+  int measurements = 0;
+};
+
+// The detector's sample grid over the search level: sample (i, j) sits at level pixel
+// (j, i) * stride + stride / 2, input pixel scale times that.
+struct SampleGrid {
+  int rows = 0;
+  int cols = 0;
+  int stride = 1;
+  double scale = 1.0;  // input pixels per level pixel
+  double SamplePx() const { return stride * scale; }
+  std::size_t Index(int i, int j) const { return static_cast<std::size_t>(i) * cols + j; }
+};
+
+// Where each labelled sample's obstacle point may be placed in the top view.
+struct Placement {
+  std::vector<std::uint8_t> footprint_known;   // footprint known well enough to be placed at all
+  std::vector<std::uint8_t> on_surface;        // SamplesOnSurfaces
+  std::vector<Eigen::Vector2d> column_placed;  // PlaceOnColumnSurfaces, empty when off
+};
+
+// Shared by the phases.
+
+// The label of one sample from its own height (its raw label when it measured nothing).
+PixelLabel Classify(const Sample& s, const ClassificationOptions& co, double camera_height_m);
+
+// The median of `values` (reorders them); NaN when empty.
+float Median(std::vector<float>* values);
+
+// Phases 1 and 2 (sample_measurement.cc).
+
+// Phase 1: every sample measured on its own (its zero disparity, height and footprint) and
+// labelled from that alone.
+std::vector<Sample> MeasureSamples(const CameraModel& camera, const ZeroDisparityField& field,
+                                   const SampleGrid& grid, const Pose2& base2_from_base1,
+                                   const ClassificationOptions& co);
+
+// Evidence over frames (HeightFilterOptions): each sample's measurement is fused with the earlier
+// estimate in front of the others that project into it (occluded ones lose), or starts a new one;
+// estimates not measured again are carried while they match what is seen. The samples then carry
+// the fused height (and its sigma, footprint and significance) for the labels; estimates that
+// still rest on this pair alone leave their sample as it is. `posterior` gets every estimate
+// certain enough to carry, its point on its sample's ray at its height.
+void FuseHeights(const CameraModel& camera, const ClassificationOptions& co,
+                 const HeightFilterOptions& hf, const std::vector<HeightSeed>& prior, int rows,
+                 int cols, double sample_px, std::vector<Sample>* samples,
+                 std::vector<HeightSeed>* posterior);
+
+// Phases 3 and 4 (label_rules.cc).
+
+// Superpixels of the current image at the search level (or coarser), labels at input resolution.
+cv::Mat Superpixels(const cv::Mat& current, const ClassificationOptions& co, double search_scale);
+
+// Each measured sample labelled by the median height and sigma of its neighbours
+// (ClassificationOptions::Aggregation::kMedian).
+void AggregateByMedian(const std::vector<Sample>& samples, const SampleGrid& grid,
+                       const ClassificationOptions& co, double camera_height_m,
+                       std::vector<PixelLabel>* labels);
+
+// Per segment, the median height of its measured samples decides the label of all its measured
+// samples; the paper's aggregation for stability. Samples that measured nothing stay as they were.
+void AggregateBySegment(const cv::Mat& segments, const std::vector<Sample>& samples,
+                        int sample_rows, int sample_cols, int stride, double scale,
+                        const ClassificationOptions& co, double camera_height_m,
+                        std::vector<PixelLabel>* labels);
+
+// Corners that move on their own (level pixels), confirmed by a second one within radius_px: what
+// is not floor around them moves.
+void LabelAroundMovingCorners(const std::vector<Eigen::Vector2d>& moving, const SampleGrid& grid,
+                              double radius_px, std::vector<PixelLabel>* labels);
+
+// Samples that measured nothing between two labelled ones in an image column, where what the two
+// show bounds what the gap can hold (ClassificationOptions::fill_max_gap_samples):
+// - obstacle above and obstacle below at one footprint (within 0.05 m + 3 % of its range): one
+//   vertical surface; the gap is that surface, each sample where its ray meets it;
+// - obstacle above, floor below it in front of the obstacle's footprint: the obstacle stands on
+//   the floor; a gap sample whose ray meets the floor beyond the footprint meets the surface
+//   first and is obstacle (the others stay unknown);
+// - floor above and floor below: anything standing in the gap would have hidden the far floor
+//   sample unless it is lower than camera height * (far - near) / far; when that bound is below
+//   obstacle_min_height_m and the floor gap at most fill_max_floor_gap_m (a hole in it cannot be
+//   bounded so), the gap is floor.
+// Moving, drop-off and unknown ends fill nothing.
+void FillColumnGaps(const CameraModel& camera, const ClassificationOptions& co, int rows, int cols,
+                    double sample_px, std::vector<Sample>* samples,
+                    std::vector<PixelLabel>* labels);
+
+// Floor within `reach` samples of an obstacle in its image column (its base below it, the floor
+// behind its top above it): the matching window straddled the edge, and the floor label reached
+// onto the obstacle's edge pixels. Unknown, not floor.
+void UnknownFloorNextToObstacles(const SampleGrid& grid, int reach,
+                                 std::vector<PixelLabel>* labels);
+
+// Phase 5 (top_view.cc).
+
+// 1 for the obstacle and drop-off samples on a surface (ClassificationOptions::
+// min_surface_angle_deg), 0 for mixed "veil" points at a depth edge; 1 for every other sample.
+std::vector<std::uint8_t> SamplesOnSurfaces(const CameraModel& camera,
+                                            const std::vector<Sample>& samples,
+                                            const std::vector<PixelLabel>& labels,
+                                            const SampleGrid& grid,
+                                            const ClassificationOptions& co);
+
+// Top-view positions of obstacle and drop-off samples from the surfaces their image columns show
+// (ClassificationOptions::column_min_samples): per run of one label in a column, a sample within
+// column_max_sigmas of the run's median range (a vertical surface) goes to that range along its
+// ray, else one within column_max_sigmas of the median height (a horizontal one) to where its ray
+// meets that height. Samples of shorter runs: obstacles at their own footprints, drop-offs NaN, as
+// the others. `usable` marks the samples that may be placed at all (measured, on a surface,
+// footprint known well enough).
+std::vector<Eigen::Vector2d> PlaceOnColumnSurfaces(const std::vector<Sample>& samples,
+                                                   const std::vector<PixelLabel>& labels,
+                                                   const std::vector<std::uint8_t>& usable,
+                                                   int rows, int cols,
+                                                   const Eigen::Vector3d& camera_centre,
+                                                   const ClassificationOptions& co);
+
+// The top view of one pair: the local map's cells (free, occupied, the rest unknown) and the
+// placed obstacle points (base frame, z = height). Samples carried from earlier frames give no
+// vote (the map counted them when they were measured). `edge_reach_samples`: samples above a
+// floor sample that its matching window reaches.
+void BuildTopView(const std::vector<Sample>& samples, const std::vector<PixelLabel>& labels,
+                  const Placement& placement, const SampleGrid& grid, int edge_reach_samples,
+                  const ClassificationOptions& co, OccupancyGrid* local_map,
+                  std::vector<Eigen::Vector3f>* obstacle_points_in_base);
+
+}  // namespace monoplane::detector_stages

@@ -1,0 +1,235 @@
+// Phases 1 and 2 of ObstacleDetector::Detect: every sample of the search grid measured on
+// its own (zero disparity, height, footprint, raw label), then fused with the estimates of earlier
+// frames (HeightFilterOptions).
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include "perception/detector_stages.h"
+
+namespace monoplane::detector_stages {
+
+PixelLabel Classify(const Sample& s, const ClassificationOptions& co, double camera_height_m) {
+  if (!s.measured) return s.raw;
+  const double range_m = s.point_in_base2.norm();
+  if (!(range_m <= co.max_range_m)) return PixelLabel::kUnknown;
+  // Below the horizon nothing static is higher than the camera: motion of its own.
+  if (s.below_horizon_px > 2.0 && s.height_m > 1.2 * camera_height_m) return PixelLabel::kMoving;
+  if (s.height_m >= co.obstacle_min_height_m && s.significant) return PixelLabel::kObstacle;
+  if (s.height_m <= -co.drop_off_min_depth_m && s.significant) return PixelLabel::kDropOff;
+  if (std::abs(s.height_m) + co.floor_max_height_sigmas * s.height_sigma_m <
+          co.obstacle_min_height_m &&
+      s.height_sigma_m < co.obstacle_min_height_m && s.below_horizon_px > 0) {
+    return PixelLabel::kFloor;
+  }
+  return PixelLabel::kUnknown;
+}
+
+std::vector<Sample> MeasureSamples(const CameraModel& camera, const ZeroDisparityField& field,
+                                   const SampleGrid& grid, const Pose2& base2_from_base1,
+                                   const ClassificationOptions& co) {
+  const CameraIntrinsics& in = camera.calibration().intrinsics;
+  const Pose2& t = base2_from_base1;
+  const Eigen::Matrix3d h_inv = FloorHomography(camera, t).inverse();
+  const Eigen::Vector3d horizon = camera.HorizonLine();
+  const double horizon_norm = horizon.head<2>().norm();
+  // Orient the horizon line so that floor pixels have positive signed distance.
+  const Eigen::Vector2d bottom((in.width - 1) / 2.0, in.height - 1.0);
+  const double horizon_sign = horizon.dot(bottom.homogeneous()) >= 0 ? 1.0 : -1.0;
+  const double camera_height = camera.CameraCentreInBase().z();
+  const MotionTriangulator triangulate(camera, t);
+  const Eigen::Matrix2d t_rotation = t.Rotation();  // t * p, without a sine and cosine per sample
+  const Eigen::Vector2d t_translation = t.Translation();
+  const int stride = grid.stride;
+  std::vector<Sample> samples(static_cast<std::size_t>(grid.rows) * grid.cols);
+  for (int i = 0; i < grid.rows; ++i) {
+    for (int j = 0; j < grid.cols; ++j) {
+      Sample& sample = samples[grid.Index(i, j)];
+      const int y = i * stride + stride / 2, x = j * stride + stride / 2;
+      const Eigen::Vector2d q(x * field.scale, y * field.scale);
+      sample.below_horizon_px = horizon_sign * horizon.dot(q.homogeneous()) / horizon_norm;
+      if (auto f = camera.PixelToFloor(q)) sample.floor_in_base2 = *f;
+      if (field.texture.at<float>(y, x) < co.min_texture) continue;  // unknown, never floor
+      sample.textured = true;
+      const float perpendicular = std::abs(field.perpendicular_px.at<float>(y, x));
+      if (co.moving_min_perpendicular_px > 0 && perpendicular >= co.moving_min_perpendicular_px &&
+          perpendicular >= co.min_disparity_sigmas * field.perpendicular_sigma_px.at<float>(y, x)) {
+        sample.raw = PixelLabel::kMoving;
+        continue;
+      }
+      if (field.residual.at<float>(y, x) > co.max_residual) {
+        sample.mismatched = true;
+        continue;
+      }
+      const double s = field.s_px.at<float>(y, x);
+      const double sigma_px =
+          std::max<double>(co.disparity_sigma_px, field.sigma_px.at<float>(y, x));
+      const Eigen::Vector2d u(field.ux.at<float>(y, x), field.uy.at<float>(y, x));
+      const auto tri = triangulate.OnEpipolarLine(ApplyHomography(h_inv, q - s * u), q);
+      const auto tri_sigma =
+          triangulate.OnEpipolarLine(ApplyHomography(h_inv, q - (s + sigma_px) * u), q);
+      if (!tri || !tri_sigma || tri->depth_m <= 0) continue;
+      sample.measured = true;
+      sample.s_px = s;
+      sample.significant = std::abs(s) >= co.min_disparity_sigmas * sigma_px;
+      if (co.check_floor_hypothesis && sample.significant && !field.floor_residual_fine.empty() &&
+          field.floor_residual_fine.at<float>(y, x) <
+              field.residual_fine.at<float>(y, x) + co.min_floor_misfit) {
+        sample.significant = false;
+        sample.floor_explains = true;
+      }
+      sample.height_m = tri->point_in_base1.z();
+      sample.height_sigma_m = std::abs(tri_sigma->point_in_base1.z() - sample.height_m);
+      sample.height_m_per_px = sample.height_sigma_m / sigma_px;
+      sample.footprint_sigma_m =
+          (tri_sigma->point_in_base1.head<2>() - tri->point_in_base1.head<2>()).norm();
+      sample.point_in_base2 = t_rotation * tri->point_in_base1.head<2>() + t_translation;
+      sample.raw = Classify(sample, co, camera_height);
+    }
+  }
+  return samples;
+}
+
+void FuseHeights(const CameraModel& camera, const ClassificationOptions& co,
+                 const HeightFilterOptions& hf, const std::vector<HeightSeed>& prior, int rows,
+                 int cols, double sample_px, std::vector<Sample>* samples,
+                 std::vector<HeightSeed>* posterior) {
+  const Eigen::Vector3d centre = camera.CameraCentreInBase();
+  // Per sample the estimate in front: the nearest to the camera, and among those within a
+  // surface's thickness of it (0.05 m + 5 % of the range) the most certain. Always the nearest
+  // would favour, among the noisy estimates of one surface, those erring towards the camera
+  // (upwards on the floor).
+  std::vector<int> nearest(samples->size(), -1);
+  std::vector<float> nearest_range(samples->size(), std::numeric_limits<float>::infinity());
+  std::vector<std::int32_t> sample_of(prior.size(), -1);
+  std::vector<float> range_of(prior.size(), 0.0f);
+  for (std::size_t n = 0; n < prior.size(); ++n) {
+    const Eigen::Vector3d point = prior[n].point_in_base.cast<double>();
+    const auto pixel = camera.ProjectToPixel(point);
+    if (!pixel) continue;
+    const int i = static_cast<int>(std::floor(pixel->y() / sample_px));
+    const int j = static_cast<int>(std::floor(pixel->x() / sample_px));
+    if (i < 0 || j < 0 || i >= rows || j >= cols) continue;
+    const std::size_t k = static_cast<std::size_t>(i) * cols + j;
+    sample_of[n] = static_cast<std::int32_t>(k);
+    range_of[n] = static_cast<float>((point - centre).norm());
+    nearest_range[k] = std::min(nearest_range[k], range_of[n]);
+  }
+  for (std::size_t n = 0; n < prior.size(); ++n) {
+    if (sample_of[n] < 0) continue;
+    const std::size_t k = static_cast<std::size_t>(sample_of[n]);
+    if (range_of[n] > nearest_range[k] * 1.05f + 0.05f) continue;
+    if (nearest[k] < 0 || prior[n].var_m2 < prior[nearest[k]].var_m2) {
+      nearest[k] = static_cast<int>(n);
+    }
+  }
+  posterior->clear();
+  posterior->reserve(samples->size() / 2);
+  for (int i = 0; i < rows; ++i) {
+    for (int j = 0; j < cols; ++j) {
+      const std::size_t k = static_cast<std::size_t>(i) * cols + j;
+      Sample& s = (*samples)[k];
+      HeightSeed seed;
+      bool own_pair_only = false;
+      bool carried_only = false;
+      const HeightSeed* earlier = nearest[k] >= 0 && s.raw != PixelLabel::kMoving && !s.mismatched
+                                      ? &prior[nearest[k]]
+                                      : nullptr;
+      // The measurement's error for fusion: its own, and at least that of min_sigma_px of zero
+      // disparity, the part the pairs share (their motion's and the calibration's error).
+      const double tau =
+          s.measured ? std::max(s.height_sigma_m, s.height_m_per_px * hf.min_sigma_px) : NAN;
+      // A measurement far off the earlier estimate is of another point (the estimate projected
+      // across an occluding edge, or the scene changed): it starts its own.
+      if (earlier && s.measured) {
+        const double d = s.height_m - earlier->mean_m;
+        const double var = earlier->var_m2 + tau * tau;
+        if (d * d > hf.gate_sigmas * hf.gate_sigmas * var) earlier = nullptr;
+      }
+      if (earlier) {
+        seed = *earlier;
+        if (s.measured) {
+          UpdateHeightSeed(s.height_m, tau, hf, &seed);
+          // Measurements that keep disagreeing: the estimate is given up and this pair's
+          // measurement starts a new one.
+          if (seed.InlierRatio() < hf.min_inlier_ratio) {
+            seed = NewHeightSeed(s.height_m, tau, hf);
+            own_pair_only = true;
+          }
+        } else if (++seed.unmeasured > hf.max_unmeasured_detections) {
+          continue;
+        } else {
+          carried_only = true;
+        }
+      } else if (s.measured) {
+        seed = NewHeightSeed(s.height_m, tau, hf);
+        own_pair_only = true;
+      } else {
+        continue;
+      }
+      // Where the estimate puts the point: on this sample's ray, at its height.
+      const Eigen::Vector2d q((j + 0.5) * sample_px, (i + 0.5) * sample_px);
+      const Eigen::Vector3d ray = camera.RayInBase(q);
+      const double t = (seed.mean_m - centre.z()) / ray.z();
+      if (!(t > 0.0 && std::isfinite(t))) {  // this ray never reaches that height: no estimate
+        s.measured = false;
+        s.raw = PixelLabel::kUnknown;
+        continue;
+      }
+      const Eigen::Vector3d point = centre + t * ray;
+      seed.point_in_base = point.cast<float>();
+      double sigma = std::sqrt(static_cast<double>(seed.var_m2));
+      if (sigma <= hf.max_carry_sigma_m) posterior->push_back(seed);
+      s.measurements = seed.measurements;
+      if (own_pair_only) continue;
+      if (seed.InlierRatio() < hf.min_inlier_ratio) continue;  // carried, but disputed
+      // Not measured in this pair. Where it had texture, something kept the pair from measuring
+      // it (no triangulation, a match far off): no earlier estimate overrules that. Where it had
+      // none, the estimate may be of a point that something without texture now hides (the
+      // floor behind a plain box): only what stands above or below the floor is carried onto
+      // it, never floor, and only when more than one pair agreed on it.
+      if (carried_only && (s.textured || seed.measurements < hf.min_measurements_to_carry ||
+                           std::abs(seed.mean_m) < co.obstacle_min_height_m)) {
+        continue;
+      }
+      s.measured = true;
+      s.carried = carried_only;
+      // Judged with at least the uncertainty of this pair's measurement (carried: of the best
+      // single one, HeightSeed::best_sigma_m): fusion gives the better mean and keeps it known,
+      // not more confidence than one pair had. The one exception is floor, below.
+      sigma = std::max({sigma, hf.min_sigma_m,
+                        carried_only ? static_cast<double>(seed.best_sigma_m) : s.height_sigma_m});
+      // Floor from the estimate (HeightFilterOptions::floor_min_measurements): judged with the
+      // fused sigma and the error the pairs share, only where this pair measured the point. The
+      // dangerous error, an obstacle called floor, needs many pairs agreeing on a height near
+      // zero; a systematic error that lifts the floor (the far floor measured high) only keeps it
+      // unknown.
+      if (!carried_only && hf.floor_min_measurements > 0 &&
+          seed.measurements >= hf.floor_min_measurements) {
+        const double shared_m = s.height_m_per_px * hf.shared_sigma_px;
+        const double floor_sigma = std::max(
+            hf.min_sigma_m, std::sqrt(static_cast<double>(seed.var_m2) + shared_m * shared_m));
+        if (std::abs(seed.mean_m) + co.floor_max_height_sigmas * floor_sigma <
+                co.obstacle_min_height_m &&
+            floor_sigma < sigma) {
+          sigma = floor_sigma;
+          s.significant = false;
+        }
+      }
+      s.height_m = seed.mean_m;
+      s.height_sigma_m = sigma;
+      s.footprint_sigma_m = sigma * ray.head<2>().norm() / std::max(1e-9, std::abs(ray.z()));
+      s.point_in_base2 = point.head<2>();
+      // Significance is not created by fusing: a measured sample keeps its pair's verdict (one
+      // pair's systematic error repeats in the next ones and would add up to confidence), and the
+      // fused height must still stand out of its uncertainty.
+      s.significant = (carried_only || s.significant) && !s.floor_explains &&
+                      std::abs(s.height_m) >= co.min_disparity_sigmas * sigma;
+      s.raw = Classify(s, co, centre.z());
+    }
+  }
+}
+
+}  // namespace monoplane::detector_stages

@@ -1,0 +1,236 @@
+// Phase 5 of ObstacleDetector::Detect: the top view of one pair, where each obstacle point is
+// placed (surfaces, column surfaces) and the local map's free and occupied cells.
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include "perception/detector_stages.h"
+
+namespace monoplane::detector_stages {
+namespace {
+
+// The length, up to max_run, of the run of samples that are not floor above floor sample (i, j)
+// in its image column, when that run starts within `reach` samples of it (the floor samples in
+// between are within the matching window's reach of it too); 0 when there is none.
+int NotFloorRunAbove(const std::vector<PixelLabel>& labels, const SampleGrid& grid, int i, int j,
+                     int reach, int max_run) {
+  int edge = i - 1;
+  while (edge >= 0 && i - edge <= reach && labels[grid.Index(edge, j)] == PixelLabel::kFloor)
+    --edge;
+  if (edge < 0 || i - edge > reach) return 0;
+  int run = 0;
+  while (run < max_run && edge - run >= 0 &&
+         labels[grid.Index(edge - run, j)] != PixelLabel::kFloor)
+    ++run;
+  return run;
+}
+
+}  // namespace
+
+std::vector<std::uint8_t> SamplesOnSurfaces(const CameraModel& camera,
+                                            const std::vector<Sample>& samples,
+                                            const std::vector<PixelLabel>& labels,
+                                            const SampleGrid& grid,
+                                            const ClassificationOptions& co) {
+  std::vector<std::uint8_t> on_surface(samples.size(), 1);
+  if (co.min_surface_angle_deg <= 0) return on_surface;
+  const Eigen::Vector3d centre = camera.CameraCentreInBase();
+  const double pixel_rad = grid.SamplePx() / camera.K()(0, 0);
+  const double depth_per_lateral = 1.0 / std::tan(co.min_surface_angle_deg * M_PI / 180.0);
+  std::vector<float> range(samples.size(), NAN);
+  for (std::size_t k = 0; k < samples.size(); ++k) {
+    const Sample& s = samples[k];
+    if (s.measured) {
+      range[k] = static_cast<float>(
+          (Eigen::Vector3d(s.point_in_base2.x(), s.point_in_base2.y(), s.height_m) - centre)
+              .norm());
+    }
+  }
+  for (int i = 0; i < grid.rows; ++i) {
+    for (int j = 0; j < grid.cols; ++j) {
+      const std::size_t k = grid.Index(i, j);
+      const PixelLabel label = labels[k];
+      if (!samples[k].measured || (label != PixelLabel::kObstacle && label != PixelLabel::kDropOff))
+        continue;
+      int smooth = 0;
+      for (int di = -1; di <= 1; ++di) {
+        for (int dj = -1; dj <= 1; ++dj) {
+          const int ii = i + di, jj = j + dj;
+          if ((di == 0 && dj == 0) || ii < 0 || jj < 0 || ii >= grid.rows || jj >= grid.cols)
+            continue;
+          const float neighbour = range[grid.Index(ii, jj)];
+          if (std::isnan(neighbour)) continue;
+          const double lateral = range[k] * pixel_rad * (di != 0 && dj != 0 ? M_SQRT2 : 1.0);
+          smooth += std::abs(neighbour - range[k]) <= depth_per_lateral * lateral ? 1 : 0;
+        }
+      }
+      on_surface[k] = smooth >= co.min_surface_neighbours ? 1 : 0;
+    }
+  }
+  return on_surface;
+}
+
+std::vector<Eigen::Vector2d> PlaceOnColumnSurfaces(const std::vector<Sample>& samples,
+                                                   const std::vector<PixelLabel>& labels,
+                                                   const std::vector<std::uint8_t>& usable,
+                                                   int rows, int cols,
+                                                   const Eigen::Vector3d& camera_centre,
+                                                   const ClassificationOptions& co) {
+  std::vector<Eigen::Vector2d> placed(samples.size(), Eigen::Vector2d(NAN, NAN));
+  const Eigen::Vector2d c = camera_centre.head<2>();
+  std::vector<std::size_t> run;
+  std::vector<float> ranges, heights;
+  const auto place_run = [&] {
+    ranges.clear();
+    heights.clear();
+    for (std::size_t k : run) {
+      if (!usable[k]) continue;
+      ranges.push_back(static_cast<float>((samples[k].point_in_base2 - c).norm()));
+      heights.push_back(static_cast<float>(samples[k].height_m));
+    }
+    if (static_cast<int>(ranges.size()) < co.column_min_samples) {
+      // Too short to show a surface: a small obstacle keeps its own footprint (leaving it out
+      // would let the floor around it clear its cell); a lone drop-off sample is noise.
+      for (std::size_t k : run) {
+        if (usable[k] && labels[k] == PixelLabel::kObstacle) placed[k] = samples[k].point_in_base2;
+      }
+    } else {
+      const double range = Median(&ranges), height = Median(&heights);  // (reorders them)
+      const auto on_vertical = [&](const Sample& s) {
+        return std::abs((s.point_in_base2 - c).norm() - range) <=
+               0.05 + co.column_max_sigmas * s.footprint_sigma_m;
+      };
+      // (On the same side of the camera's height, so that the ray reaches that height.)
+      const auto on_horizontal = [&](const Sample& s) {
+        return std::abs(s.height_m - height) <= 0.02 + co.column_max_sigmas * s.height_sigma_m &&
+               (s.height_m - camera_centre.z()) * (height - camera_centre.z()) > 1e-4;
+      };
+      // The surface that explains more of the run's samples; its samples go onto it.
+      int vertical = 0, horizontal = 0;
+      for (std::size_t k : run) {
+        if (!usable[k]) continue;
+        vertical += on_vertical(samples[k]) ? 1 : 0;
+        horizontal += on_horizontal(samples[k]) ? 1 : 0;
+      }
+      for (std::size_t k : run) {
+        if (!usable[k]) continue;
+        const Sample& s = samples[k];
+        const Eigen::Vector2d d = s.point_in_base2 - c;
+        if (!(d.norm() > 1e-6)) continue;
+        if (vertical >= horizontal && on_vertical(s)) {
+          placed[k] = c + d * (range / d.norm());
+        } else if (vertical < horizontal && on_horizontal(s)) {
+          // Along the ray from the camera through the sample, to the run's height.
+          placed[k] = c + d * ((height - camera_centre.z()) / (s.height_m - camera_centre.z()));
+        }
+      }
+    }
+    run.clear();
+  };
+  for (int j = 0; j < cols; ++j) {
+    PixelLabel run_label = PixelLabel::kUnknown;
+    int holes = 0;
+    for (int i = rows - 1; i >= 0; --i) {
+      const std::size_t k = static_cast<std::size_t>(i) * cols + j;
+      const PixelLabel label = labels[k];
+      // Up to two unmeasured samples (a texture gap) inside a run keep it going.
+      if (label == PixelLabel::kUnknown && !run.empty() && ++holes <= 2) continue;
+      if (label != run_label) place_run();
+      holes = 0;
+      run_label = label;
+      if (label == PixelLabel::kObstacle || label == PixelLabel::kDropOff) run.push_back(k);
+    }
+    place_run();
+  }
+  return placed;
+}
+
+void BuildTopView(const std::vector<Sample>& samples, const std::vector<PixelLabel>& labels,
+                  const Placement& placement, const SampleGrid& grid, int edge_reach_samples,
+                  const ClassificationOptions& co, OccupancyGrid* local_map,
+                  std::vector<Eigen::Vector3f>* obstacle_points_in_base) {
+  const GridGeometry& g = local_map->geometry;
+  std::vector<std::uint16_t> free_votes(g.NumCells(), 0), occupied_votes(g.NumCells(), 0);
+  std::vector<std::uint8_t> not_free(g.NumCells(), 0);    // cells that must not read free
+  std::vector<std::uint8_t> floor_edge(g.NumCells(), 0);  // where the floor ends below something
+  for (int i = 0; i < grid.rows; ++i) {
+    for (int j = 0; j < grid.cols; ++j) {
+      const std::size_t k = grid.Index(i, j);
+      const Sample& sample = samples[k];
+      const PixelLabel label = labels[k];
+      if (sample.carried) continue;
+      if (label == PixelLabel::kFloor) {
+        // Floor at its floor point...
+        // ...except where the floor ends in the image column: that sample's window straddles the
+        // edge, and its cell holds the base of whatever stands there, detected or not. Below a
+        // short run of other samples (a seam, a textureless spot) it gives no free vote; below
+        // floor_edge_samples of them its cell is not free.
+        // A sample whose matching window reaches the edge counts as the edge: the window of a
+        // wall's or a box's lowest (textureless) pixels holds the floor below them, so the floor
+        // label climbs a sample or so onto them, and the last floor samples lie on the base.
+        const int not_floor_above =
+            NotFloorRunAbove(labels, grid, i, j, edge_reach_samples, co.floor_edge_samples);
+        if (auto cell = g.CellOf(sample.floor_in_base2)) {
+          const std::size_t c = g.Index(cell->x(), cell->y());
+          if (not_floor_above == 0) {
+            ++free_votes[c];
+          } else if (not_floor_above >= co.floor_edge_samples) {
+            not_free[c] = 1;
+            floor_edge[c] = 1;
+          }
+        }
+      } else if ((label == PixelLabel::kObstacle || label == PixelLabel::kDropOff) &&
+                 sample.measured) {
+        if (!placement.footprint_known[k]) continue;
+        // ...obstacles and drop-offs at their true footprint, not their stretched shadow: that of
+        // the surface their column shows when there is one. A point between two surfaces (a "veil"
+        // point at a depth edge) or off its column's surface is not placed, but its cell is not
+        // free.
+        const Eigen::Vector2d footprint = !placement.on_surface[k] ? Eigen::Vector2d(NAN, NAN)
+                                          : placement.column_placed.empty()
+                                              ? sample.point_in_base2
+                                              : placement.column_placed[k];
+        if (!footprint.allFinite()) {
+          if (auto cell = g.CellOf(sample.point_in_base2))
+            not_free[g.Index(cell->x(), cell->y())] = 1;
+          continue;
+        }
+        obstacle_points_in_base->emplace_back(static_cast<float>(footprint.x()),
+                                              static_cast<float>(footprint.y()),
+                                              static_cast<float>(sample.height_m));
+        if (auto cell = g.CellOf(footprint)) {
+          ++occupied_votes[g.Index(cell->x(), cell->y())];
+        }
+      }
+    }
+  }
+  // A margin: the cells around a placed obstacle point, and around the floor's edge below
+  // something that is not floor, are not free either (a wall's base cell otherwise reads free from
+  // the floor samples just in front of it: the wall's points sit a few cm behind the cell
+  // boundary, a textureless wall has none, and the base cell holds floor and wall).
+  if (co.free_margin_cells > 0) {
+    const int m = co.free_margin_cells;
+    std::vector<std::uint8_t> margin = not_free;
+    for (int row = 0; row < g.height; ++row) {
+      for (int col = 0; col < g.width; ++col) {
+        if (occupied_votes[g.Index(col, row)] == 0 && !floor_edge[g.Index(col, row)]) continue;
+        for (int r2 = std::max(row - m, 0); r2 <= std::min(row + m, g.height - 1); ++r2) {
+          for (int c2 = std::max(col - m, 0); c2 <= std::min(col + m, g.width - 1); ++c2)
+            margin[g.Index(c2, r2)] = 1;
+        }
+      }
+    }
+    not_free.swap(margin);
+  }
+  for (std::size_t k = 0; k < g.NumCells(); ++k) {
+    // A cell with any obstacle point is occupied: calling it free would be the dangerous error.
+    if (occupied_votes[k] >= 1) {
+      local_map->cells[k] = kCellOccupied;
+    } else if (free_votes[k] >= 1 && !not_free[k]) {
+      local_map->cells[k] = kCellFree;
+    }
+  }
+}
+
+}  // namespace monoplane::detector_stages
