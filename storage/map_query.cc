@@ -175,16 +175,30 @@ std::optional<NearestObstacle> QueryNearestObstacle(const TiledGrid& grid,
   const int i1 = FloorCell(point_m.x() + max_radius_m, res);
   const int j0 = FloorCell(point_m.y() - max_radius_m, res);
   const int j1 = FloorCell(point_m.y() + max_radius_m, res);
-  CellReader reader(grid, thresholds);
+  // Only tiles that exist can hold an occupied cell: the work is bounded by the map's size, not
+  // by the radius (a 1 km radius spans 4e8 cells at 0.1 m). Among cells at the same distance the
+  // lowest row, then the lowest column, wins, whatever order the tiles come in.
+  const Classifier classify(thresholds);
   std::optional<NearestObstacle> best;
-  for (int j = j0; j <= j1; ++j) {
-    for (int i = i0; i <= i1; ++i) {
-      const Eigen::Vector2i cell(i, j);
-      const Eigen::Vector2d c = grid.CellCenter(cell);
-      const double d = (c - point_m).norm();
-      if (d > max_radius_m || (best && d >= best->distance_m)) continue;
-      if (reader.State(cell) != CellState::kOccupied) continue;
-      best = NearestObstacle{cell, c, d};
+  constexpr int kTile = TiledGrid::kTileSize;
+  for (const auto& [key, tile] : grid.tiles()) {
+    const int ti0 = std::max(i0, key.first * kTile),
+              ti1 = std::min(i1, key.first * kTile + kTile - 1);
+    const int tj0 = std::max(j0, key.second * kTile),
+              tj1 = std::min(j1, key.second * kTile + kTile - 1);
+    for (int j = tj0; j <= tj1; ++j) {
+      for (int i = ti0; i <= ti1; ++i) {
+        const Eigen::Vector2i cell(i, j);
+        const Eigen::Vector2d c = grid.CellCenter(cell);
+        const double d = (c - point_m).norm();
+        if (d > max_radius_m) continue;
+        if (best && (d > best->distance_m ||
+                     (d == best->distance_m &&
+                      std::make_pair(j, i) > std::make_pair(best->cell.y(), best->cell.x()))))
+          continue;
+        if (classify(tile, TiledGrid::IndexInTile(cell)) != CellState::kOccupied) continue;
+        best = NearestObstacle{cell, c, d};
+      }
     }
   }
   return best;

@@ -12,6 +12,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <limits>
+#include <utility>
 #include <vector>
 
 #include "fuzz_check.h"
@@ -150,9 +151,29 @@ void FuzzPointAndNearest(Reader* in) {
     FuzzCheck(q.observed || q.state == CellState::kUnknown, "a cell never observed is unknown");
   }
   if (NearestQueryProblem(p, radius).empty()) {
-    if (const auto n = QueryNearestObstacle(Grid(), p, radius)) {
+    const auto n = QueryNearestObstacle(Grid(), p, radius);
+    if (n) {
       FuzzCheck(n->distance_m <= radius + 1e-9, "the nearest obstacle lies within the radius");
       FuzzCheck(StateAt(n->center_m) == CellState::kOccupied, "the nearest obstacle is occupied");
+    }
+    // Near the grid's cells, every cell within the radius is checked by brute force: none is an
+    // occupied cell nearer than the answer (or as near and earlier in row-major order).
+    if (radius <= 5.0 && p.cwiseAbs().maxCoeff() <= 5.0) {
+      const double res = Grid().resolution_m();
+      const int i0 = static_cast<int>(std::floor((p.x() - radius) / res));
+      const int j0 = static_cast<int>(std::floor((p.y() - radius) / res));
+      for (int j = j0; j <= j0 + static_cast<int>(2 * radius / res) + 2; ++j) {
+        for (int i = i0; i <= i0 + static_cast<int>(2 * radius / res) + 2; ++i) {
+          const Eigen::Vector2d c = Grid().CellCenter({i, j});
+          const double d = (c - p).norm();
+          if (d > radius || StateAt(c) != CellState::kOccupied) continue;
+          FuzzCheck(n.has_value(), "an occupied cell within the radius is found");
+          FuzzCheck(d > n->distance_m ||
+                        (d == n->distance_m &&
+                         std::make_pair(j, i) >= std::make_pair(n->cell.y(), n->cell.x())),
+                    "no occupied cell is nearer than the answer");
+        }
+      }
     }
   }
 }

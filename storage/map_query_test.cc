@@ -99,6 +99,29 @@ TEST(MapQuery, NearestObstacle) {
   EXPECT_FALSE(QueryNearestObstacle(grid, {1.0, 0.5}, 0.3));
 }
 
+// The search looks only at tiles that exist (a 1 km radius spans 4e8 cells at 0.1 m): across tile
+// boundaries and far away it finds the nearest occupied cell, and of cells at the same distance
+// the lowest row, then the lowest column.
+TEST(MapQuery, NearestObstacleAcrossTilesAndTies) {
+  TiledGrid grid(0.1);
+  const auto occupy = [&](int i, int j) {
+    TiledGrid::Tile& tile = grid.TileAt({i, j});
+    tile.log_odds[TiledGrid::IndexInTile({i, j})] = 3.0f;
+    tile.last_seen_ns[TiledGrid::IndexInTile({i, j})] = 1;
+  };
+  occupy(-300, 40);  // another tile, 30 m away
+  occupy(5000, 0);   // 500 m away
+  auto far = QueryNearestObstacle(grid, {0.0, 0.0}, 1000.0);
+  ASSERT_TRUE(far);
+  EXPECT_EQ(far->cell, Eigen::Vector2i(-300, 40));
+  occupy(10, 2);  // two cells exactly as far from the origin: centres (1.05, +-0.25)
+  occupy(10, -3);
+  far = QueryNearestObstacle(grid, {0.0, 0.0}, 1000.0);
+  ASSERT_TRUE(far);
+  EXPECT_EQ(far->cell, Eigen::Vector2i(10, -3));
+  EXPECT_FALSE(QueryNearestObstacle(grid, {0.0, 0.0}, 0.5));
+}
+
 TEST(MapQuery, WallAcrossCorridorBlocksPathAtTheRightCell) {
   const TiledGrid grid = Corridor();
   const PathClearance blocked = QueryPathClearance(grid, {{0.5, 0.55}, {4.5, 0.55}}, 0.2);
