@@ -5,12 +5,12 @@
 #include <cstdio>
 #include <cstdlib>
 #include <limits>
-#include <map>
 #include <unordered_set>
 
-namespace monoplane {
+#include "mapping/mapper_internal.h"
 
-namespace {
+namespace monoplane {
+namespace mapper_internal {
 
 void CheckOrDie(bool ok, const std::string& what) {
   if (!ok) {
@@ -19,9 +19,6 @@ void CheckOrDie(bool ok, const std::string& what) {
   }
 }
 
-Pose2 Between(const Pose2& a, const Pose2& b) { return a.Inverse() * b; }
-
-// The map-frame bounding box of a local map seen at a pose, grown by margin_m.
 std::pair<Eigen::Vector2d, Eigen::Vector2d> LocalMapBounds(const OccupancyGrid& local_map,
                                                            const Pose2& pose, double margin_m) {
   const GridGeometry& g = local_map.geometry;
@@ -38,43 +35,9 @@ std::pair<Eigen::Vector2d, Eigen::Vector2d> LocalMapBounds(const OccupancyGrid& 
   return {lo.array() - margin_m, hi.array() + margin_m};
 }
 
-// Parallel edges at `node` (a lap that repeats an older one gives the same pair of keyframes
-// again) become one: the measurements averaged by their information, with the noise of the more
-// certain one, so that repeated laps neither grow the graph nor make it ever stiffer. The first
-// edge of a pair keeps its direction and place.
-void FuseParallelEdges(int node, std::vector<PoseGraphEdge>* edges) {
-  std::map<int, std::size_t> edge_to;  // other end -> index into fused
-  std::vector<PoseGraphEdge> fused;
-  fused.reserve(edges->size());
-  for (const PoseGraphEdge& e : *edges) {
-    if (e.from != node && e.to != node) {
-      fused.push_back(e);
-      continue;
-    }
-    const int other = e.from == node ? e.to : e.from;
-    const auto [it, inserted] = edge_to.emplace(other, fused.size());
-    if (inserted) {
-      fused.push_back(e);
-      continue;
-    }
-    PoseGraphEdge& f = fused[it->second];
-    const Pose2 m = f.from == e.from ? e.from_T_to : e.from_T_to.Inverse();
-    const double w_xy = 1.0 / (e.sigma_xy_m * e.sigma_xy_m);
-    const double f_xy = 1.0 / (f.sigma_xy_m * f.sigma_xy_m);
-    const double w_yaw = 1.0 / (e.sigma_yaw_rad * e.sigma_yaw_rad);
-    const double f_yaw = 1.0 / (f.sigma_yaw_rad * f.sigma_yaw_rad);
-    const double a = w_xy / (w_xy + f_xy), b = w_yaw / (w_yaw + f_yaw);
-    f.from_T_to = {f.from_T_to.x + a * (m.x - f.from_T_to.x),
-                   f.from_T_to.y + a * (m.y - f.from_T_to.y),
-                   WrapAngle(f.from_T_to.yaw + b * WrapAngle(m.yaw - f.from_T_to.yaw))};
-    f.sigma_xy_m = std::min(f.sigma_xy_m, e.sigma_xy_m);
-    f.sigma_yaw_rad = std::min(f.sigma_yaw_rad, e.sigma_yaw_rad);
-    f.robust = f.robust || e.robust;
-  }
-  edges->swap(fused);
-}
+}  // namespace mapper_internal
 
-}  // namespace
+using namespace mapper_internal;  // NOLINT(google-build-using-namespace): Mapper's own helpers
 
 bool Mapper::Options::IsValid(std::string* error) const {
   auto fail = [&](const std::string& key, double value, const std::string& constraint) {
@@ -392,112 +355,6 @@ void Mapper::AddKeyframe(const FrameObservation& frame, FrameUpdate* update) {
     Pack(&keyframes_[left_window]);
 }
 
-std::vector<int> Mapper::FinishRun() {
-  CheckOrDie(!finished_, "FinishRun called twice");
-  finished_ = true;
-  FrameUpdate update;
-  // The others before the newest window were tried when they left a window.
-  const int n = static_cast<int>(keyframes_.size());
-  int i = std::max(FirstRunIndex() + 1, n - options_.window_size + 1);
-  if (FirstRunIndex() < n && CullIfRedundant(FirstRunIndex(), &update, /*may_be_first=*/true)) --i;
-  while (i < static_cast<int>(keyframes_.size())) {
-    if (!CullIfRedundant(i, &update, /*may_be_first=*/true)) ++i;  // else i is the next one now
-  }
-  return update.culled_keyframe_ids;
-}
-
-bool Mapper::CullIfRedundant(int index, FrameUpdate* update, bool may_be_first) {
-  // The run's first keyframe holds the gauge while the run goes on.
-  if (!options_.cull_redundant_keyframes || index < FirstRunIndex() ||
-      (index == FirstRunIndex() && !may_be_first))
-    return false;
-  const Keyframe& current = keyframes_[index];
-  if (current.floor_features.empty()) return false;
-  std::vector<std::pair<double, int>> candidates;
-  for (int j = 0; j < index; ++j) {
-    const Keyframe& k = keyframes_[j];
-    // A saved keyframe is of an earlier visit by definition (its path length counts in its run).
-    if (k.floor_features.empty() ||
-        (!k.from_saved_map && current.path_length_m - k.path_length_m < options_.cull_min_travel_m))
-      continue;
-    const Pose2 delta = Between(k.map_from_base, current.map_from_base);
-    if (delta.TranslationNorm() <= options_.cull_distance_m &&
-        std::abs(delta.yaw) <= options_.cull_rotation_rad) {
-      candidates.push_back({delta.TranslationNorm(), j});
-    }
-  }
-  std::sort(candidates.begin(), candidates.end());
-  if (static_cast<int>(candidates.size()) > options_.cull_max_candidates)
-    candidates.resize(options_.cull_max_candidates);
-  for (const auto& [d, j] : candidates) {
-    // The same place only if the floor says so, and where the estimates put it: a keyframe whose
-    // estimate is off keeps its observations until a loop closure has corrected it.
-    const Pose2 estimate = Between(keyframes_[j].map_from_base, current.map_from_base);
-    const FloorMatchResult f = MatchFloorFeatures(
-        current.floor_features, keyframes_[j].floor_features, options_.floor_match, estimate);
-    if (!f.accepted) continue;
-    const Pose2 error = Between(estimate, f.target_from_source);
-    if (error.TranslationNorm() > options_.cull_max_error_m ||
-        std::abs(error.yaw) > options_.cull_max_error_rad)
-      continue;
-    update->culled_keyframe_ids.push_back(current.id);
-    MergeKeyframe(index, j, f.target_from_source);
-    ++counters_.keyframes_culled;
-    return true;
-  }
-  return false;
-}
-
-void Mapper::MergeKeyframe(int culled, int survivor, const Pose2& survivor_from_culled) {
-  // Edges: an edge to the culled keyframe becomes one to the survivor, measured through the floor
-  // match (so its noise grows by the floor-loop noise); odometry edges between culled and survivor
-  // vanish. The raw odometry edges serve windows only, and none holds the culled keyframe again.
-  const Pose2 culled_from_survivor = survivor_from_culled.Inverse();
-  auto reindex = [culled](int i) { return i > culled ? i - 1 : i; };
-  auto move_edges = [&](std::vector<PoseGraphEdge>* edges, bool compose) {
-    std::vector<PoseGraphEdge> kept;
-    kept.reserve(edges->size());
-    for (PoseGraphEdge e : *edges) {
-      if (e.from == culled || e.to == culled) {
-        if (!compose) continue;
-        if (e.from == culled) {
-          e.from = survivor;
-          e.from_T_to = survivor_from_culled * e.from_T_to;
-        }
-        if (e.to == culled) {
-          e.to = survivor;
-          e.from_T_to = e.from_T_to * culled_from_survivor;
-        }
-        if (e.from == e.to) continue;
-        e.sigma_xy_m = std::hypot(e.sigma_xy_m, options_.floor_loop_sigma_xy_m);
-        e.sigma_yaw_rad = std::hypot(e.sigma_yaw_rad, options_.floor_loop_sigma_yaw_rad);
-      }
-      e.from = reindex(e.from);
-      e.to = reindex(e.to);
-      kept.push_back(e);
-    }
-    edges->swap(kept);
-  };
-  move_edges(&odometry_edges_, /*compose=*/false);
-  move_edges(&refined_edges_, /*compose=*/true);
-  move_edges(&loop_edges_, /*compose=*/true);
-  FuseParallelEdges(survivor, &refined_edges_);
-  FuseParallelEdges(survivor, &loop_edges_);
-
-  // Frames keep their current estimates and from now on move with the survivor.
-  const Pose2 survivor_from_culled_estimate =
-      Between(keyframes_[survivor].map_from_base, keyframes_[culled].map_from_base);
-  for (FrameRecord& f : frames_) {
-    if (f.keyframe_index == culled) {
-      f.keyframe_index = survivor;
-      f.keyframe_from_base = survivor_from_culled_estimate * f.keyframe_from_base;
-    } else {
-      f.keyframe_index = reindex(f.keyframe_index);
-    }
-  }
-  keyframes_.erase(keyframes_.begin() + culled);
-}
-
 void Mapper::Pack(Keyframe* keyframe) const {
   if (keyframe->packed()) return;
   if (!keyframe->local_map.cells.empty()) {
@@ -540,162 +397,6 @@ void Mapper::OptimizeWindow() {
     if (e.from >= begin)
       e.from_T_to = Between(keyframes_[e.from].map_from_base, keyframes_[e.to].map_from_base);
   }
-}
-
-bool Mapper::TryLoopClosure(int index) {
-  if (!options_.loop_closure) return false;
-  const Keyframe& current = keyframes_[index];
-  // Counted in keyframes made (ids): with culling the index of the newest one stays put.
-  if (last_closure_id_ >= 0 &&
-      current.id - last_closure_id_ <= options_.loop_min_interval_keyframes)
-    return false;
-  std::vector<std::pair<double, int>> candidates;
-  for (int j = 0; j < index; ++j) {
-    const Keyframe& k = keyframes_[j];
-    if (!k.from_saved_map && current.path_length_m - k.path_length_m < options_.loop_min_travel_m)
-      continue;
-    const double d = (k.map_from_base.Translation() - current.map_from_base.Translation()).norm();
-    if (d <= options_.loop_candidate_radius_m) candidates.push_back({d, j});
-  }
-  if (candidates.empty()) return false;
-  std::sort(candidates.begin(), candidates.end());
-  if (static_cast<int>(candidates.size()) > options_.loop_max_candidates)
-    candidates.resize(options_.loop_max_candidates);
-  ++counters_.loop_closure_attempts;
-
-  // Floor features first: the candidate with the most inliers among the confident matches.
-  std::optional<LoopClosureEvent> floor_event;
-  std::string floor_reason;
-  if (options_.floor_loop_closure && !current.floor_features.empty()) {
-    std::pair<int, int> best_rejected(-1, -1);  // (inliers, matches) of the best rejected match
-    for (const auto& [d, j] : candidates) {
-      const Keyframe& k = keyframes_[j];
-      if (k.floor_features.empty()) continue;
-      const Pose2 estimate = Between(k.map_from_base, current.map_from_base);
-      const FloorMatchResult f = MatchFloorFeatures(current.floor_features, k.floor_features,
-                                                    options_.floor_match, estimate);
-      if (!f.accepted) {
-        if (!floor_event && std::make_pair(f.num_inliers, f.num_matches) > best_rejected) {
-          best_rejected = {f.num_inliers, f.num_matches};
-          floor_reason = f.reason + " (" + std::to_string(f.num_inliers) + " inliers of " +
-                         std::to_string(f.num_matches) + " matches, keyframe " +
-                         std::to_string(k.id) + ")";
-        }
-        continue;
-      }
-      const Pose2 correction = Between(estimate, f.target_from_source);
-      if (correction.TranslationNorm() > options_.floor_loop_max_correction_m ||
-          std::abs(correction.yaw) > options_.floor_loop_max_correction_rad) {
-        if (!floor_event) floor_reason = "floor match too far from the estimate";
-        continue;
-      }
-      if (floor_event && f.num_inliers <= floor_event->num_inliers) continue;
-      LoopClosureEvent e;
-      e.keyframe_id = current.id;
-      e.anchor_id = j;  // an index until accepted below
-      e.anchor_from_current = f.target_from_source;
-      e.score = f.inlier_ratio;
-      e.second_score =
-          f.num_inliers > 0 ? static_cast<double>(f.second_inliers) / f.num_inliers : 0;
-      e.accepted = true;
-      e.source = "floor";
-      e.num_inliers = f.num_inliers;
-      floor_event = e;
-    }
-  }
-  if (floor_event) {
-    const int anchor = floor_event->anchor_id;
-    floor_event->anchor_id = keyframes_[anchor].id;
-    loop_events_.push_back(*floor_event);
-    ++counters_.loop_closures_accepted;
-    last_closure_id_ = current.id;
-    PoseGraphEdge edge;
-    edge.from = anchor;
-    edge.to = index;
-    edge.from_T_to = floor_event->anchor_from_current;
-    edge.sigma_xy_m = options_.floor_loop_sigma_xy_m;
-    edge.sigma_yaw_rad = options_.floor_loop_sigma_yaw_rad;
-    edge.robust = true;
-    loop_edges_.push_back(edge);
-    return true;
-  }
-
-  const ScanMatchOptions& m = options_.loop_match;
-  TiledGrid older(options_.grid_resolution_m);
-  for (const auto& [d, j] : candidates) {
-    FuseLocalMap(keyframes_[j].LocalMap(), {}, keyframes_[j].map_from_base, 1, options_.log_odds,
-                 &older);
-  }
-  const auto [lo, hi] =
-      LocalMapBounds(current.local_map, current.map_from_base, m.linear_window_m + 0.5);
-  const MatchTarget target = MakeMatchTarget(older, lo, hi, m.smoothing_sigma_m);
-  const ScanMatchResult r =
-      MatchScan(OccupiedPoints(current.local_map, m.max_points), target, current.map_from_base, m);
-
-  const int anchor = candidates.front().second;
-  LoopClosureEvent event;
-  event.keyframe_id = current.id;
-  event.anchor_id = keyframes_[anchor].id;
-  event.anchor_from_current = Between(keyframes_[anchor].map_from_base, r.map_from_base);
-  event.score = r.score;
-  event.second_score = r.second_score;
-  event.accepted = r.accepted;
-  event.reason = r.reason;
-  if (!r.accepted && !floor_reason.empty()) event.reason += "; floor: " + floor_reason;
-  loop_events_.push_back(event);
-  if (!r.accepted) {
-    ++counters_.loop_closures_rejected;
-    return false;
-  }
-  ++counters_.loop_closures_accepted;
-  last_closure_id_ = current.id;
-  PoseGraphEdge edge;
-  edge.from = anchor;
-  edge.to = index;
-  edge.from_T_to = event.anchor_from_current;
-  edge.sigma_xy_m = options_.loop_sigma_xy_m;
-  edge.sigma_yaw_rad = options_.loop_sigma_yaw_rad;
-  edge.robust = true;
-  loop_edges_.push_back(edge);
-  return true;
-}
-
-bool Mapper::OptimizeAllAndMaybeRebuild() {
-  const int n = static_cast<int>(keyframes_.size());
-  std::vector<Pose2> poses(n);
-  std::vector<bool> fixed(n, false);
-  for (int i = 0; i < n; ++i) {
-    poses[i] = keyframes_[i].map_from_base;
-    fixed[i] = keyframes_[i].from_saved_map;
-  }
-  // The gauge: the first keyframe of this run stays unless an edge ties the run to the saved map,
-  // whose keyframes are fixed: a loop closure (or the edges of a keyframe merged into a saved one)
-  // places the run more precisely than the grid localisation that started it, which in a corridor
-  // can be off by 0.15 m along it and still score well.
-  bool tied_to_saved = false;
-  for (const std::vector<PoseGraphEdge>* edges : {&refined_edges_, &loop_edges_}) {
-    for (const PoseGraphEdge& e : *edges)
-      tied_to_saved |= keyframes_[e.from].from_saved_map || keyframes_[e.to].from_saved_map;
-  }
-  if (FirstRunIndex() < n && (num_saved_ == 0 || !tied_to_saved)) fixed[FirstRunIndex()] = true;
-
-  std::vector<PoseGraphEdge> edges = refined_edges_;
-  edges.insert(edges.end(), loop_edges_.begin(), loop_edges_.end());
-  const OptimizationSummary s = OptimizePoseGraph(edges, fixed, options_.pose_graph, &poses);
-  if (!s.ok) return false;
-  double max_move = 0, max_turn = 0;
-  for (int i = 0; i < n; ++i) {
-    max_move = std::max(
-        max_move, (poses[i].Translation() - keyframes_[i].map_from_base.Translation()).norm());
-    max_turn =
-        std::max(max_turn, std::abs(WrapAngle(poses[i].yaw - keyframes_[i].map_from_base.yaw)));
-    keyframes_[i].map_from_base = poses[i];
-  }
-  if (max_move <= options_.rebuild_min_change_m && max_turn <= options_.rebuild_min_change_rad)
-    return false;
-  Rebuild();
-  if (on_correction_) on_correction_();
-  return true;
 }
 
 void Mapper::FuseKeyframe(const Keyframe& keyframe) {
