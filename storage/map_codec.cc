@@ -15,6 +15,9 @@ namespace {
 constexpr int kTileCells = TiledGrid::kTileSize * TiledGrid::kTileSize;
 constexpr std::int64_t kNsPerMs = 1000000;
 constexpr uLong kTileBytes = 4 * 2 * kTileCells;  // four 16-bit planes
+// Stamps are stored as a base plus up to 2^32 ms; a base outside [0, 2^62] ns is refused by both
+// sides (on decoding it comes from a damaged file).
+constexpr std::int64_t kMaxBaseNs = std::int64_t{1} << 62;
 
 std::uint16_t QuantiseSigned(double value, double scale) {
   const double q = std::clamp(std::round(value * scale), -32767.0, 32767.0);
@@ -152,6 +155,10 @@ bool EncodeTile(const TiledGrid::Tile& tile, int compression_level, EncodedTile*
   }
   if (!encoded->has_data) return true;
   encoded->base_ns = base == std::numeric_limits<TimestampNs>::max() ? 0 : base;
+  if (encoded->base_ns < 0 || encoded->base_ns > kMaxBaseNs) {
+    *error = "tile stamp " + std::to_string(encoded->base_ns) + " ns is out of the stored range";
+    return false;
+  }
   std::vector<std::uint8_t> raw(kTileBytes);
   auto put = [&](int plane, int k, std::uint16_t v) {
     raw[static_cast<std::size_t>(2 * plane) * kTileCells + k] = static_cast<std::uint8_t>(v & 0xFF);
@@ -181,8 +188,7 @@ bool EncodeTile(const TiledGrid::Tile& tile, int compression_level, EncodedTile*
 
 bool DecodeTile(const std::uint8_t* data, std::size_t size, TimestampNs base_ns,
                 TiledGrid::Tile* tile, std::string* error) {
-  // Stamps are base_ns plus up to 2^32 ms; a base outside [0, 2^62] ns comes from a damaged file.
-  if (base_ns < 0 || base_ns > (std::int64_t{1} << 62)) {
+  if (base_ns < 0 || base_ns > kMaxBaseNs) {
     *error = "tile base stamp " + std::to_string(base_ns) + " ns is out of range";
     return false;
   }
