@@ -236,6 +236,18 @@ OptionTable::OptionTable(AppConfig* config) : config_(config) {
          "measurements a fused estimate needs to call a sample floor (0..1000, 0 = off)");
   AddDouble("height_filter", "shared_sigma_px", &hf.shared_sigma_px,
             "error all pairs of a point share, px of zero disparity (>= 0)");
+  MotionEvidenceOptions& me = d.motion_evidence;
+  AddBool("motion_evidence", "enabled", &me.enabled,
+          "dense optical flow against the static world finds things that move (false: only "
+          "tracked corners do)");
+  AddInt("motion_evidence", "downscale", &me.downscale,
+         "the flow runs on the image shrunk by this factor (1, 2 or 4)");
+  AddDouble("motion_evidence", "min_offset_px", &me.min_offset_px,
+            "flow this far from the static world's epipolar line moves on its own, px (> 0)");
+  AddDouble("motion_evidence", "max_flow_error_px", &me.max_flow_error_px,
+            "forward-backward flow disagreement above which a pixel is not trusted, px (> 0)");
+  AddDouble("motion_evidence", "min_region_fraction", &me.min_region_fraction,
+            "smallest moving region, fraction of the image area ([0, 1])");
   FloorFeatureOptions& ff = d.floor_features;
   AddBool("floor_features", "enabled", &ff.enabled,
           "floor descriptors on every detected frame, for loop closure");

@@ -6,6 +6,7 @@
 #include "perception/floor_features.h"
 #include "perception/ground_motion.h"
 #include "perception/height_filter.h"
+#include "perception/motion_evidence.h"
 #include "perception/zero_disparity.h"
 
 namespace monoplane {
@@ -168,7 +169,8 @@ struct DetectorOptions {
   DirectAlignmentOptions direct_alignment;  // the pair's motion refined on the floor's texture
   ZeroDisparityOptions zero_disparity;
   ClassificationOptions classification;
-  HeightFilterOptions height_filter;  // heights fused over the detected frames
+  HeightFilterOptions height_filter;      // heights fused over the detected frames
+  MotionEvidenceOptions motion_evidence;  // dense flow against the static world, every frame
   LocalMapOptions local_map;
   PairSelectionOptions pair_selection;
   FloorFeatureOptions floor_features;  // computed on every kOk result (FrameResult::floor_features)

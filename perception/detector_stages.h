@@ -113,6 +113,12 @@ void AggregateBySegment(const cv::Mat& segments, const std::vector<Sample>& samp
 
 // Corners that move on their own (level pixels), confirmed by a second one within radius_px: what
 // is not floor around them moves.
+// Samples whose centre falls on the moving mask (over the current image; level_to_current maps
+// the chain's pixels to it when the frame was unpitched) are labelled moving, unless they are
+// floor (the flow of a moving thing spreads onto the floor it walks on).
+void LabelMovingMask(const cv::Mat& mask, const SampleGrid& grid,
+                     const Eigen::Matrix3d* level_to_current, std::vector<PixelLabel>* labels);
+
 void LabelAroundMovingCorners(const std::vector<Eigen::Vector2d>& moving, const SampleGrid& grid,
                               double radius_px, std::vector<PixelLabel>* labels);
 

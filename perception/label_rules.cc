@@ -133,6 +133,22 @@ void AggregateBySegment(const cv::Mat& segments, const std::vector<Sample>& samp
   }
 }
 
+void LabelMovingMask(const cv::Mat& mask, const SampleGrid& grid,
+                     const Eigen::Matrix3d* level_to_current, std::vector<PixelLabel>* labels) {
+  const double sample_px = grid.SamplePx();
+  for (int i = 0; i < grid.rows; ++i) {
+    for (int j = 0; j < grid.cols; ++j) {
+      Eigen::Vector2d p((j + 0.5) * sample_px, (i + 0.5) * sample_px);
+      if (level_to_current) p = ApplyHomography(*level_to_current, p);
+      const int x = static_cast<int>(p.x()), y = static_cast<int>(p.y());
+      if (!(p.allFinite()) || x < 0 || y < 0 || x >= mask.cols || y >= mask.rows) continue;
+      PixelLabel& label = (*labels)[grid.Index(i, j)];
+      if (mask.at<std::uint8_t>(y, x) != 0 && label != PixelLabel::kFloor)
+        label = PixelLabel::kMoving;
+    }
+  }
+}
+
 void LabelAroundMovingCorners(const std::vector<Eigen::Vector2d>& moving, const SampleGrid& grid,
                               double radius_px, std::vector<PixelLabel>* labels) {
   const double sample_px = grid.SamplePx();

@@ -217,7 +217,8 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
                                      const GroundMotion& motion,
                                      const std::vector<Eigen::Vector2d>& moving_pixels,
                                      const AlignmentImage& current_alignment,
-                                     const std::vector<HeightSeed>* prior_in_base) const {
+                                     const std::vector<HeightSeed>* prior_in_base,
+                                     const cv::Mat& moving_mask) const {
   const CameraIntrinsics& in = camera_.calibration().intrinsics;
   const cv::Size size(in.width, in.height);
   const ClassificationOptions& co = options_.classification;
@@ -302,6 +303,9 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
   // whose window straddled an obstacle's edge.
   if (co.moving_track_radius_px > 0) {
     LabelAroundMovingCorners(moving_level, grid, co.moving_track_radius_px, &labels);
+  }
+  if (moving_mask.size() == size && moving_mask.type() == CV_8U) {
+    LabelMovingMask(moving_mask, grid, pitched ? &pitch_h : nullptr, &labels);
   }
   if (co.fill_max_gap_samples > 0) {
     FillColumnGaps(camera_, co, grid.rows, grid.cols, grid.SamplePx(), &samples, &labels);

@@ -13,6 +13,7 @@
 #include "perception/geometry/timestamp.h"
 #include "perception/ground_motion.h"
 #include "perception/height_filter.h"
+#include "perception/motion_evidence.h"
 #include "perception/shi_tomasi_corners.h"
 #include "perception/zero_disparity.h"
 
@@ -55,10 +56,13 @@ class ObstacleDetector {
   // this frame's base frame; each sample's measurement is fused with the estimate that projects
   // nearest the camera into it, and the labels come from the fused estimates. The result's
   // height_seeds are the estimates after this frame (null or empty prior: from this pair alone).
+  // moving_mask: CV_8U over `current`, non-zero where things move on their own (MotionEvidence);
+  // those samples are labelled moving and give the local map neither obstacle nor free floor.
   FrameResult Detect(const cv::Mat& reference, const cv::Mat& current, const GroundMotion& motion,
                      const std::vector<Eigen::Vector2d>& moving_pixels = {},
                      const AlignmentImage& current_alignment = {},
-                     const std::vector<HeightSeed>* prior_in_base = nullptr) const;
+                     const std::vector<HeightSeed>* prior_in_base = nullptr,
+                     const cv::Mat& moving_mask = cv::Mat()) const;
 
   // The floor features of a result whose computation was deferred (see defer_floor_features);
   // the same as Detect would have given. Empty for an empty source.
@@ -104,8 +108,12 @@ class SequenceDetector {
       AlignmentImage current_alignment;
       bool turn_pair = false;
       Pose2 odom_from_base;  // of the current frame, to carry the height estimates
+      cv::Mat moving_mask;   // Output::moving_mask
     };
     std::optional<PendingDetection> pending;
+    // Where things move on their own in this frame (MotionEvidence; CV_8U, empty when off or
+    // without a step). Finish labels them moving in a carried result too.
+    cv::Mat moving_mask;
     // A frame tracked but not detected, or without parallax: its image, for Finish to carry the
     // last detected frame's labels to it (FrameResult::predicted).
     cv::Mat undetected_image;
@@ -165,7 +173,8 @@ class SequenceDetector {
   std::optional<Pose2> last_detection_odom_from_base_;  // of the last (non-turn) detected frame
   std::vector<cv::Mat> previous_pyramid_;               // Lucas-Kanade pyramid of history_.back()
   AlignmentImage previous_alignment_;                   // and its direct-alignment image
-  ShiTomasiCorners corners_;  // corner strength of the frame being topped up
+  ShiTomasiCorners corners_;        // corner strength of the frame being topped up
+  MotionEvidence motion_evidence_;  // dense flow of consecutive frames
 };
 
 }  // namespace monoplane

@@ -14,7 +14,8 @@ namespace monoplane {
 
 SequenceDetector::SequenceDetector(const CameraCalibration& calibration,
                                    const DetectorOptions& options)
-    : detector_(calibration, options) {}
+    : detector_(calibration, options),
+      motion_evidence_(detector_.camera(), options.motion_evidence) {}
 
 namespace {
 
@@ -131,6 +132,38 @@ FrameResult CarryResult(const CameraModel& camera, const ClassificationOptions& 
   return r;
 }
 
+// Labels the pixels of a carried result that move on their own (the detected frame's labels
+// there are those of whatever stood there then) moving.
+void LabelMovingPixels(const cv::Mat& mask, FrameResult* r) {
+  if (mask.size() != r->labels.size() || mask.type() != CV_8U) return;
+  const auto moving = static_cast<std::uint8_t>(PixelLabel::kMoving);
+  for (int y = 0; y < mask.rows; ++y) {
+    const std::uint8_t* m = mask.ptr<std::uint8_t>(y);
+    std::uint8_t* label = r->labels.ptr<std::uint8_t>(y);
+    for (int x = 0; x < mask.cols; ++x) {
+      if (m[x] == 0 || label[x] == moving ||
+          label[x] == static_cast<std::uint8_t>(PixelLabel::kFloor))
+        continue;
+      switch (static_cast<PixelLabel>(label[x])) {
+        case PixelLabel::kFloor:
+          --r->num_floor;
+          break;
+        case PixelLabel::kObstacle:
+          --r->num_obstacle;
+          break;
+        case PixelLabel::kDropOff:
+          --r->num_drop_off;
+          break;
+        default:
+          --r->num_unknown;
+          break;
+      }
+      label[x] = moving;
+      ++r->num_moving;
+    }
+  }
+}
+
 // Whether a detected frame's result may be carried to a frame at now_from_last from it.
 bool WithinCarryReach(const Pose2& now_from_last, const PairSelectionOptions& ps) {
   return now_from_last.TranslationNorm() <= 2.0 * ps.min_baseline_m &&
@@ -152,6 +185,7 @@ void SequenceDetector::Finish(Output* output) {
         output->result = CarryResult(detector_.camera(), detector_.options().classification,
                                      last_detected_->result, last_detected_->image_half,
                                      output->undetected_image, now_from_last);
+        LabelMovingPixels(output->moving_mask, &*output->result);
       }
     }
     // A frame whose step was guessed or not found, or that has no motion for its pair: the
@@ -178,7 +212,7 @@ void SequenceDetector::Finish(Output* output) {
     move(p.odom_from_base.Inverse(), &prior);
   }
   output->result = detector_.Detect(p.reference, p.current, p.motion, p.moving_pixels,
-                                    p.current_alignment, fuse ? &prior : nullptr);
+                                    p.current_alignment, fuse ? &prior : nullptr, p.moving_mask);
   output->result->turn_pair = p.turn_pair;
   if (fuse) {
     // Without a pair nothing was measured: what was seen is kept.
@@ -268,6 +302,12 @@ SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, Timesta
   }
   out.odom_from_base = odom_from_base_;
   out.features = AddNewCorners(prepared, std::move(tracked));
+  // Things that move on their own, from every consecutive pair with a floor motion.
+  if (out.step.status == GroundMotion::Status::kFailed) {
+    motion_evidence_.Reset();
+  } else {
+    out.moving_mask = motion_evidence_.Compute(previous.image, prepared, out.step.base2_from_base1);
+  }
 
   const cv::Size size(in.width, in.height);
   ++frames_since_detection_;
@@ -352,9 +392,9 @@ SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, Timesta
           moving = OffEpipolarCorners(camera, motion.base2_from_base1, p_ref, p_cur,
                                       options.classification.moving_track_min_px);
         }
-        out.pending =
-            Output::PendingDetection{reference->image, prepared,  motion,         std::move(moving),
-                                     alignment,        turn_pair, odom_from_base_};
+        out.pending = Output::PendingDetection{reference->image,  prepared,       motion,
+                                               std::move(moving), alignment,      turn_pair,
+                                               odom_from_base_,   out.moving_mask};
         if (!defer_detection) Finish(&out);
         if (!turn_pair) {
           frames_since_detection_ = 0;

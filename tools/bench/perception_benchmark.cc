@@ -221,6 +221,29 @@ void BM_SequenceFrame(benchmark::State& state) {
 }
 BENCHMARK(BM_SequenceFrame)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
 
+// The dense motion evidence alone (MotionEvidence: two DIS flows and the static world's test) on
+// consecutive frames of person_crossing, with the fitted steps taken as known (the sequence
+// detector's per-frame figures include it). Time per frame.
+void BM_MotionEvidence(benchmark::State& state) {
+  const Sequence& seq = SceneSequence("person_crossing");
+  const CameraModel camera(seq.calibration);
+  const ObstacleDetector detector(seq.calibration, DetectorOptions());
+  std::vector<cv::Mat> prepared;
+  std::string error;
+  for (const cv::Mat& f : seq.frames) prepared.push_back(detector.Prepare(f, &error));
+  MotionEvidenceOptions options;
+  options.enabled = true;
+  MotionEvidence evidence(camera, options);
+  Pose2 step;  // the scene drives straight ahead at 0.3 m/s: 2 cm per frame
+  step.x = -0.3 / seq.fps;
+  std::size_t next = 1;
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(evidence.Compute(prepared[next - 1], prepared[next], step));
+    next = next + 1 == prepared.size() ? 1 : next + 1;
+  }
+}
+BENCHMARK(BM_MotionEvidence)->Unit(benchmark::kMillisecond);
+
 // The same chain (epipolar, defaults) on the first 40 frames of other scenes: the cost depends on
 // the content (texture, obstacles, how much of the image is floor), so one scene is not enough.
 const char* const kBenchScenes[] = {"office",         "corridor", "effects",

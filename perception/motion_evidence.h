@@ -1,0 +1,60 @@
+#pragma once
+
+#include <opencv2/core.hpp>
+#include <string>
+
+#include "perception/geometry/camera_model.h"
+#include "perception/geometry/pose2.h"
+
+namespace cv {
+class DenseOpticalFlow;
+}  // namespace cv
+
+namespace monoplane {
+
+// Things that move on their own, found densely: a dense optical flow between consecutive frames
+// (OpenCV's DIS flow) compared with the flow the static world can give under the fitted motion of
+// the step. A static point's position in the previous frame lies on the epipolar line of its
+// position in the current one (on the rotation-predicted point when the camera did not translate);
+// flow that leaves that line by more than min_offset_px, in both directions of the flow
+// (forward-backward checked), is motion of its own. Isolated pixels are dropped, the rest is
+// grouped into connected regions, and a region is reported only when the previous frame's
+// evidence overlaps it: one frame of evidence does not make a thing moving.
+// Off by default: the two flows cost more per frame than the detector's budget allows (see
+// bench_perception's BM_MotionEvidence).
+struct MotionEvidenceOptions {
+  bool enabled = false;
+  // The flow runs on the image shrunk by this factor (1, 2 or 4): cost against detail.
+  int downscale = 2;
+  // Distance from the static world's epipolar line (or rotation-predicted point), input pixels,
+  // at or above which a pixel moves on its own (> 0).
+  double min_offset_px = 2.0;
+  // Forward-backward disagreement of the flow, input pixels, above which a pixel's flow is not
+  // trusted (occlusions, textureless patches) (> 0).
+  double max_flow_error_px = 1.0;
+  // Smallest moving region, as a fraction of the image's area (>= 0).
+  double min_region_fraction = 0.002;
+
+  bool IsValid(std::string* error) const;
+};
+
+// Holds the flow solver and the previous frame's evidence; no files, threads or clocks.
+class MotionEvidence {
+ public:
+  MotionEvidence(const CameraModel& camera, const MotionEvidenceOptions& options);
+
+  // The moving mask (CV_8U, 255 = moves on its own) of `current` (prepared grey image), given the
+  // previous prepared frame and the floor motion of the step base2_from_base1 (previous ->
+  // current). Empty when off. Call once per consecutive pair, in order; Reset() when the chain of
+  // steps breaks (an unusable frame, no motion).
+  cv::Mat Compute(const cv::Mat& previous, const cv::Mat& current, const Pose2& base2_from_base1);
+  void Reset() { previous_regions_.release(); }
+
+ private:
+  CameraModel camera_;
+  MotionEvidenceOptions options_;
+  cv::Ptr<cv::DenseOpticalFlow> flow_;
+  cv::Mat previous_regions_;  // the last pair's regions (before the overlap test), flow scale
+};
+
+}  // namespace monoplane

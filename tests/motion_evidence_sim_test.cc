@@ -1,0 +1,99 @@
+// MotionEvidence on rendered frames with the true motion of each step: a static scene gives no
+// moving region, a person crossing is found once two consecutive pairs show it, and one pair of
+// evidence is not enough.
+#include <gtest/gtest.h>
+
+#include <opencv2/core.hpp>
+#include <string>
+
+#include "perception/motion_evidence.h"
+#include "perception/obstacle_detector.h"
+#include "tools/sim/renderer.h"
+#include "tools/sim/scene.h"
+
+namespace monoplane {
+namespace {
+
+struct Counts {
+  long moving_found = 0, moving = 0, static_found = 0, static_pixels = 0;
+};
+
+// Runs frames [first, last] of the scene through MotionEvidence; counts from frame first + 2 on.
+Counts RunScene(const std::string& name, int first, int last, int* first_pair_pixels = nullptr) {
+  sim::Scene scene;
+  std::string error;
+  EXPECT_TRUE(sim::LoadSceneFile(
+      std::string(MONOPLANE_SOURCE_DIR) + "/tests/data/scenes/" + name + ".yaml", &scene, &error))
+      << error;
+  const sim::SceneRenderer renderer(scene, scene.calibration);
+  const ObstacleDetector detector(scene.calibration, DetectorOptions());
+  MotionEvidenceOptions options;
+  options.enabled = true;
+  MotionEvidence evidence(detector.camera(), options);
+  Counts counts;
+  cv::Mat previous;
+  for (int i = first; i <= last; ++i) {
+    const double t = i / scene.fps;
+    const sim::RenderedFrame frame = renderer.RenderAtTime(t);
+    const cv::Mat current = detector.Prepare(frame.image, &error);
+    EXPECT_FALSE(current.empty()) << error;
+    if (previous.empty()) {
+      previous = current;
+      continue;
+    }
+    const Pose2 base2_from_base1 =
+        sim::RobotPoseAt(scene, t).Inverse() * sim::RobotPoseAt(scene, (i - 1) / scene.fps);
+    const cv::Mat mask = evidence.Compute(previous, current, base2_from_base1);
+    previous = current;
+    EXPECT_EQ(mask.size(), current.size());
+    if (i == first + 1 && first_pair_pixels) *first_pair_pixels = cv::countNonZero(mask);
+    if (i < first + 2) continue;
+    for (int y = 0; y < mask.rows; ++y) {
+      for (int x = 0; x < mask.cols; ++x) {
+        const std::uint8_t label = frame.label(y, x);  // no distortion in these scenes
+        const bool found = mask.at<std::uint8_t>(y, x) != 0;
+        if (label == sim::kLabelMoving) {
+          ++counts.moving;
+          counts.moving_found += found;
+        } else if (label == sim::kLabelFloor || label == sim::kLabelObstacle) {
+          ++counts.static_pixels;
+          counts.static_found += found;
+        }
+      }
+    }
+  }
+  return counts;
+}
+
+TEST(MotionEvidence, StaticSceneHasNoMovingRegion) {
+  const Counts c = RunScene("office", 20, 30);
+  ASSERT_GT(c.static_pixels, 0);
+  EXPECT_LE(static_cast<double>(c.static_found), 0.002 * static_cast<double>(c.static_pixels))
+      << c.static_found << " of " << c.static_pixels << " static pixels";
+}
+
+TEST(MotionEvidence, FindsAPersonCrossingAfterTwoPairs) {
+  int first_pair = -1;
+  const Counts c = RunScene("person_crossing", 34, 42, &first_pair);
+  EXPECT_EQ(first_pair, 0) << "one pair of evidence made something moving";
+  ASSERT_GT(c.moving, 1000);
+  EXPECT_GE(static_cast<double>(c.moving_found), 0.2 * static_cast<double>(c.moving))
+      << c.moving_found << " of " << c.moving << " moving pixels";
+  EXPECT_LE(static_cast<double>(c.static_found), 0.03 * static_cast<double>(c.static_pixels))
+      << c.static_found << " of " << c.static_pixels << " static pixels";
+}
+
+TEST(MotionEvidence, RefusesBadOptions) {
+  MotionEvidenceOptions o;
+  std::string error;
+  EXPECT_TRUE(o.IsValid(&error));
+  o.downscale = 3;
+  EXPECT_FALSE(o.IsValid(&error));
+  EXPECT_NE(error.find("downscale"), std::string::npos);
+  o = MotionEvidenceOptions();
+  o.min_offset_px = 0;
+  EXPECT_FALSE(o.IsValid(&error));
+}
+
+}  // namespace
+}  // namespace monoplane
