@@ -248,6 +248,10 @@ OptionTable::OptionTable(AppConfig* config) : config_(config) {
             "forward-backward flow disagreement above which a pixel is not trusted, px (> 0)");
   AddDouble("motion_evidence", "min_region_fraction", &me.min_region_fraction,
             "smallest moving region, fraction of the image area ([0, 1])");
+  AddDouble("motion_evidence", "min_texture", &me.min_texture,
+            "texture a pixel needs to count as evidence, grey levels^2 per px^2 (>= 0)");
+  AddDouble("motion_evidence", "min_textured_fraction", &me.min_textured_fraction,
+            "share of a moving region's pixels that must be textured ([0, 1])");
   FloorFeatureOptions& ff = d.floor_features;
   AddBool("floor_features", "enabled", &ff.enabled,
           "floor descriptors on every detected frame, for loop closure");

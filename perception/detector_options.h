@@ -47,10 +47,11 @@ struct ClassificationOptions {
   // Tracked corners: a corner shared by the pair that lies farther than this from its epipolar
   // line under the fitted motion cannot be a static point (input pixels, > 0). Where two such
   // corners lie within moving_track_radius_px of each other, the samples within that radius that
-  // are not floor are labelled moving (>= 0; 0 turns the track test off). Moving things move far
-  // between the frames of a pair, beyond what the dense search follows; their tracks do not.
+  // are not floor are labelled moving (>= 0; 0 turns the track test off). Off by default: the
+  // dense motion evidence (DetectorOptions::motion_evidence) finds moving things per pixel, and a
+  // disc around a corner also takes the static obstacles next to a moving one.
   double moving_track_min_px = 4.0;
-  double moving_track_radius_px = 32.0;
+  double moving_track_radius_px = 0.0;
   // Points farther than this from the robot (metres, > 0) are unknown: not reliable.
   double max_range_m = 6.0;
   // An obstacle or drop-off point goes into the top view (local map, obstacle points) only when

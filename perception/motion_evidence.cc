@@ -24,6 +24,11 @@ bool MotionEvidenceOptions::IsValid(std::string* error) const {
     return fail("min_offset_px = " + std::to_string(min_offset_px) + ": must be > 0");
   if (!(max_flow_error_px > 0) || !std::isfinite(max_flow_error_px))
     return fail("max_flow_error_px = " + std::to_string(max_flow_error_px) + ": must be > 0");
+  if (!(min_texture >= 0) || !std::isfinite(min_texture))
+    return fail("min_texture = " + std::to_string(min_texture) + ": must be >= 0");
+  if (!(min_textured_fraction >= 0 && min_textured_fraction <= 1))
+    return fail("min_textured_fraction = " + std::to_string(min_textured_fraction) +
+                ": must be in [0, 1]");
   if (!(min_region_fraction >= 0 && min_region_fraction <= 1))
     return fail("min_region_fraction = " + std::to_string(min_region_fraction) +
                 ": must be in [0, 1]");
@@ -39,76 +44,95 @@ cv::Mat MotionEvidence::Compute(const cv::Mat& previous, const cv::Mat& current,
                                 const Pose2& base2_from_base1) {
   if (!options_.enabled || previous.size() != current.size() || previous.empty()) return {};
   const int s = options_.downscale;
-  cv::Mat prev_small, cur_small;
+  cv::Mat cur_small;
   if (s == 1) {
-    prev_small = previous;
     cur_small = current;
   } else {
-    cv::resize(previous, prev_small, current.size() / s, 0, 0, cv::INTER_AREA);
     cv::resize(current, cur_small, current.size() / s, 0, 0, cv::INTER_AREA);
   }
+  // The previous frame's shrunk image is kept from the last call when it was that frame.
+  cv::Mat prev_small;
+  if (previous.data == previous_image_.data && previous.size() == previous_image_.size() &&
+      !previous_small_.empty()) {
+    prev_small = previous_small_;
+  } else if (s == 1) {
+    prev_small = previous;
+  } else {
+    cv::resize(previous, prev_small, current.size() / s, 0, 0, cv::INTER_AREA);
+  }
+  previous_image_ = current;
+  previous_small_ = cur_small;
   cv::Mat backward, forward;  // current -> previous, previous -> current (CV_32FC2)
   flow_->calc(cur_small, prev_small, backward);
   flow_->calc(prev_small, cur_small, forward);
 
-  // The static world between the frames: camera2_from_camera1 from the floor motion.
+  // Pixels of the shrunk images: K scaled.
+  Eigen::Matrix3d scale = Eigen::Matrix3d::Identity();
+  scale(0, 0) = scale(1, 1) = 1.0 / s;
+  const Eigen::Matrix3d k = scale * camera_.K();
+  if (rays_.size() != cur_small.size()) {
+    // Each pixel's ray at depth 1 in the camera, and the depth of the floor along it (the
+    // floor in the camera: n . X = d, n up, d = -camera height); 0 at or above the horizon.
+    const Eigen::Matrix3d k_inv = k.inverse();
+    const Eigen::Vector3d up = camera_.camera_from_base().linear() * Eigen::Vector3d::UnitZ();
+    const double floor_d = up.dot(camera_.camera_from_base().translation());
+    rays_.create(cur_small.size());
+    for (int y = 0; y < rays_.rows; ++y) {
+      for (int x = 0; x < rays_.cols; ++x) {
+        const Eigen::Vector3d ray = k_inv * Eigen::Vector3d(x, y, 1.0);
+        const double facing = up.dot(ray);
+        const double floor_depth = std::abs(facing) > 1e-9 ? floor_d / facing : -1.0;
+        rays_(y, x) = cv::Vec4f(static_cast<float>(ray.x()), static_cast<float>(ray.y()),
+                                static_cast<float>(ray.z()),
+                                floor_depth > 0 ? static_cast<float>(floor_depth) : 0.0f);
+      }
+    }
+  }
+  // The static world between the frames: camera2_from_camera1 from the floor motion. A point at
+  // depth z along pixel x's ray was, in pixels of camera 1, at the projection of
+  // z * (K R^T) ray + K (-R^T t).
   Eigen::Isometry3d base2_from_base1_3d = Eigen::Isometry3d::Identity();
   base2_from_base1_3d.linear().topLeftCorner<2, 2>() = base2_from_base1.Rotation();
   base2_from_base1_3d.translation().head<2>() = base2_from_base1.Translation();
   const Eigen::Isometry3d c2_from_c1 =
       camera_.camera_from_base() * base2_from_base1_3d * camera_.base_from_camera();
-  const Eigen::Matrix3d rotation = c2_from_c1.linear();
-  const Eigen::Vector3d t = c2_from_c1.translation();
-  // Pixels of the shrunk images: K scaled.
-  Eigen::Matrix3d scale = Eigen::Matrix3d::Identity();
-  scale(0, 0) = scale(1, 1) = 1.0 / s;
-  const Eigen::Matrix3d k = scale * camera_.K();
-  const Eigen::Matrix3d k_inv = k.inverse();
-  // The floor in camera 2: n . X = d (n up, d = -camera height).
-  const Eigen::Vector3d floor_normal =
-      camera_.camera_from_base().linear() * Eigen::Vector3d::UnitZ();
-  const double floor_d = floor_normal.dot(camera_.camera_from_base().translation());
-  const Eigen::Matrix3d rotation_back = rotation.transpose();
-  const Eigen::Vector3d origin_back = -(rotation_back * t);
-  const auto project = [&k](const Eigen::Vector3d& x, Eigen::Vector2d* p) {
-    if (!(x.z() > 1e-6)) return false;
-    const Eigen::Vector3d q = k * x;
-    *p = q.head<2>() / q.z();
-    return true;
-  };
+  const Eigen::Matrix3f a = (k * c2_from_c1.linear().transpose()).cast<float>();
+  const Eigen::Vector3f offset =
+      (-(k * (c2_from_c1.linear().transpose() * c2_from_c1.translation()))).cast<float>();
 
-  const double min_offset = options_.min_offset_px / s;
-  const double max_error = options_.max_flow_error_px / s;
+  const float min_offset2 = static_cast<float>(options_.min_offset_px * options_.min_offset_px) /
+                            static_cast<float>(s * s);
+  const float max_error2 =
+      static_cast<float>(options_.max_flow_error_px * options_.max_flow_error_px) /
+      static_cast<float>(s * s);
   const int margin = std::max(2, 8 / s);
   cv::Mat raw(cur_small.size(), CV_8U, cv::Scalar(0));
   for (int y = margin; y < raw.rows - margin; ++y) {
     const auto* b = backward.ptr<cv::Vec2f>(y);
+    const auto* r = rays_.ptr<cv::Vec4f>(y);
     auto* out = raw.ptr<std::uint8_t>(y);
     for (int x = margin; x < raw.cols - margin; ++x) {
-      const double x1 = x + b[x][0], y1 = y + b[x][1];
-      const int xi = static_cast<int>(std::lround(x1)), yi = static_cast<int>(std::lround(y1));
-      if (xi < 0 || yi < 0 || xi >= raw.cols || yi >= raw.rows) continue;
+      const float x1 = static_cast<float>(x) + b[x][0], y1 = static_cast<float>(y) + b[x][1];
+      const int xi = static_cast<int>(x1 + 0.5f), yi = static_cast<int>(y1 + 0.5f);
+      if (x1 < 0 || y1 < 0 || xi >= raw.cols || yi >= raw.rows) continue;
       const cv::Vec2f f = forward.at<cv::Vec2f>(yi, xi);
-      if (std::hypot(b[x][0] + f[0], b[x][1] + f[1]) > max_error) continue;
+      const float ex = b[x][0] + f[0], ey = b[x][1] + f[1];
+      if (ex * ex + ey * ey > max_error2) continue;
       // Where a static point seen at (x, y) can have been: the segment of its epipolar line
       // between depth kNearestM and the farthest it can lie (twice the floor's depth below the
       // horizon, a drop-off down to the camera's height; infinity above it).
-      const Eigen::Vector3d ray = k_inv * Eigen::Vector3d(x, y, 1.0);  // depth 1
-      const Eigen::Vector3d direction = rotation_back * ray;
-      Eigen::Vector2d near, far;
-      if (!project(kNearestM * direction + origin_back, &near)) continue;
-      const double facing = floor_normal.dot(ray);
-      const double floor_depth = std::abs(facing) > 1e-9 ? floor_d / facing : -1.0;
-      if (floor_depth > 0) {
-        if (!project(2.0 * floor_depth * direction + origin_back, &far)) continue;
-      } else if (!project(direction, &far)) {
-        continue;
-      }
-      const Eigen::Vector2d observed(x1, y1), segment = far - near;
-      const double length2 = segment.squaredNorm();
-      const double along =
-          length2 > 1e-12 ? std::clamp((observed - near).dot(segment) / length2, 0.0, 1.0) : 0.0;
-      if ((observed - (near + along * segment)).norm() >= min_offset) out[x] = 255;
+      const Eigen::Vector3f d = a * Eigen::Vector3f(r[x][0], r[x][1], r[x][2]);
+      const Eigen::Vector3f near_h = static_cast<float>(kNearestM) * d + offset;
+      const Eigen::Vector3f far_h = r[x][3] > 0 ? Eigen::Vector3f(2.0f * r[x][3] * d + offset) : d;
+      if (!(near_h.z() > 1e-6f) || !(far_h.z() > 1e-6f)) continue;
+      const float nx = near_h.x() / near_h.z(), ny = near_h.y() / near_h.z();
+      const float sx = far_h.x() / far_h.z() - nx, sy = far_h.y() / far_h.z() - ny;
+      const float ox = x1 - nx, oy = y1 - ny;
+      const float length2 = sx * sx + sy * sy;
+      const float along =
+          length2 > 1e-12f ? std::clamp((ox * sx + oy * sy) / length2, 0.0f, 1.0f) : 0.0f;
+      const float dx = ox - along * sx, dy = oy - along * sy;
+      if (dx * dx + dy * dy >= min_offset2) out[x] = 255;
     }
   }
   // Isolated pixels go; what is left is grouped into regions of a least the minimum size.
@@ -124,8 +148,25 @@ cv::Mat MotionEvidence::Compute(const cv::Mat& previous, const cv::Mat& current,
     cv::dilate(previous_regions_, previous_dilated,
                cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(9, 9)));
   }
+  // Texture: the mean squared gradient over 5 x 5 pixels of the shrunk image (grey levels^2 per
+  // input pixel^2). Flow over a textureless patch is whatever the smoothing made of it: a region
+  // needs textured pixels for at least min_textured_fraction of its area.
+  cv::Mat gx, gy, texture;
+  cv::Sobel(cur_small, gx, CV_32F, 1, 0, 3, 1.0 / (8.0 * s));
+  cv::Sobel(cur_small, gy, CV_32F, 0, 1, 3, 1.0 / (8.0 * s));
+  cv::blur(gx.mul(gx) + gy.mul(gy), texture, cv::Size(5, 5));
+  const float min_texture = static_cast<float>(options_.min_texture);
+  std::vector<int> textured(n, 0);
+  for (int y = 0; y < raw.rows; ++y) {
+    const int* c = components.ptr<int>(y);
+    const float* t = texture.ptr<float>(y);
+    for (int x = 0; x < raw.cols; ++x) textured[c[x]] += c[x] > 0 && t[x] >= min_texture;
+  }
   std::vector<std::uint8_t> region(n, 0), confirmed(n, 0);
-  for (int c = 1; c < n; ++c) region[c] = stats.at<int>(c, cv::CC_STAT_AREA) >= min_area ? 1 : 0;
+  for (int c = 1; c < n; ++c) {
+    const int area = stats.at<int>(c, cv::CC_STAT_AREA);
+    region[c] = area >= min_area && textured[c] >= options_.min_textured_fraction * area ? 1 : 0;
+  }
   cv::Mat regions(raw.size(), CV_8U, cv::Scalar(0));
   for (int y = 0; y < raw.rows; ++y) {
     const int* c = components.ptr<int>(y);

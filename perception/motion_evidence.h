@@ -20,20 +20,23 @@ namespace monoplane {
 // (forward-backward checked), is motion of its own. Isolated pixels are dropped, the rest is
 // grouped into connected regions, and a region is reported only when the previous frame's
 // evidence overlaps it: one frame of evidence does not make a thing moving.
-// Off by default: the two flows cost more per frame than the detector's budget allows (see
-// bench_perception's BM_MotionEvidence).
 struct MotionEvidenceOptions {
-  bool enabled = false;
+  bool enabled = true;
   // The flow runs on the image shrunk by this factor (1, 2 or 4): cost against detail.
   int downscale = 2;
   // Distance from the static world's epipolar line (or rotation-predicted point), input pixels,
   // at or above which a pixel moves on its own (> 0).
-  double min_offset_px = 2.0;
+  double min_offset_px = 4.0;
   // Forward-backward disagreement of the flow, input pixels, above which a pixel's flow is not
   // trusted (occlusions, textureless patches) (> 0).
-  double max_flow_error_px = 1.0;
+  double max_flow_error_px = 3.0;
   // Smallest moving region, as a fraction of the image's area (>= 0).
   double min_region_fraction = 0.002;
+  // A region needs at least this fraction of its pixels textured: a mean squared gradient of at
+  // least min_texture grey levels^2 per input pixel^2 over 5 x 5 pixels of the flow's image
+  // ([0, 1]; >= 0). Flow over a textureless floor is what the smoothing made of it.
+  double min_texture = 1.0;
+  double min_textured_fraction = 0.3;
 
   bool IsValid(std::string* error) const;
 };
@@ -48,13 +51,18 @@ class MotionEvidence {
   // current). Empty when off. Call once per consecutive pair, in order; Reset() when the chain of
   // steps breaks (an unusable frame, no motion).
   cv::Mat Compute(const cv::Mat& previous, const cv::Mat& current, const Pose2& base2_from_base1);
-  void Reset() { previous_regions_.release(); }
+  void Reset() {
+    previous_regions_.release();
+    previous_small_.release();
+  }
 
  private:
   CameraModel camera_;
   MotionEvidenceOptions options_;
   cv::Ptr<cv::DenseOpticalFlow> flow_;
   cv::Mat previous_regions_;  // the last pair's regions (before the overlap test), flow scale
+  cv::Mat previous_image_, previous_small_;  // the last current frame, and shrunk
+  cv::Mat4f rays_;  // per shrunk pixel: its ray at depth 1 (camera) and the floor's depth, or 0
 };
 
 }  // namespace monoplane

@@ -3,6 +3,7 @@
 // evidence is not enough.
 #include <gtest/gtest.h>
 
+#include <cstdio>
 #include <opencv2/core.hpp>
 #include <string>
 
@@ -62,6 +63,9 @@ Counts RunScene(const std::string& name, int first, int last, int* first_pair_pi
       }
     }
   }
+  std::printf("%s: %ld of %ld moving pixels found, %ld of %ld static pixels called moving\n",
+              name.c_str(), counts.moving_found, counts.moving, counts.static_found,
+              counts.static_pixels);
   return counts;
 }
 
@@ -77,7 +81,7 @@ TEST(MotionEvidence, FindsAPersonCrossingAfterTwoPairs) {
   const Counts c = RunScene("person_crossing", 34, 42, &first_pair);
   EXPECT_EQ(first_pair, 0) << "one pair of evidence made something moving";
   ASSERT_GT(c.moving, 1000);
-  EXPECT_GE(static_cast<double>(c.moving_found), 0.2 * static_cast<double>(c.moving))
+  EXPECT_GE(static_cast<double>(c.moving_found), 0.7 * static_cast<double>(c.moving))
       << c.moving_found << " of " << c.moving << " moving pixels";
   EXPECT_LE(static_cast<double>(c.static_found), 0.03 * static_cast<double>(c.static_pixels))
       << c.static_found << " of " << c.static_pixels << " static pixels";

@@ -83,8 +83,10 @@ DetectorOptions OptionsFor(int method) {
     o.zero_disparity.window_px = std::atoi(window);
   if (const char* it = std::getenv("MONOPLANE_BENCH_ITER"))
     o.zero_disparity.iterations_per_level = std::atoi(it);
-  o.zero_disparity.method = method == 0 ? ZeroDisparityOptions::Method::kEpipolar
-                                        : ZeroDisparityOptions::Method::kFarneback;
+  o.zero_disparity.method = method == 1 ? ZeroDisparityOptions::Method::kFarneback
+                                        : ZeroDisparityOptions::Method::kEpipolar;
+  // 2: epipolar without the dense motion evidence (its share of the per-frame time).
+  if (method == 2) o.motion_evidence.enabled = false;
   return o;
 }
 
@@ -217,9 +219,11 @@ void BM_SequenceFrame(benchmark::State& state) {
     benchmark::DoNotOptimize(sequence->Process(frames[next], FrameStamp(next)));
     ++next;
   }
-  state.SetLabel(state.range(0) == 0 ? "epipolar" : "farneback");
+  state.SetLabel(state.range(0) == 0   ? "epipolar"
+                 : state.range(0) == 1 ? "farneback"
+                                       : "epipolar, no motion evidence");
 }
-BENCHMARK(BM_SequenceFrame)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_SequenceFrame)->Arg(0)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond);
 
 // The dense motion evidence alone (MotionEvidence: two DIS flows and the static world's test) on
 // consecutive frames of person_crossing, with the fitted steps taken as known (the sequence

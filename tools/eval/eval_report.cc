@@ -103,6 +103,7 @@ std::string LabelMetricsJson(const LabelMetrics& m, bool texture_scored) {
       .Add("gt_floor", c.gt_floor)
       .Add("floor_predicted", c.floor_predicted)
       .Add("floor_as_not_floor", c.floor_as_not_floor)
+      .Add("floor_as_moving", c.floor_as_moving)
       .Add("gt_drop", c.gt_drop)
       .Add("gt_drop_shallow", c.gt_drop_shallow)
       .Add("drop_as_drop", c.drop_as_drop)

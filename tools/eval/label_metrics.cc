@@ -65,6 +65,7 @@ void LabelCounts::Add(const LabelCounts& o) {
   gt_floor += o.gt_floor;
   floor_predicted += o.floor_predicted;
   floor_as_not_floor += o.floor_as_not_floor;
+  floor_as_moving += o.floor_as_moving;
   gt_drop += o.gt_drop;
   gt_drop_shallow += o.gt_drop_shallow;
   drop_as_drop += o.drop_as_drop;
@@ -205,6 +206,7 @@ bool TallyLabelFrame(const LabelFrame& frame, const CameraModel& camera,
           if (pl == kLabelObstacle || pl == kLabelDropOff || pl == kLabelMoving) {
             ++counts->floor_as_not_floor;
           }
+          if (pl == kLabelMoving) ++counts->floor_as_moving;
           break;
         case kLabelObstacle:
           if (!gt_height_m || *gt_height_m < options.min_obstacle_height_m) {

@@ -57,6 +57,7 @@ struct LabelCounts {
   std::int64_t gt_floor = 0;
   std::int64_t floor_predicted = 0;     // predicted not unknown
   std::int64_t floor_as_not_floor = 0;  // predicted obstacle, drop-off or moving
+  std::int64_t floor_as_moving = 0;     // ... of which moving
   std::int64_t gt_drop = 0;             // GT drop-off with GT height <= -min_drop_m
   std::int64_t gt_drop_shallow = 0;     // GT drop-off shallower or without height
   std::int64_t drop_as_drop = 0;
