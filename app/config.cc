@@ -238,8 +238,7 @@ OptionTable::OptionTable(AppConfig* config) : config_(config) {
             "error all pairs of a point share, px of zero disparity (>= 0)");
   MotionEvidenceOptions& me = d.motion_evidence;
   AddBool("motion_evidence", "enabled", &me.enabled,
-          "dense optical flow against the static world finds things that move (false: only "
-          "tracked corners do)");
+          "dense optical flow against the static world finds things that move");
   AddInt("motion_evidence", "downscale", &me.downscale,
          "the flow runs on the image shrunk by this factor (1, 2 or 4)");
   AddDouble("motion_evidence", "min_offset_px", &me.min_offset_px,

@@ -108,7 +108,6 @@ class SequenceDetector {
       AlignmentImage current_alignment;
       bool turn_pair = false;
       Pose2 odom_from_base;  // of the current frame, to carry the height estimates
-      cv::Mat moving_mask;   // Output::moving_mask
     };
     std::optional<PendingDetection> pending;
     // Where things move on their own in this frame (MotionEvidence; CV_8U, empty when off or

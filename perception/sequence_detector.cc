@@ -38,7 +38,7 @@ cv::Mat HalfImage(const cv::Mat& image) {
 
 FrameResult CarryResult(const CameraModel& camera, const ClassificationOptions& co,
                         const FrameResult& last, const cv::Mat& last_half, const cv::Mat& now,
-                        const Pose2& base_now_from_base_last) {
+                        const Pose2& base_now_from_base_last, const cv::Mat& moving_mask) {
   FrameResult r;
   r.status = PairStatus::kOk;
   r.predicted = true;
@@ -92,6 +92,12 @@ FrameResult CarryResult(const CameraModel& camera, const ClassificationOptions& 
              cv::INTER_NEAREST);
   r.labels = labels_full(roi).clone();
   r.height_mm = heights_full(roi).clone();
+  // What moves on its own now (MotionEvidence) is moving, whatever stood there at the last
+  // detection; the floor label stays, as in the detector (LabelMovingMask).
+  if (moving_mask.size() == r.labels.size() && moving_mask.type() == CV_8U) {
+    const cv::Mat not_floor = r.labels != static_cast<int>(PixelLabel::kFloor);
+    r.labels.setTo(static_cast<int>(PixelLabel::kMoving), moving_mask & not_floor);
+  }
   // The top view in this frame's base frame: each cell takes the last map's cell it was (an
   // affine map of the cell indices).
   const GridGeometry& g = last.local_map.geometry;
@@ -132,38 +138,6 @@ FrameResult CarryResult(const CameraModel& camera, const ClassificationOptions& 
   return r;
 }
 
-// Labels the pixels of a carried result that move on their own (the detected frame's labels
-// there are those of whatever stood there then) moving.
-void LabelMovingPixels(const cv::Mat& mask, FrameResult* r) {
-  if (mask.size() != r->labels.size() || mask.type() != CV_8U) return;
-  const auto moving = static_cast<std::uint8_t>(PixelLabel::kMoving);
-  for (int y = 0; y < mask.rows; ++y) {
-    const std::uint8_t* m = mask.ptr<std::uint8_t>(y);
-    std::uint8_t* label = r->labels.ptr<std::uint8_t>(y);
-    for (int x = 0; x < mask.cols; ++x) {
-      if (m[x] == 0 || label[x] == moving ||
-          label[x] == static_cast<std::uint8_t>(PixelLabel::kFloor))
-        continue;
-      switch (static_cast<PixelLabel>(label[x])) {
-        case PixelLabel::kFloor:
-          --r->num_floor;
-          break;
-        case PixelLabel::kObstacle:
-          --r->num_obstacle;
-          break;
-        case PixelLabel::kDropOff:
-          --r->num_drop_off;
-          break;
-        default:
-          --r->num_unknown;
-          break;
-      }
-      label[x] = moving;
-      ++r->num_moving;
-    }
-  }
-}
-
 // Whether a detected frame's result may be carried to a frame at now_from_last from it.
 bool WithinCarryReach(const Pose2& now_from_last, const PairSelectionOptions& ps) {
   return now_from_last.TranslationNorm() <= 2.0 * ps.min_baseline_m &&
@@ -184,8 +158,7 @@ void SequenceDetector::Finish(Output* output) {
       if (WithinCarryReach(now_from_last, detector_.options().pair_selection)) {
         output->result = CarryResult(detector_.camera(), detector_.options().classification,
                                      last_detected_->result, last_detected_->image_half,
-                                     output->undetected_image, now_from_last);
-        LabelMovingPixels(output->moving_mask, &*output->result);
+                                     output->undetected_image, now_from_last, output->moving_mask);
       }
     }
     // A frame whose step was guessed or not found, or that has no motion for its pair: the
@@ -211,8 +184,9 @@ void SequenceDetector::Finish(Output* output) {
     prior = std::move(seeds_in_odom_);
     move(p.odom_from_base.Inverse(), &prior);
   }
-  output->result = detector_.Detect(p.reference, p.current, p.motion, p.moving_pixels,
-                                    p.current_alignment, fuse ? &prior : nullptr, p.moving_mask);
+  output->result =
+      detector_.Detect(p.reference, p.current, p.motion, p.moving_pixels, p.current_alignment,
+                       fuse ? &prior : nullptr, output->moving_mask);
   output->result->turn_pair = p.turn_pair;
   if (fuse) {
     // Without a pair nothing was measured: what was seen is kept.
@@ -392,9 +366,9 @@ SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, Timesta
           moving = OffEpipolarCorners(camera, motion.base2_from_base1, p_ref, p_cur,
                                       options.classification.moving_track_min_px);
         }
-        out.pending = Output::PendingDetection{reference->image,  prepared,       motion,
-                                               std::move(moving), alignment,      turn_pair,
-                                               odom_from_base_,   out.moving_mask};
+        out.pending =
+            Output::PendingDetection{reference->image, prepared,  motion,         std::move(moving),
+                                     alignment,        turn_pair, odom_from_base_};
         if (!defer_detection) Finish(&out);
         if (!turn_pair) {
           frames_since_detection_ = 0;

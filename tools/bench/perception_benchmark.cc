@@ -230,14 +230,13 @@ BENCHMARK(BM_SequenceFrame)->Arg(0)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecon
 // detector's per-frame figures include it). Time per frame.
 void BM_MotionEvidence(benchmark::State& state) {
   const Sequence& seq = SceneSequence("person_crossing");
-  const CameraModel camera(seq.calibration);
   const ObstacleDetector detector(seq.calibration, DetectorOptions());
   std::vector<cv::Mat> prepared;
   std::string error;
   for (const cv::Mat& f : seq.frames) prepared.push_back(detector.Prepare(f, &error));
   MotionEvidenceOptions options;
   options.enabled = true;
-  MotionEvidence evidence(camera, options);
+  MotionEvidence evidence(detector.camera(), options);
   Pose2 step;  // the scene drives straight ahead at 0.3 m/s: 2 cm per frame
   step.x = -0.3 / seq.fps;
   std::size_t next = 1;
