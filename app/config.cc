@@ -167,6 +167,9 @@ OptionTable::OptionTable(AppConfig* config) : config_(config) {
             "top view: ... and they lie within this many sigmas of it (>= 0)");
   AddInt("classification", "free_margin_cells", &c.free_margin_cells,
          "top view: cells this near an obstacle point are not free, cells (>= 0)");
+  AddBool("classification", "free_between_floor_samples", &c.free_between_floor_samples,
+          "top view: the floor between two consecutive free floor samples of an image column is "
+          "free too");
   aggregation_ = static_cast<int>(c.aggregation);
   AddChoice("classification", "aggregation", &aggregation_, {"none", "median", "segments"},
             "how samples are combined: none, median (neighbours) or segments (superpixels)");
@@ -201,6 +204,9 @@ OptionTable::OptionTable(AppConfig* config) : config_(config) {
           "a robot that stops after driving keeps its last reference far enough away");
   AddDouble("pair_selection", "max_rotation_rad", &ps.max_rotation_rad,
             "largest yaw between the frames of a pair, rad (> 0)");
+  AddDouble("pair_selection", "far_min_baseline_m", &ps.far_min_baseline_m,
+            "far pair: also matched against a frame this far back, each sample keeping the more "
+            "precise pair, m (>= 0; 0 = off)");
   AddDouble("pair_selection", "turn_min_baseline_m", &ps.turn_min_baseline_m,
             "turning: narrower pairs allowed down to this camera travel, m (> 0)");
   AddDouble("pair_selection", "turn_max_rotation_rad", &ps.turn_max_rotation_rad,
@@ -365,12 +371,13 @@ OptionTable::OptionTable(AppConfig* config) : config_(config) {
          "panels every N-th frame (the first with heights from there) with --frames-out (>= 1)");
   // ScaleDefaultsToCamera: the sizes of what the camera sees, and the motion fit's tolerance of
   // the camera pitching between frames.
-  ScaleWith(Entry::Scale::kCameraHeight,
-            {"ground_motion.strip_min_x_m", "ground_motion.strip_max_x_m",
-             "ground_motion.strip_half_width_m", "classification.max_range_m",
-             "local_map.resolution_m", "local_map.min_x_m", "local_map.max_x_m",
-             "local_map.min_y_m", "local_map.max_y_m", "pair_selection.min_baseline_m",
-             "pair_selection.turn_min_baseline_m", "direct_alignment.max_correction_m"});
+  ScaleWith(
+      Entry::Scale::kCameraHeight,
+      {"ground_motion.strip_min_x_m", "ground_motion.strip_max_x_m",
+       "ground_motion.strip_half_width_m", "classification.max_range_m", "local_map.resolution_m",
+       "local_map.min_x_m", "local_map.max_x_m", "local_map.min_y_m", "local_map.max_y_m",
+       "pair_selection.min_baseline_m", "pair_selection.far_min_baseline_m",
+       "pair_selection.turn_min_baseline_m", "direct_alignment.max_correction_m"});
   ScaleWith(Entry::Scale::kFocalLength,
             {"ground_motion.inlier_threshold_px", "ground_motion.below_floor_px"});
 }

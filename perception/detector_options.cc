@@ -71,6 +71,10 @@ bool PairSelectionOptions::IsValid(std::string* error) const {
     *error = "pair_selection.min_baseline_m: must be > 0";
     return false;
   }
+  if (!(far_min_baseline_m >= 0)) {
+    *error = "pair_selection.far_min_baseline_m: must be >= 0";
+    return false;
+  }
   if (!(turn_min_baseline_m > 0)) {
     *error = "pair_selection.turn_min_baseline_m: must be > 0";
     return false;

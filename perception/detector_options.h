@@ -106,6 +106,12 @@ struct ClassificationOptions {
   // its base cell, which the floor samples just in front of it would otherwise vote free, and a
   // textureless wall has no points at all. >= 0; 0 = off.
   int free_margin_cells = 1;
+  // Top view, free space by rays: between two consecutive floor samples of an image column that
+  // both vote free, the floor under the ray between them is free too (anything standing there
+  // higher than camera height x (far - near) / far would have hidden the far sample; a few mm at
+  // the sample spacing). Without it, only the cells a floor sample's point falls in are free, and
+  // beyond 2 m the samples' rows lie several cells apart on the floor.
+  bool free_between_floor_samples = true;
   // How samples are combined before labelling: each on its own, with the median height of their
   // neighbours, or with the median height of their superpixel (SLICO; the paper's segments).
   enum class Aggregation { kNone, kMedian, kSegments };
@@ -161,6 +167,13 @@ struct PairSelectionOptions {
   // the camera rate. A frame farther from the last detected one than a carried result may go
   // (2 * min_baseline_m, max_rotation_rad) is detected whatever N says.
   int detect_every = 2;
+  // Far pair: a detected frame is also matched against the newest frame at least
+  // far_min_baseline_m back (m, >= 0; 0 = off; within max_rotation_rad and max_history), and each
+  // sample keeps the pair that measures its height more precisely, when the two agree. One pair's
+  // parallax of a 3 cm height falls with the square of the distance (about 0.25 px at 2.3 m over
+  // 0.1 m for a camera 0.4 m up): the far floor needs a longer baseline to be told from a low
+  // obstacle, while the near floor needs a short one (it was below the far frame's view).
+  double far_min_baseline_m = 0.30;
 
   bool IsValid(std::string* error) const;
 };

@@ -82,6 +82,11 @@ std::vector<Sample> MeasureSamples(const CameraModel& camera, const ZeroDisparit
                                    const SampleGrid& grid, const Pose2& base2_from_base1,
                                    const ClassificationOptions& co);
 
+// The far pair's samples (the same grid, a longer baseline) into `samples`: a sample takes the far
+// pair's measurement where that one is measured and either this pair has none (but saw neither a
+// change nor motion there) or the far one is more precise and agrees with it within 3 sigmas.
+void KeepMorePrecise(const std::vector<Sample>& far, std::vector<Sample>* samples);
+
 // Evidence over frames (HeightFilterOptions): each sample's measurement is fused with the earlier
 // estimate in front of the others that project into it (occluded ones lose), or starts a new one;
 // estimates not measured again are carried while they match what is seen. The samples then carry

@@ -167,6 +167,23 @@ std::vector<Eigen::Vector2d> OffEpipolarCorners(const CameraModel& camera,
 
 namespace {
 
+// How many of the image's top rows show the floor at least range_m from the camera, or anything
+// above it: down to the lowest row at which the floor range_m away appears within 60 degrees
+// of straight ahead.
+int RowsBeyondFloorRange(const CameraModel& camera, double range_m) {
+  const CameraIntrinsics& in = camera.calibration().intrinsics;
+  const Eigen::Vector3d centre = camera.CameraCentreInBase();
+  double lowest = 0.0;
+  for (int degrees = -60; degrees <= 60; degrees += 5) {
+    const double a = degrees * M_PI / 180.0;
+    const auto pixel = camera.ProjectToPixel(
+        Eigen::Vector3d(centre.x() + range_m * std::cos(a), centre.y() + range_m * std::sin(a), 0));
+    if (pixel && pixel->x() >= 0 && pixel->x() <= in.width - 1)
+      lowest = std::max(lowest, pixel->y());
+  }
+  return std::clamp(static_cast<int>(std::ceil(lowest)), 0, in.height);
+}
+
 // The per-sample images of a result: labels, heights (EncodeHeightMm; floor 0, obstacles and
 // drop-offs their height where they have one), zero disparity (NaN where not measured) and the
 // measurements fused into each estimate.
@@ -218,7 +235,7 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
                                      const std::vector<Eigen::Vector2d>& moving_pixels,
                                      const AlignmentImage& current_alignment,
                                      const std::vector<HeightSeed>* prior_in_base,
-                                     const cv::Mat& moving_mask) const {
+                                     const cv::Mat& moving_mask, const FarPair* far_pair) const {
   const CameraIntrinsics& in = camera_.calibration().intrinsics;
   const cv::Size size(in.width, in.height);
   const ClassificationOptions& co = options_.classification;
@@ -280,6 +297,40 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
 
   // Phase 1: measure every sample on its own.
   std::vector<Sample> samples = MeasureSamples(camera_, field, grid, t, co);
+  // The far pair, on the same sample grid of the current image (not for a pitched camera: the
+  // chain works on the current image at the near reference's pitch).
+  if (far_pair != nullptr && !pitched && far_pair->motion.status != GroundMotion::Status::kFailed &&
+      far_pair->reference.size() == size && far_pair->reference.type() == CV_8U) {
+    const DirectAlignment far_aligned = AlignFloorDirect(
+        PrepareAlignmentImage(far_pair->reference, da),
+        current_alignment.empty() ? PrepareAlignmentImage(current, da) : current_alignment, camera_,
+        strip_mask_, far_pair->motion.base2_from_base1, da);
+    const Pose2& t_far = far_aligned.base2_from_base1;
+    const double far_baseline_m = (t_far * c1 - c1).norm();
+    // Only the rows whose floor lies at least 4 far baselines ahead: nearer, the floor's scale
+    // changes by more than a quarter between the frames and the windows no longer match (the
+    // near pair measures it). Searched on the top of the image down to there, plus a margin for
+    // the windows and the pyramid.
+    const int used_rows = RowsBeyondFloorRange(camera_, 4.0 * far_baseline_m);
+    const int block =
+        1 << (options_.zero_disparity.finest_level + options_.zero_disparity.num_levels - 1);
+    const int margin =
+        2 * options_.zero_disparity.window_px * (1 << options_.zero_disparity.finest_level);
+    const int search_rows = std::min(size.height, (used_rows + margin + block - 1) / block * block);
+    const int used_sample_rows = std::min(grid.rows, static_cast<int>(used_rows / grid.SamplePx()));
+    if (far_aligned.pitch2_rad == 0.0 && far_baseline_m > 1.5 * baseline_m &&
+        used_sample_rows > 0 &&
+        options_.zero_disparity.method == ZeroDisparityOptions::Method::kEpipolar) {
+      const ZeroDisparityField far_field =
+          ComputeZeroDisparity(far_pair->reference, current.rowRange(0, search_rows), camera_,
+                               t_far, options_.zero_disparity);
+      const SampleGrid far_grid{used_sample_rows, grid.cols, grid.stride, grid.scale};
+      if (far_field.s_px.cols == field.s_px.cols &&
+          far_field.s_px.rows >= used_sample_rows * grid.stride) {
+        KeepMorePrecise(MeasureSamples(camera_, far_field, far_grid, t_far, co), &samples);
+      }
+    }
+  }
 
   // Phase 2: evidence over frames.
   if (options_.height_filter.enabled) {

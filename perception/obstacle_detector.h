@@ -24,6 +24,13 @@ namespace monoplane {
 FrameResult UnknownResult(const cv::Size& size, const LocalMapOptions& map_options,
                           PairStatus status, const std::string& message);
 
+// The current frame's second, longer-baseline pair (PairSelectionOptions::far_min_baseline_m):
+// the older prepared image and the floor motion from it to the current frame.
+struct FarPair {
+  cv::Mat reference;
+  GroundMotion motion;
+};
+
 // Detects floor, obstacles, drop-offs and moving things in the second of two frames. Holds the
 // calibration's precomputed matrices and undistortion maps; no files, threads or clocks.
 // Const methods are thread-safe.
@@ -58,11 +65,15 @@ class ObstacleDetector {
   // height_seeds are the estimates after this frame (null or empty prior: from this pair alone).
   // moving_mask: CV_8U over `current`, non-zero where things move on their own (MotionEvidence);
   // those samples are labelled moving and give the local map neither obstacle nor free floor.
+  // far_pair: `current` against an older frame with a longer baseline
+  // (PairSelectionOptions::far_min_baseline_m); each sample keeps the more precise of the two
+  // measurements where they agree.
   FrameResult Detect(const cv::Mat& reference, const cv::Mat& current, const GroundMotion& motion,
                      const std::vector<Eigen::Vector2d>& moving_pixels = {},
                      const AlignmentImage& current_alignment = {},
                      const std::vector<HeightSeed>* prior_in_base = nullptr,
-                     const cv::Mat& moving_mask = cv::Mat()) const;
+                     const cv::Mat& moving_mask = cv::Mat(),
+                     const FarPair* far_pair = nullptr) const;
 
   // The floor features of a result whose computation was deferred (see defer_floor_features);
   // the same as Detect would have given. Empty for an empty source.
@@ -107,7 +118,8 @@ class SequenceDetector {
       std::vector<Eigen::Vector2d> moving_pixels;
       AlignmentImage current_alignment;
       bool turn_pair = false;
-      Pose2 odom_from_base;  // of the current frame, to carry the height estimates
+      Pose2 odom_from_base;             // of the current frame, to carry the height estimates
+      std::optional<FarPair> far_pair;  // PairSelectionOptions::far_min_baseline_m
     };
     std::optional<PendingDetection> pending;
     // Where things move on their own in this frame (MotionEvidence; CV_8U, empty when off or

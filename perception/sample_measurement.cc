@@ -92,6 +92,22 @@ std::vector<Sample> MeasureSamples(const CameraModel& camera, const ZeroDisparit
   return samples;
 }
 
+void KeepMorePrecise(const std::vector<Sample>& far, std::vector<Sample>* samples) {
+  for (std::size_t k = 0; k < samples->size() && k < far.size(); ++k) {
+    Sample& near = (*samples)[k];
+    const Sample& f = far[k];
+    if (!f.measured || near.mismatched || near.raw == PixelLabel::kMoving) continue;
+    if (near.measured) {
+      const double sigma = std::hypot(near.height_sigma_m, f.height_sigma_m);
+      if (!(f.height_sigma_m < near.height_sigma_m) ||
+          !(std::abs(f.height_m - near.height_m) <= 3.0 * sigma)) {
+        continue;
+      }
+    }
+    near = f;
+  }
+}
+
 void FuseHeights(const CameraModel& camera, const ClassificationOptions& co,
                  const HeightFilterOptions& hf, const std::vector<HeightSeed>& prior, int rows,
                  int cols, double sample_px, std::vector<Sample>* samples,

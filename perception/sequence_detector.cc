@@ -184,9 +184,9 @@ void SequenceDetector::Finish(Output* output) {
     prior = std::move(seeds_in_odom_);
     move(p.odom_from_base.Inverse(), &prior);
   }
-  output->result =
-      detector_.Detect(p.reference, p.current, p.motion, p.moving_pixels, p.current_alignment,
-                       fuse ? &prior : nullptr, output->moving_mask);
+  output->result = detector_.Detect(p.reference, p.current, p.motion, p.moving_pixels,
+                                    p.current_alignment, fuse ? &prior : nullptr,
+                                    output->moving_mask, p.far_pair ? &*p.far_pair : nullptr);
   output->result->turn_pair = p.turn_pair;
   if (fuse) {
     // Without a pair nothing was measured: what was seen is kept.
@@ -331,24 +331,40 @@ SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, Timesta
     } else {
       // 3. The pair's motion, fitted directly to the tracks both frames share (no drift from
       //    chaining); the chained odometry is the prior and the fallback.
-      const Pose2 prior = odom_from_base_.Inverse() * reference->odom_from_base;
       std::vector<Eigen::Vector2d> p_ref, p_cur;
-      auto a = reference->features.begin();
-      for (const FeatureObservation& f : out.features) {
-        while (a != reference->features.end() && a->track_id < f.track_id) ++a;
-        if (a != reference->features.end() && a->track_id == f.track_id) {
-          p_ref.push_back(a->pixel);
-          p_cur.push_back(f.pixel);
+      const auto fit_pair = [&](const Frame& ref) {
+        const Pose2 prior = odom_from_base_.Inverse() * ref.odom_from_base;
+        p_ref.clear();
+        p_cur.clear();
+        auto a = ref.features.begin();
+        for (const FeatureObservation& f : out.features) {
+          while (a != ref.features.end() && a->track_id < f.track_id) ++a;
+          if (a != ref.features.end() && a->track_id == f.track_id) {
+            p_ref.push_back(a->pixel);
+            p_cur.push_back(f.pixel);
+          }
+        }
+        GroundMotion fit = FitGroundMotion(p_ref, p_cur, camera, options.ground_motion, prior);
+        // A pair fit that the chained (checked) steps could not have driven is an outlier fit.
+        const double pair_dt_s = static_cast<double>(stamp_ns - ref.stamp_ns) * 1e-9;
+        if (fit.status == GroundMotion::Status::kOk &&
+            !IsDrivableStep(fit.base2_from_base1, pair_dt_s, prior, pair_dt_s,
+                            options.ground_motion)) {
+          fit.status = GroundMotion::Status::kFailed;
+        }
+        return std::make_pair(fit, prior);
+      };
+      // The far pair first (p_ref and p_cur end up the near pair's): only a fitted motion.
+      std::optional<FarPair> far_pair;
+      if (ps.far_min_baseline_m > ps.min_baseline_m && !turn_pair) {
+        const Frame* far = newest_with(ps.far_min_baseline_m, ps.max_rotation_rad);
+        if (far != nullptr && far != reference) {
+          GroundMotion far_motion = fit_pair(*far).first;
+          if (far_motion.status == GroundMotion::Status::kOk)
+            far_pair = FarPair{far->image, far_motion};
         }
       }
-      GroundMotion motion = FitGroundMotion(p_ref, p_cur, camera, options.ground_motion, prior);
-      // A pair fit that the chained (checked) steps could not have driven is an outlier fit.
-      const double pair_dt_s = static_cast<double>(stamp_ns - reference->stamp_ns) * 1e-9;
-      if (motion.status == GroundMotion::Status::kOk &&
-          !IsDrivableStep(motion.base2_from_base1, pair_dt_s, prior, pair_dt_s,
-                          options.ground_motion)) {
-        motion.status = GroundMotion::Status::kFailed;
-      }
+      auto [motion, prior] = fit_pair(*reference);
       if (motion.status == GroundMotion::Status::kFailed &&
           out.step.status != GroundMotion::Status::kOk) {
         // Neither the pair nor the last step has a fitted floor motion: a guessed motion would
@@ -366,9 +382,9 @@ SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, Timesta
           moving = OffEpipolarCorners(camera, motion.base2_from_base1, p_ref, p_cur,
                                       options.classification.moving_track_min_px);
         }
-        out.pending =
-            Output::PendingDetection{reference->image, prepared,  motion,         std::move(moving),
-                                     alignment,        turn_pair, odom_from_base_};
+        out.pending = Output::PendingDetection{reference->image,  prepared,           motion,
+                                               std::move(moving), alignment,          turn_pair,
+                                               odom_from_base_,   std::move(far_pair)};
         if (!defer_detection) Finish(&out);
         if (!turn_pair) {
           frames_since_detection_ = 0;

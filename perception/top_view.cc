@@ -3,12 +3,17 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <vector>
 
 #include "perception/detector_stages.h"
 
 namespace monoplane::detector_stages {
 namespace {
+
+// How much nearer than the floor under it an obstacle sample above it in the image must be to
+// count as an overhang: its footprint's scatter at a few metres.
+constexpr double kOverhangToleranceM = 0.10;
 
 // The length, up to max_run, of the run of samples that are not floor above floor sample (i, j)
 // in its image column, when that run starts within `reach` samples of it (the floor samples in
@@ -24,6 +29,24 @@ int NotFloorRunAbove(const std::vector<PixelLabel>& labels, const SampleGrid& gr
          labels[grid.Index(edge - run, j)] != PixelLabel::kFloor)
     ++run;
   return run;
+}
+
+// Whether the run of samples that are not floor above floor sample (i, j), starting within
+// `reach` samples of it, is a hole in the floor's texture: only unmeasured (unknown) samples, and
+// floor again above them within max_gap samples. Something standing in it is bounded by the floor
+// seen behind it; the floor's edge below it is a texture edge, not the base of a structure.
+bool UnknownHoleAbove(const std::vector<PixelLabel>& labels, const SampleGrid& grid, int i, int j,
+                      int reach, int max_gap) {
+  int edge = i - 1;
+  while (edge >= 0 && i - edge <= reach && labels[grid.Index(edge, j)] == PixelLabel::kFloor)
+    --edge;
+  if (edge < 0 || i - edge > reach) return false;
+  for (int run = 0; run < max_gap && edge - run >= 0; ++run) {
+    const PixelLabel label = labels[grid.Index(edge - run, j)];
+    if (label == PixelLabel::kFloor) return true;
+    if (label != PixelLabel::kUnknown) return false;
+  }
+  return false;
 }
 
 }  // namespace
@@ -152,8 +175,26 @@ void BuildTopView(const std::vector<Sample>& samples, const std::vector<PixelLab
                   std::vector<Eigen::Vector3f>* obstacle_points_in_base) {
   const GridGeometry& g = local_map->geometry;
   std::vector<std::uint16_t> free_votes(g.NumCells(), 0), occupied_votes(g.NumCells(), 0);
-  std::vector<std::uint8_t> not_free(g.NumCells(), 0);    // cells that must not read free
-  std::vector<std::uint8_t> floor_edge(g.NumCells(), 0);  // where the floor ends below something
+  std::vector<std::uint8_t> not_free(g.NumCells(), 0);      // cells that must not read free
+  std::vector<std::uint8_t> floor_edge(g.NumCells(), 0);    // where the floor ends below something
+  std::vector<std::uint8_t> votes_free(samples.size(), 0);  // floor samples that voted free
+  // Floor under an overhang: a floor sample farther along the floor than an obstacle sample above
+  // it in its image column (a table top, a shelf) lies beneath that obstacle, whose own base is
+  // not seen; it gives no free vote.
+  std::vector<std::uint8_t> overhung(samples.size(), 0);
+  for (int j = 0; j < grid.cols; ++j) {
+    double nearest_above = std::numeric_limits<double>::infinity();
+    for (int i = 0; i < grid.rows; ++i) {
+      const std::size_t k = grid.Index(i, j);
+      const Sample& s = samples[k];
+      if (labels[k] == PixelLabel::kObstacle && s.measured && s.point_in_base2.allFinite()) {
+        nearest_above = std::min(nearest_above, s.point_in_base2.norm());
+      } else if (labels[k] == PixelLabel::kFloor &&
+                 !(s.floor_in_base2.norm() < nearest_above - kOverhangToleranceM)) {
+        overhung[k] = 1;
+      }
+    }
+  }
   for (int i = 0; i < grid.rows; ++i) {
     for (int j = 0; j < grid.cols; ++j) {
       const std::size_t k = grid.Index(i, j);
@@ -173,9 +214,13 @@ void BuildTopView(const std::vector<Sample>& samples, const std::vector<PixelLab
             NotFloorRunAbove(labels, grid, i, j, edge_reach_samples, co.floor_edge_samples);
         if (auto cell = g.CellOf(sample.floor_in_base2)) {
           const std::size_t c = g.Index(cell->x(), cell->y());
-          if (not_floor_above == 0) {
-            ++free_votes[c];
-          } else if (not_floor_above >= co.floor_edge_samples) {
+          if (overhung[k]) {
+            // (no vote)
+          } else if (not_floor_above == 0) {
+            votes_free[k] = 1;  // counted below, once the sample above it is known
+          } else if (not_floor_above >= co.floor_edge_samples &&
+                     !UnknownHoleAbove(labels, grid, i, j, edge_reach_samples,
+                                       co.fill_max_gap_samples)) {
             not_free[c] = 1;
             floor_edge[c] = 1;
           }
@@ -201,6 +246,35 @@ void BuildTopView(const std::vector<Sample>& samples, const std::vector<PixelLab
                                               static_cast<float>(sample.height_m));
         if (auto cell = g.CellOf(footprint)) {
           ++occupied_votes[g.Index(cell->x(), cell->y())];
+        }
+      }
+    }
+  }
+  // The last floor sample of a run in its column (the sample above it gives no vote) may lie on
+  // the lowest few cm of whatever stands above it, where the floor's label climbs: its ray meets
+  // the floor behind that, unseen. It gives no vote; the others vote for their own cells and,
+  // with free space by rays, for the floor between them and the sample below.
+  const auto confirmed = [&](int i, int j) {
+    return i > 0 && votes_free[grid.Index(i, j)] && votes_free[grid.Index(i - 1, j)];
+  };
+  for (int i = 0; i < grid.rows; ++i) {
+    for (int j = 0; j < grid.cols; ++j) {
+      if (!confirmed(i, j)) continue;
+      if (auto cell = g.CellOf(samples[grid.Index(i, j)].floor_in_base2))
+        ++free_votes[g.Index(cell->x(), cell->y())];
+    }
+  }
+  if (co.free_between_floor_samples) {
+    const double step = 0.5 * g.resolution_m;
+    for (int j = 0; j < grid.cols; ++j) {
+      for (int i = grid.rows - 2; i >= 0; --i) {
+        const std::size_t far = grid.Index(i, j), near = grid.Index(i + 1, j);
+        if (!confirmed(i, j) || !votes_free[near]) continue;
+        const Eigen::Vector2d a = samples[near].floor_in_base2, b = samples[far].floor_in_base2;
+        const int n = static_cast<int>(std::ceil((b - a).norm() / step));
+        for (int t = 1; t < n; ++t) {
+          if (auto cell = g.CellOf(a + (b - a) * (static_cast<double>(t) / n)))
+            ++free_votes[g.Index(cell->x(), cell->y())];
         }
       }
     }

@@ -9,8 +9,10 @@
 
 namespace monoplane::sim {
 
-// Heights between which a static obstacle occupies a map cell, metres.
-inline constexpr double kMapMinObstacleHeightM = 0.02;
+// Heights between which a static obstacle occupies a map cell, metres: from the 3 cm that make an
+// obstacle (lower things are floor a robot drives over, as the detector's default
+// obstacle_min_height_m says) to 1 m.
+inline constexpr double kMapMinObstacleHeightM = 0.03;
 inline constexpr double kMapMaxObstacleHeightM = 1.0;
 
 struct SequenceOptions {

@@ -128,7 +128,7 @@ TEST_F(SequenceTest, GroundTruthMapMarksObstaclesDropsFreeAndUnknown) {
     return static_cast<int>(pgm.at<std::uint8_t>(pgm.rows - 1 - row_from_bottom, col));
   };
   EXPECT_EQ(value(2.0, 1.0), 0);     // box 0.3 m tall
-  EXPECT_EQ(value(2.0, 0.0), 254);   // 1 cm strip: below 2 cm, free
+  EXPECT_EQ(value(2.0, 0.0), 254);   // 1 cm strip: below 3 cm, free
   EXPECT_EQ(value(3.25, 1.25), 0);   // drop-off
   EXPECT_EQ(value(3.0, 0.0), 254);   // the mover's path is free in the static map
   EXPECT_EQ(value(1.5, -0.5), 254);  // plain floor
