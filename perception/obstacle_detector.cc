@@ -184,6 +184,43 @@ int RowsBeyondFloorRange(const CameraModel& camera, double range_m) {
   return std::clamp(static_cast<int>(std::ceil(lowest)), 0, in.height);
 }
 
+// The far pair's samples (FarPair) merged into the near pair's (KeepMorePrecise), on the same
+// sample grid of the current image. Only the rows whose floor lies at least 4 far baselines ahead
+// are searched: nearer, the floor's scale changes by more than a quarter between the frames and
+// the windows no longer match (the near pair measures it there). Nothing without a fitted motion,
+// with the Farneback search, for a pitched pair or one no longer than 1.5 near baselines.
+void MergeFarPair(const CameraModel& camera, const DetectorOptions& options,
+                  const cv::Mat& strip_mask, const FarPair& far_pair, const cv::Mat& current,
+                  const AlignmentImage& current_aligned, const SampleGrid& grid,
+                  double near_baseline_m, std::vector<Sample>* samples) {
+  const ZeroDisparityOptions& zo = options.zero_disparity;
+  if (far_pair.motion.status == GroundMotion::Status::kFailed ||
+      zo.method != ZeroDisparityOptions::Method::kEpipolar ||
+      far_pair.reference.size() != current.size() || far_pair.reference.type() != CV_8U) {
+    return;
+  }
+  const DirectAlignmentOptions& da = options.direct_alignment;
+  const DirectAlignment aligned =
+      AlignFloorDirect(PrepareAlignmentImage(far_pair.reference, da), current_aligned, camera,
+                       strip_mask, far_pair.motion.base2_from_base1, da);
+  const Pose2& t = aligned.base2_from_base1;
+  const Eigen::Vector2d c1 = camera.CameraCentreInBase().head<2>();
+  const double baseline_m = (t * c1 - c1).norm();
+  if (aligned.pitch2_rad != 0.0 || !(baseline_m > 1.5 * near_baseline_m)) return;
+  const int used_rows = RowsBeyondFloorRange(camera, 4.0 * baseline_m);
+  const int used_sample_rows = std::min(grid.rows, static_cast<int>(used_rows / grid.SamplePx()));
+  if (used_sample_rows <= 0) return;
+  // Searched down to there plus a margin for the windows, in whole blocks of the coarsest level.
+  const int block = 1 << (zo.finest_level + zo.num_levels - 1);
+  const int margin = 2 * zo.window_px * (1 << zo.finest_level);
+  const int search_rows = std::min(current.rows, (used_rows + margin + block - 1) / block * block);
+  const ZeroDisparityField field =
+      ComputeZeroDisparity(far_pair.reference, current.rowRange(0, search_rows), camera, t, zo);
+  if (field.s_px.rows < used_sample_rows * grid.stride) return;
+  const SampleGrid far_grid{used_sample_rows, grid.cols, grid.stride, grid.scale};
+  KeepMorePrecise(MeasureSamples(camera, field, far_grid, t, options.classification), samples);
+}
+
 // The per-sample images of a result: labels, heights (EncodeHeightMm; floor 0, obstacles and
 // drop-offs their height where they have one), zero disparity (NaN where not measured) and the
 // measurements fused into each estimate.
@@ -253,10 +290,11 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
   // The tracked corners give the motion to about a pixel; the floor's texture to a fraction.
   GroundMotion refined = motion;
   const DirectAlignmentOptions& da = options_.direct_alignment;
-  const DirectAlignment aligned = AlignFloorDirect(
-      PrepareAlignmentImage(reference, da),
-      current_alignment.empty() ? PrepareAlignmentImage(current, da) : current_alignment, camera_,
-      strip_mask_, motion.base2_from_base1, da);
+  const AlignmentImage current_aligned =
+      current_alignment.empty() ? PrepareAlignmentImage(current, da) : current_alignment;
+  const DirectAlignment aligned =
+      AlignFloorDirect(PrepareAlignmentImage(reference, da), current_aligned, camera_, strip_mask_,
+                       motion.base2_from_base1, da);
   refined.base2_from_base1 = aligned.base2_from_base1;
   refined.pitch2_rad = aligned.pitch2_rad;
   const Pose2& t = refined.base2_from_base1;
@@ -299,37 +337,9 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
   std::vector<Sample> samples = MeasureSamples(camera_, field, grid, t, co);
   // The far pair, on the same sample grid of the current image (not for a pitched camera: the
   // chain works on the current image at the near reference's pitch).
-  if (far_pair != nullptr && !pitched && far_pair->motion.status != GroundMotion::Status::kFailed &&
-      far_pair->reference.size() == size && far_pair->reference.type() == CV_8U) {
-    const DirectAlignment far_aligned = AlignFloorDirect(
-        PrepareAlignmentImage(far_pair->reference, da),
-        current_alignment.empty() ? PrepareAlignmentImage(current, da) : current_alignment, camera_,
-        strip_mask_, far_pair->motion.base2_from_base1, da);
-    const Pose2& t_far = far_aligned.base2_from_base1;
-    const double far_baseline_m = (t_far * c1 - c1).norm();
-    // Only the rows whose floor lies at least 4 far baselines ahead: nearer, the floor's scale
-    // changes by more than a quarter between the frames and the windows no longer match (the
-    // near pair measures it). Searched on the top of the image down to there, plus a margin for
-    // the windows and the pyramid.
-    const int used_rows = RowsBeyondFloorRange(camera_, 4.0 * far_baseline_m);
-    const int block =
-        1 << (options_.zero_disparity.finest_level + options_.zero_disparity.num_levels - 1);
-    const int margin =
-        2 * options_.zero_disparity.window_px * (1 << options_.zero_disparity.finest_level);
-    const int search_rows = std::min(size.height, (used_rows + margin + block - 1) / block * block);
-    const int used_sample_rows = std::min(grid.rows, static_cast<int>(used_rows / grid.SamplePx()));
-    if (far_aligned.pitch2_rad == 0.0 && far_baseline_m > 1.5 * baseline_m &&
-        used_sample_rows > 0 &&
-        options_.zero_disparity.method == ZeroDisparityOptions::Method::kEpipolar) {
-      const ZeroDisparityField far_field =
-          ComputeZeroDisparity(far_pair->reference, current.rowRange(0, search_rows), camera_,
-                               t_far, options_.zero_disparity);
-      const SampleGrid far_grid{used_sample_rows, grid.cols, grid.stride, grid.scale};
-      if (far_field.s_px.cols == field.s_px.cols &&
-          far_field.s_px.rows >= used_sample_rows * grid.stride) {
-        KeepMorePrecise(MeasureSamples(camera_, far_field, far_grid, t_far, co), &samples);
-      }
-    }
+  if (far_pair != nullptr && !pitched) {
+    MergeFarPair(camera_, options_, strip_mask_, *far_pair, current, current_aligned, grid,
+                 baseline_m, &samples);
   }
 
   // Phase 2: evidence over frames.

@@ -331,40 +331,36 @@ SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, Timesta
     } else {
       // 3. The pair's motion, fitted directly to the tracks both frames share (no drift from
       //    chaining); the chained odometry is the prior and the fallback.
-      std::vector<Eigen::Vector2d> p_ref, p_cur;
+      struct PairFit {
+        Pose2 prior;                                // the chained odometry
+        std::vector<Eigen::Vector2d> p_ref, p_cur;  // the tracks both frames share
+        GroundMotion motion;
+      };
       const auto fit_pair = [&](const Frame& ref) {
-        const Pose2 prior = odom_from_base_.Inverse() * ref.odom_from_base;
-        p_ref.clear();
-        p_cur.clear();
+        PairFit fit;
+        fit.prior = odom_from_base_.Inverse() * ref.odom_from_base;
         auto a = ref.features.begin();
         for (const FeatureObservation& f : out.features) {
           while (a != ref.features.end() && a->track_id < f.track_id) ++a;
           if (a != ref.features.end() && a->track_id == f.track_id) {
-            p_ref.push_back(a->pixel);
-            p_cur.push_back(f.pixel);
+            fit.p_ref.push_back(a->pixel);
+            fit.p_cur.push_back(f.pixel);
           }
         }
-        GroundMotion fit = FitGroundMotion(p_ref, p_cur, camera, options.ground_motion, prior);
+        fit.motion =
+            FitGroundMotion(fit.p_ref, fit.p_cur, camera, options.ground_motion, fit.prior);
         // A pair fit that the chained (checked) steps could not have driven is an outlier fit.
         const double pair_dt_s = static_cast<double>(stamp_ns - ref.stamp_ns) * 1e-9;
-        if (fit.status == GroundMotion::Status::kOk &&
-            !IsDrivableStep(fit.base2_from_base1, pair_dt_s, prior, pair_dt_s,
+        if (fit.motion.status == GroundMotion::Status::kOk &&
+            !IsDrivableStep(fit.motion.base2_from_base1, pair_dt_s, fit.prior, pair_dt_s,
                             options.ground_motion)) {
-          fit.status = GroundMotion::Status::kFailed;
+          fit.motion.status = GroundMotion::Status::kFailed;
         }
-        return std::make_pair(fit, prior);
+        return fit;
       };
-      // The far pair first (p_ref and p_cur end up the near pair's): only a fitted motion.
-      std::optional<FarPair> far_pair;
-      if (ps.far_min_baseline_m > ps.min_baseline_m && !turn_pair) {
-        const Frame* far = newest_with(ps.far_min_baseline_m, ps.max_rotation_rad);
-        if (far != nullptr && far != reference) {
-          GroundMotion far_motion = fit_pair(*far).first;
-          if (far_motion.status == GroundMotion::Status::kOk)
-            far_pair = FarPair{far->image, far_motion};
-        }
-      }
-      auto [motion, prior] = fit_pair(*reference);
+      PairFit near = fit_pair(*reference);
+      GroundMotion& motion = near.motion;
+      const Pose2& prior = near.prior;
       if (motion.status == GroundMotion::Status::kFailed &&
           out.step.status != GroundMotion::Status::kOk) {
         // Neither the pair nor the last step has a fitted floor motion: a guessed motion would
@@ -379,8 +375,18 @@ SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, Timesta
         }
         std::vector<Eigen::Vector2d> moving;
         if (options.classification.moving_track_radius_px > 0) {
-          moving = OffEpipolarCorners(camera, motion.base2_from_base1, p_ref, p_cur,
+          moving = OffEpipolarCorners(camera, motion.base2_from_base1, near.p_ref, near.p_cur,
                                       options.classification.moving_track_min_px);
+        }
+        // The far pair: only with a fitted motion.
+        std::optional<FarPair> far_pair;
+        if (ps.far_min_baseline_m > ps.min_baseline_m && !turn_pair) {
+          const Frame* far = newest_with(ps.far_min_baseline_m, ps.max_rotation_rad);
+          if (far != nullptr && far != reference) {
+            PairFit far_fit = fit_pair(*far);
+            if (far_fit.motion.status == GroundMotion::Status::kOk)
+              far_pair = FarPair{far->image, far_fit.motion};
+          }
         }
         out.pending = Output::PendingDetection{reference->image,  prepared,           motion,
                                                std::move(moving), alignment,          turn_pair,

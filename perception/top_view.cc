@@ -15,38 +15,35 @@ namespace {
 // count as an overhang: its footprint's scatter at a few metres.
 constexpr double kOverhangToleranceM = 0.10;
 
-// The length, up to max_run, of the run of samples that are not floor above floor sample (i, j)
-// in its image column, when that run starts within `reach` samples of it (the floor samples in
-// between are within the matching window's reach of it too); 0 when there is none.
-int NotFloorRunAbove(const std::vector<PixelLabel>& labels, const SampleGrid& grid, int i, int j,
-                     int reach, int max_run) {
-  int edge = i - 1;
-  while (edge >= 0 && i - edge <= reach && labels[grid.Index(edge, j)] == PixelLabel::kFloor)
-    --edge;
-  if (edge < 0 || i - edge > reach) return 0;
+// What stands above floor sample (i, j) in its image column when a sample that is not floor
+// starts within `reach` samples of it (the floor samples in between are within the matching
+// window's reach of it too): the length of that run, up to max_run, and whether it is a hole in
+// the floor's texture: only unmeasured (unknown) samples, with floor again above them within
+// max_gap samples. Something standing in a hole is bounded by the floor seen behind it; the floor's
+// edge below a hole is a texture edge, not the base of a structure. {0, false} when nothing is.
+struct NotFloorAbove {
   int run = 0;
-  while (run < max_run && edge - run >= 0 &&
-         labels[grid.Index(edge - run, j)] != PixelLabel::kFloor)
-    ++run;
-  return run;
-}
-
-// Whether the run of samples that are not floor above floor sample (i, j), starting within
-// `reach` samples of it, is a hole in the floor's texture: only unmeasured (unknown) samples, and
-// floor again above them within max_gap samples. Something standing in it is bounded by the floor
-// seen behind it; the floor's edge below it is a texture edge, not the base of a structure.
-bool UnknownHoleAbove(const std::vector<PixelLabel>& labels, const SampleGrid& grid, int i, int j,
-                      int reach, int max_gap) {
+  bool texture_hole = false;
+};
+NotFloorAbove NotFloorRunAbove(const std::vector<PixelLabel>& labels, const SampleGrid& grid, int i,
+                               int j, int reach, int max_run, int max_gap) {
   int edge = i - 1;
   while (edge >= 0 && i - edge <= reach && labels[grid.Index(edge, j)] == PixelLabel::kFloor)
     --edge;
-  if (edge < 0 || i - edge > reach) return false;
-  for (int run = 0; run < max_gap && edge - run >= 0; ++run) {
-    const PixelLabel label = labels[grid.Index(edge - run, j)];
-    if (label == PixelLabel::kFloor) return true;
-    if (label != PixelLabel::kUnknown) return false;
+  NotFloorAbove out;
+  if (edge < 0 || i - edge > reach) return out;
+  bool only_unknown = true;
+  for (int n = 0; n < std::max(max_run, max_gap) && edge - n >= 0; ++n) {
+    const PixelLabel label = labels[grid.Index(edge - n, j)];
+    if (label == PixelLabel::kFloor) {
+      out.texture_hole = only_unknown && n < max_gap;
+      break;
+    }
+    if (n < max_run) ++out.run;
+    only_unknown = only_unknown && label == PixelLabel::kUnknown;
+    if (!only_unknown && n + 1 >= max_run) break;
   }
-  return false;
+  return out;
 }
 
 }  // namespace
@@ -206,23 +203,20 @@ void BuildTopView(const std::vector<Sample>& samples, const std::vector<PixelLab
         // ...except where the floor ends in the image column: that sample's window straddles the
         // edge, and its cell holds the base of whatever stands there, detected or not. Below a
         // short run of other samples (a seam, a textureless spot) it gives no free vote; below
-        // floor_edge_samples of them its cell is not free.
+        // floor_edge_samples of them its cell is not free, unless they are a hole in the floor's
+        // texture.
         // A sample whose matching window reaches the edge counts as the edge: the window of a
         // wall's or a box's lowest (textureless) pixels holds the floor below them, so the floor
         // label climbs a sample or so onto them, and the last floor samples lie on the base.
-        const int not_floor_above =
-            NotFloorRunAbove(labels, grid, i, j, edge_reach_samples, co.floor_edge_samples);
-        if (auto cell = g.CellOf(sample.floor_in_base2)) {
-          const std::size_t c = g.Index(cell->x(), cell->y());
-          if (overhung[k]) {
-            // (no vote)
-          } else if (not_floor_above == 0) {
-            votes_free[k] = 1;  // counted below, once the sample above it is known
-          } else if (not_floor_above >= co.floor_edge_samples &&
-                     !UnknownHoleAbove(labels, grid, i, j, edge_reach_samples,
-                                       co.fill_max_gap_samples)) {
-            not_free[c] = 1;
-            floor_edge[c] = 1;
+        if (overhung[k]) continue;
+        const NotFloorAbove above = NotFloorRunAbove(
+            labels, grid, i, j, edge_reach_samples, co.floor_edge_samples, co.fill_max_gap_samples);
+        if (above.run == 0) {
+          votes_free[k] = 1;  // counted below, once the sample above it is known
+        } else if (above.run >= co.floor_edge_samples && !above.texture_hole) {
+          if (auto cell = g.CellOf(sample.floor_in_base2)) {
+            not_free[g.Index(cell->x(), cell->y())] = 1;
+            floor_edge[g.Index(cell->x(), cell->y())] = 1;
           }
         }
       } else if ((label == PixelLabel::kObstacle || label == PixelLabel::kDropOff) &&
@@ -254,28 +248,21 @@ void BuildTopView(const std::vector<Sample>& samples, const std::vector<PixelLab
   // the lowest few cm of whatever stands above it, where the floor's label climbs: its ray meets
   // the floor behind that, unseen. It gives no vote; the others vote for their own cells and,
   // with free space by rays, for the floor between them and the sample below.
-  const auto confirmed = [&](int i, int j) {
-    return i > 0 && votes_free[grid.Index(i, j)] && votes_free[grid.Index(i - 1, j)];
-  };
-  for (int i = 0; i < grid.rows; ++i) {
+  const double step = 0.5 * g.resolution_m;
+  for (int i = 1; i < grid.rows; ++i) {
     for (int j = 0; j < grid.cols; ++j) {
-      if (!confirmed(i, j)) continue;
-      if (auto cell = g.CellOf(samples[grid.Index(i, j)].floor_in_base2))
-        ++free_votes[g.Index(cell->x(), cell->y())];
-    }
-  }
-  if (co.free_between_floor_samples) {
-    const double step = 0.5 * g.resolution_m;
-    for (int j = 0; j < grid.cols; ++j) {
-      for (int i = grid.rows - 2; i >= 0; --i) {
-        const std::size_t far = grid.Index(i, j), near = grid.Index(i + 1, j);
-        if (!confirmed(i, j) || !votes_free[near]) continue;
-        const Eigen::Vector2d a = samples[near].floor_in_base2, b = samples[far].floor_in_base2;
-        const int n = static_cast<int>(std::ceil((b - a).norm() / step));
-        for (int t = 1; t < n; ++t) {
-          if (auto cell = g.CellOf(a + (b - a) * (static_cast<double>(t) / n)))
-            ++free_votes[g.Index(cell->x(), cell->y())];
-        }
+      const std::size_t k = grid.Index(i, j);
+      if (!votes_free[k] || !votes_free[grid.Index(i - 1, j)]) continue;
+      const Eigen::Vector2d b = samples[k].floor_in_base2;
+      if (auto cell = g.CellOf(b)) ++free_votes[g.Index(cell->x(), cell->y())];
+      const std::size_t below = grid.Index(std::min(i + 1, grid.rows - 1), j);
+      if (!co.free_between_floor_samples || below == k || !votes_free[below]) continue;
+      const Eigen::Vector2d a = samples[below].floor_in_base2;
+      if (!a.allFinite() || !b.allFinite()) continue;
+      const int n = static_cast<int>(std::ceil((b - a).norm() / step));
+      for (int t = 1; t < n; ++t) {
+        if (auto c = g.CellOf(a + (b - a) * (static_cast<double>(t) / n)))
+          ++free_votes[g.Index(c->x(), c->y())];
       }
     }
   }

@@ -53,6 +53,27 @@ std::string Array(const std::vector<std::string>& items) {
   return out + (items.empty() ? "]" : "\n]");
 }
 
+// Points as a JSON array of [x, y] pairs, and as text ("; at (x, y) ..."; the first 20).
+std::string JsonPoints(const std::vector<Eigen::Vector2d>& points) {
+  std::string out = "[";
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    out += (i ? ", [" : "[") + Number(points[i].x()) + ", " + Number(points[i].y()) + "]";
+  }
+  return out + "]";
+}
+
+std::string CellList(const std::vector<Eigen::Vector2d>& points) {
+  constexpr std::size_t kShown = 20;
+  std::string out;
+  for (std::size_t i = 0; i < points.size() && i < kShown; ++i) {
+    char text[48];
+    std::snprintf(text, sizeof(text), "%s(%.3f, %.3f)", i ? " " : "; at ", points[i].x(),
+                  points[i].y());
+    out += text;
+  }
+  return points.size() > kShown ? out + " ..." : out;
+}
+
 std::string Percent(const std::optional<double>& v) {
   if (!v) return "-";
   char text[32];
@@ -267,7 +288,7 @@ std::string GridReportTable(const GridEvalResult& r) {
       << r.gt_occupied << " GT occupied)\n"
       << "F1:                   " << Fixed(r.f1) << "\n"
       << "dangerous cells:      " << r.dangerous << " (" << Percent(r.dangerous_share)
-      << " of GT occupied)\n"
+      << " of GT occupied)" << CellList(r.dangerous_cells_m) << "\n"
       << "unknown share:        " << Percent(r.unknown_share) << " (" << r.gt_known_pred_unknown
       << " of " << r.gt_known << " GT known cells)\n";
   if (r.seen_scored) {
@@ -298,6 +319,7 @@ std::string GridReportJson(const GridEvalResult& r) {
       .Add("recall", r.recall)
       .Add("f1", r.f1)
       .Add("dangerous_share", r.dangerous_share)
+      .Raw("dangerous_cells_m", JsonPoints(r.dangerous_cells_m))
       .Add("unknown_share", r.unknown_share);
   if (r.seen_scored) {  // only when asked for (--seen-from)
     json.Add("gt_occupied_seen", r.gt_occupied_seen)

@@ -127,7 +127,10 @@ bool CompareGrids(const MapServerMap& pred, const MapServerMap& gt, const GridEv
         ++result->gt_occupied;
         const bool recalled = any_within(pred_state, col, row);
         if (recalled) ++result->gt_occupied_recalled;
-        if (!recalled && ps == CellState::kFree) ++result->dangerous;
+        if (!recalled && ps == CellState::kFree) {
+          ++result->dangerous;
+          result->dangerous_cells_m.push_back(g.CellCenter(col, row));
+        }
         if (seen_cells && any_seen(col, row)) {
           ++result->gt_occupied_seen;
           if (recalled) ++result->gt_occupied_seen_recalled;

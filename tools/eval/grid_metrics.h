@@ -33,9 +33,10 @@ struct GridEvalResult {
   std::int64_t pred_occupied = 0;          // pred occupied at the centres of scored GT cells
   std::int64_t pred_occupied_matched = 0;  // ... with a GT-occupied cell within tolerance
   std::int64_t dangerous = 0;  // GT occupied, pred free there, no pred occupied within tolerance
-  std::int64_t gt_known_pred_unknown = 0;  // GT known, pred unknown or outside its grid
-  std::optional<double> precision;         // pred_occupied_matched / pred_occupied
-  std::optional<double> recall;            // gt_occupied_recalled / gt_occupied
+  std::vector<Eigen::Vector2d> dangerous_cells_m;  // their centres in the GT map's frame, m
+  std::int64_t gt_known_pred_unknown = 0;          // GT known, pred unknown or outside its grid
+  std::optional<double> precision;                 // pred_occupied_matched / pred_occupied
+  std::optional<double> recall;                    // gt_occupied_recalled / gt_occupied
   std::optional<double> f1;
   std::optional<double> dangerous_share;  // dangerous / gt_occupied
   std::optional<double> unknown_share;    // gt_known_pred_unknown / gt_known

@@ -126,6 +126,8 @@ TEST_F(GridMetricsTest, ShiftByKCellsScoresZeroBelowAndOneAtTolerance) {
   EXPECT_DOUBLE_EQ(*r.f1, 0.0);
   EXPECT_EQ(r.dangerous, 30);  // every wall cell is free in the prediction
   EXPECT_DOUBLE_EQ(*r.dangerous_share, 1.0);
+  ASSERT_EQ(r.dangerous_cells_m.size(), 30u);  // where: the wall's column (10), in metres
+  for (const Eigen::Vector2d& c : r.dangerous_cells_m) EXPECT_NEAR(c.x(), -1.0 + 10.5 * 0.05, 1e-9);
 
   options.tolerance_cells = k;
   ASSERT_TRUE(CompareGrids(pred, gt, options, {}, &r, &error)) << error;
