@@ -257,6 +257,23 @@ OptionTable::OptionTable(AppConfig* config) : config_(config) {
             "texture a pixel needs to count as evidence, grey levels^2 per px^2 (>= 0)");
   AddDouble("motion_evidence", "min_textured_fraction", &me.min_textured_fraction,
             "share of a moving region's pixels that must be textured ([0, 1])");
+  MovingObjectOptions& mo = d.moving_objects;
+  AddBool("moving_objects", "enabled", &mo.enabled,
+          "the moving regions placed on the floor and tracked as objects");
+  AddDouble("moving_objects", "gate_m", &mo.gate_m,
+            "a region within this of a track's prediction is that object, m (> 0)");
+  AddInt("moving_objects", "confirm_updates", &mo.confirm_updates,
+         "frames of evidence before a track is reported [1, 1000]");
+  AddDouble("moving_objects", "max_coast_s", &mo.max_coast_s,
+            "a track without a region for longer is dropped, s (> 0)");
+  AddDouble("moving_objects", "position_sigma_m", &mo.position_sigma_m,
+            "noise of a region's floor position, m, plus position_sigma_ratio x range (>= 0)");
+  AddDouble("moving_objects", "position_sigma_ratio", &mo.position_sigma_ratio,
+            "... per metre of range (>= 0)");
+  AddDouble("moving_objects", "accel_sigma_mps2", &mo.accel_sigma_mps2,
+            "how fast an object's velocity may change, m/s^2 (> 0)");
+  AddDouble("moving_objects", "max_range_m", &mo.max_range_m,
+            "regions standing farther are not placed, m (> 0)");
   FloorFeatureOptions& ff = d.floor_features;
   AddBool("floor_features", "enabled", &ff.enabled,
           "floor descriptors on every detected frame, for loop closure");

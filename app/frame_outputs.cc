@@ -30,11 +30,33 @@ bool Write(const std::string& path, const cv::Mat& image, std::string* error,
   return ok;
 }
 
+// The frame's tracked moving objects (moving/NNNNNN.txt, format in the README), one line each: id,
+// position and velocity over the ground in the frame's base frame, footprint radius.
+bool WriteMovingObjects(const std::vector<MovingObject>& objects, const std::string& path,
+                        std::string* error) {
+  std::FILE* f = std::fopen(path.c_str(), "w");
+  if (f == nullptr) {
+    *error = path + ": cannot write (disk full or not writable?)";
+    return false;
+  }
+  std::fprintf(f, "# id x_m y_m vx_mps vy_mps radius_m (base frame of this frame)\n");
+  for (const MovingObject& o : objects) {
+    std::fprintf(f, "%d %.3f %.3f %.3f %.3f %.3f\n", o.id, o.position_in_base.x(),
+                 o.position_in_base.y(), o.velocity_in_base_mps.x(), o.velocity_in_base_mps.y(),
+                 o.radius_m);
+  }
+  if (std::fclose(f) != 0) {
+    *error = path + ": cannot write (disk full or not writable?)";
+    return false;
+  }
+  return true;
+}
+
 }  // namespace
 
 bool CreateFrameOutputFolders(const std::string& dir, std::string* error) {
   std::error_code ec;
-  for (const char* sub : {"labels", "height", "local", "panels"}) {
+  for (const char* sub : {"labels", "height", "local", "moving", "panels"}) {
     std::filesystem::create_directories(std::filesystem::path(dir) / sub, ec);
     if (ec) {
       *error = (std::filesystem::path(dir) / sub).string() + ": cannot create: " + ec.message();
@@ -54,7 +76,9 @@ bool WriteFrameOutputs(const std::string& dir, int index, const cv::Mat& image,
              error)) {
     return false;
   }
-  if (!WriteMapServerFiles(result.local_map, (d / "local" / Name(index, "yaml")).string(), error)) {
+  if (!WriteMapServerFiles(result.local_map, (d / "local" / Name(index, "yaml")).string(), error) ||
+      !WriteMovingObjects(result.moving_objects, (d / "moving" / Name(index, "txt")).string(),
+                          error)) {
     return false;
   }
   if (panels && !Write((d / "panels" / Name(index, "jpg")).string(),

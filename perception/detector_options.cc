@@ -102,7 +102,8 @@ bool DetectorOptions::IsValid(std::string* error) const {
   return ground_motion.IsValid(error) && direct_alignment.IsValid(error) &&
          zero_disparity.IsValid(error) && classification.IsValid(error) &&
          height_filter.IsValid(error) && motion_evidence.IsValid(error) &&
-         local_map.IsValid(error) && pair_selection.IsValid(error) && floor_features.IsValid(error);
+         moving_objects.IsValid(error) && local_map.IsValid(error) &&
+         pair_selection.IsValid(error) && floor_features.IsValid(error);
 }
 
 }  // namespace monoplane

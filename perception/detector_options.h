@@ -7,6 +7,7 @@
 #include "perception/ground_motion.h"
 #include "perception/height_filter.h"
 #include "perception/motion_evidence.h"
+#include "perception/moving_objects.h"
 #include "perception/zero_disparity.h"
 
 namespace monoplane {
@@ -185,6 +186,7 @@ struct DetectorOptions {
   ClassificationOptions classification;
   HeightFilterOptions height_filter;      // heights fused over the detected frames
   MotionEvidenceOptions motion_evidence;  // dense flow against the static world, every frame
+  MovingObjectOptions moving_objects;     // its regions placed on the floor and tracked
   LocalMapOptions local_map;
   PairSelectionOptions pair_selection;
   FloorFeatureOptions floor_features;  // computed on every kOk result (FrameResult::floor_features)

@@ -81,6 +81,18 @@ enum class PairStatus {
 const char* ToString(PairStatus status);
 
 // Everything the detector says about the second (current) frame of a pair.
+// One tracked moving object, in the base frame of the frame it is reported for (x forward,
+// y left): where it stands on the floor, its velocity over the ground in the base frame's axes,
+// and the radius of its footprint (from the region's width at that range).
+struct MovingObject {
+  int id = 0;  // the same for the object's whole track, from 1
+  Eigen::Vector2d position_in_base{0, 0};
+  Eigen::Vector2d velocity_in_base_mps{0, 0};
+  double radius_m = 0.0;
+  int updates = 0;        // frames with a region for it so far
+  bool coasting = false;  // no region for it in this frame: predicted
+};
+
 struct FrameResult {
   PairStatus status = PairStatus::kBadImage;
   std::string message;  // human-readable reason when status != kOk
@@ -118,6 +130,9 @@ struct FrameResult {
   // their points in this frame's base frame. Empty when the filter is off; SequenceDetector keeps
   // them for its next frame (its outputs carry none).
   std::vector<HeightSeed> height_seeds;
+  // The moving objects tracked up to this frame (MovingObjectTracker), in its base frame; a frame
+  // that carries an earlier detection has its own.
+  std::vector<MovingObject> moving_objects;
   // Counts of labelled pixels (full resolution).
   int num_floor = 0, num_obstacle = 0, num_drop_off = 0, num_moving = 0, num_unknown = 0;
 };

@@ -105,6 +105,7 @@ class SequenceDetector {
   struct Output {
     std::optional<FrameResult> result;         // none for the first frame or an unusable image
     Pose2 odom_from_base;                      // dead-reckoned pose of this frame
+    TimestampNs stamp_ns = 0;                  // of this frame
     GroundMotion step;                         // motion from the previous good frame
     std::vector<FeatureObservation> features;  // corners tracked into this frame
     bool image_ok = false;
@@ -123,8 +124,12 @@ class SequenceDetector {
     };
     std::optional<PendingDetection> pending;
     // Where things move on their own in this frame (MotionEvidence; CV_8U, empty when off or
-    // without a step). Finish labels them moving in a carried result too.
+    // without a step). Finish labels them moving in a carried result too, and tracks them as
+    // objects (FrameResult::moving_objects).
     cv::Mat moving_mask;
+    // Where this image matches the previous one under the floor's motion (FloorMatchingPixels),
+    // when something moves: where moving things stand.
+    cv::Mat floor_matching;
     // A frame tracked but not detected, or without parallax: its image, for Finish to carry the
     // last detected frame's labels to it (FrameResult::predicted).
     cv::Mat undetected_image;
@@ -142,6 +147,9 @@ class SequenceDetector {
   const ObstacleDetector& detector() const { return detector_; }
 
  private:
+  // The frame's pixels labelled moving, as objects (MovingObjectTracker) into its result; every
+  // usable frame, in order, also those without a result.
+  void TrackMovingObjects(Output& output);
   struct Frame {
     cv::Mat image;
     Pose2 odom_from_base;
@@ -184,8 +192,9 @@ class SequenceDetector {
   std::optional<Pose2> last_detection_odom_from_base_;  // of the last (non-turn) detected frame
   std::vector<cv::Mat> previous_pyramid_;               // Lucas-Kanade pyramid of history_.back()
   AlignmentImage previous_alignment_;                   // and its direct-alignment image
-  ShiTomasiCorners corners_;        // corner strength of the frame being topped up
-  MotionEvidence motion_evidence_;  // dense flow of consecutive frames
+  ShiTomasiCorners corners_;            // corner strength of the frame being topped up
+  MotionEvidence motion_evidence_;      // dense flow of consecutive frames
+  MovingObjectTracker moving_objects_;  // its regions as objects over frames
 };
 
 }  // namespace monoplane

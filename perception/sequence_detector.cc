@@ -15,7 +15,8 @@ namespace monoplane {
 SequenceDetector::SequenceDetector(const CameraCalibration& calibration,
                                    const DetectorOptions& options)
     : detector_(calibration, options),
-      motion_evidence_(detector_.camera(), options.motion_evidence) {}
+      motion_evidence_(detector_.camera(), options.motion_evidence),
+      moving_objects_(options.moving_objects) {}
 
 namespace {
 
@@ -167,6 +168,7 @@ void SequenceDetector::Finish(Output* output) {
     if (output->result && !output->result->predicted && output->result->status != PairStatus::kOk)
       last_detected_.reset();
     output->undetected_image.release();
+    TrackMovingObjects(*output);
     return;
   }
   const Output::PendingDetection& p = *output->pending;
@@ -207,11 +209,27 @@ void SequenceDetector::Finish(Output* output) {
     last_detected_.reset();
   }
   output->pending.reset();
+  TrackMovingObjects(*output);
+}
+
+void SequenceDetector::TrackMovingObjects(Output& output) {
+  if (!output.image_ok) return;
+  // The pixels labelled moving: the motion evidence less what the dense search saw as floor (the
+  // flow of a moving thing spreads onto the floor around it, below its feet too).
+  cv::Mat moving;
+  if (output.result && !output.result->labels.empty())
+    moving = output.result->labels == static_cast<int>(PixelLabel::kMoving);
+  std::vector<MovingObject> objects =
+      moving_objects_.Update(PlaceMovingRegions(detector_.camera(), moving, output.floor_matching,
+                                                detector_.options().moving_objects),
+                             output.odom_from_base, output.stamp_ns);
+  if (output.result) output.result->moving_objects = std::move(objects);
 }
 
 SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, TimestampNs stamp_ns,
                                                    bool defer_detection) {
   Output out;
+  out.stamp_ns = stamp_ns;
   const DetectorOptions& options = detector_.options();
   const CameraModel& camera = detector_.camera();
   const CameraIntrinsics& in = camera.calibration().intrinsics;
@@ -281,6 +299,12 @@ SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, Timesta
     motion_evidence_.Reset();
   } else {
     out.moving_mask = motion_evidence_.Compute(previous.image, prepared, out.step.base2_from_base1);
+    if (options.moving_objects.enabled && !out.moving_mask.empty() &&
+        cv::countNonZero(out.moving_mask) > 0) {
+      out.floor_matching =
+          FloorMatchingPixels(camera, previous.image, prepared, out.step.base2_from_base1,
+                              options.classification.max_residual);
+    }
   }
 
   const cv::Size size(in.width, in.height);

@@ -250,6 +250,43 @@ void BM_MotionEvidence(benchmark::State& state) {
 }
 BENCHMARK(BM_MotionEvidence)->Unit(benchmark::kMillisecond);
 
+// The moving regions as objects on the same frames (the motion evidence computed beforehand):
+// the floor-matching image of the pair, the regions placed on the floor, the tracker. Time per
+// frame.
+void BM_MovingObjects(benchmark::State& state) {
+  const Sequence& seq = SceneSequence("person_crossing");
+  const ObstacleDetector detector(seq.calibration, DetectorOptions());
+  std::vector<cv::Mat> prepared, masks;
+  std::string error;
+  for (const cv::Mat& f : seq.frames) prepared.push_back(detector.Prepare(f, &error));
+  MotionEvidence evidence(detector.camera(), MotionEvidenceOptions());
+  Pose2 step;
+  step.x = -0.3 / seq.fps;
+  masks.emplace_back();
+  for (std::size_t i = 1; i < prepared.size(); ++i)
+    masks.push_back(evidence.Compute(prepared[i - 1], prepared[i], step));
+  const MovingObjectOptions options;
+  const double max_residual = ClassificationOptions().max_residual;
+  MovingObjectTracker tracker(options);
+  Pose2 odom_from_base;
+  TimestampNs stamp_ns = 0;
+  std::size_t next = 1;
+  for (auto _ : state) {
+    const cv::Rect moving = masks[next].empty() ? cv::Rect() : cv::boundingRect(masks[next]);
+    const cv::Mat matching = moving.area() > 0
+                                 ? FloorMatchingPixels(detector.camera(), prepared[next - 1],
+                                                       prepared[next], step, max_residual, moving)
+                                 : cv::Mat();
+    odom_from_base = odom_from_base * step.Inverse();
+    stamp_ns += SecondsToNs(1.0 / seq.fps);
+    benchmark::DoNotOptimize(
+        tracker.Update(PlaceMovingRegions(detector.camera(), masks[next], matching, options),
+                       odom_from_base, stamp_ns));
+    next = next + 1 == prepared.size() ? 1 : next + 1;
+  }
+}
+BENCHMARK(BM_MovingObjects)->Unit(benchmark::kMillisecond);
+
 // The same chain (epipolar, defaults) on the first 40 frames of other scenes: the cost depends on
 // the content (texture, obstacles, how much of the image is floor), so one scene is not enough.
 const char* const kBenchScenes[] = {"office",         "corridor", "effects",

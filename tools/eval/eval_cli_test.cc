@@ -147,6 +147,38 @@ TEST_F(EvalCliTest, LabelsJsonAndUnreadableImage) {
       << bad.output;
 }
 
+TEST_F(EvalCliTest, TracksJsonTableAndMalformedLine) {
+  fs::create_directories(dir_ / "seq/gt");
+  fs::create_directories(dir_ / "pred/moving");
+  {
+    // Two frames, the robot at the origin facing +x; one mover 2 m ahead, in view.
+    std::ofstream(Path("seq/gt/trajectory.txt")) << "0.0 0 0 0 0 0 0 1\n0.1 0 0 0 0 0 0 1\n";
+    std::ofstream(Path("seq/gt/movers.txt"))
+        << "# frame_index time_s mover_index x_m y_m vx_mps vy_mps radius_m in_view\n"
+        << "0 0.0 0 2 0 0 1 0.22 1\n1 0.1 0 2 0.1 0 1 0.22 1\n";
+    std::ofstream(Path("pred/moving/000000.txt")) << "3 2.1 0 0 1 0.2\n4 1 -1 0 0 0.2\n";
+  }
+  const std::string args = "tracks --pred " + Path("pred") + " --gt " + Path("seq");
+  const RunResult json = RunEval(args + " --json");
+  ASSERT_EQ(json.exit_code, 0) << json.output;
+  EXPECT_EQ(JsonNumber(json.output, "frames_missing"), 1);
+  EXPECT_EQ(JsonNumber(json.output, "visible_frames", "\"movers\""), 2);
+  EXPECT_NEAR(JsonNumber(json.output, "detected_share", "\"overall\""), 0.5, 1e-9);
+  EXPECT_NEAR(JsonNumber(json.output, "position_error_median_m", "\"overall\""), 0.1, 1e-9);
+  EXPECT_EQ(JsonNumber(json.output, "main_id"), 3);
+  EXPECT_EQ(JsonNumber(json.output, "false_objects"), 1);
+  EXPECT_EQ(JsonNumber(json.output, "frames_with_false_objects_share"), 1.0);
+  const RunResult table = RunEval(args);
+  ASSERT_EQ(table.exit_code, 0) << table.output;
+  EXPECT_NE(table.output.find("false objects: 1"), std::string::npos) << table.output;
+
+  std::ofstream(Path("pred/moving/000001.txt")) << "3 2.1 0 0 1\n";
+  const RunResult bad = RunEval(args);
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_EQ(bad.output.find(Path("pred/moving/000001.txt") + ":1: expected"), 16u) << bad.output;
+  EXPECT_EQ(bad.output.find('\n'), bad.output.size() - 1) << "one line: " << bad.output;
+}
+
 TEST_F(EvalCliTest, MissingSubcommandOrOptionIsBadInput) {
   EXPECT_EQ(RunEval("").exit_code, 2);
   EXPECT_EQ(RunEval("traj --pred x.txt").exit_code, 2);

@@ -1,4 +1,5 @@
-// monoplane-eval: scores per-frame labels, grids and trajectories against ground truth.
+// monoplane-eval: scores per-frame labels, grids, trajectories and tracked moving objects against
+// ground truth.
 // Exit codes: 0 scored, 2 unreadable or invalid input (one line naming the file and the reason).
 #include <CLI/CLI.hpp>
 #include <iostream>
@@ -183,6 +184,39 @@ int main(int argc, char** argv) {
       return;
     }
     std::cout << (json ? TrajectoryReportJson(result) : TrajectoryReportTable(result));
+  });
+
+  // tracks
+  std::string tracks_pred, tracks_gt;
+  TrackEvalOptions track_options;
+  CLI::App* tracks = app.add_subcommand(
+      "tracks", "tracked moving objects vs a simulated sequence's movers (gt/movers.txt)");
+  tracks
+      ->add_option("--pred", tracks_pred,
+                   "per-frame output folder (moving/NNNNNN.txt: `id x y vx vy radius` per line, "
+                   "base frame)")
+      ->required();
+  tracks
+      ->add_option("--gt", tracks_gt,
+                   "simulated sequence folder (gt/trajectory.txt, gt/movers.txt)")
+      ->required();
+  tracks
+      ->add_option("--max-range", track_options.max_range_m,
+                   "movers in view within this distance of the robot are scored, m")
+      ->capture_default_str();
+  tracks
+      ->add_option("--gate", track_options.gate_m,
+                   "a prediction matches a mover within this distance, m")
+      ->capture_default_str();
+  tracks->add_flag("--json", json, "print JSON instead of a table");
+  tracks->callback([&] {
+    TrackEvalResult result;
+    std::string error;
+    if (!EvaluateTrackSequence(tracks_pred, tracks_gt, track_options, &result, &error)) {
+      exit_code = Fail(error);
+      return;
+    }
+    std::cout << (json ? TrackReportJson(result) : TrackReportTable(result));
   });
 
   try {

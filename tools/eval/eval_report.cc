@@ -177,6 +177,21 @@ std::string KittiMetricsJson(const KittiMetrics& m) {
       .Str();
 }
 
+std::string TrackMetricsJson(const TrackMetrics& m) {
+  JsonObject json;
+  if (m.mover >= 0) json.Add("mover", m.mover);
+  json.Add("visible_frames", m.visible_frames)
+      .Add("detected_frames", m.detected_frames)
+      .Add("detected_share", m.detected_share)
+      .Add("position_error_median_m", m.position_error_median_m)
+      .Add("position_error_p95_m", m.position_error_p95_m)
+      .Add("velocity_error_median_mps", m.velocity_error_median_mps)
+      .Add("consistent_frames", m.consistent_frames)
+      .Add("id_consistency", m.id_consistency);
+  if (m.mover >= 0) json.Raw("main_id", m.main_id ? std::to_string(*m.main_id) : "null");
+  return json.Str();
+}
+
 }  // namespace
 
 std::string LabelReportTable(const LabelEvalResult& result) {
@@ -390,6 +405,53 @@ std::string TrajectoryReportJson(const TrajectoryEvalResult& r) {
              .Raw("rpe_segments", Array(segments))
              .Raw("rpe_frame_translation_m", ErrorStatsJson(r.rpe_frame_translation_m))
              .Raw("rpe_frame_rotation_deg", ErrorStatsJson(r.rpe_frame_rotation_deg))
+             .Str() +
+         "\n";
+}
+
+std::string TrackReportTable(const TrackEvalResult& r) {
+  std::string out = "frames: " + std::to_string(r.frames) + ", with output " +
+                    std::to_string(r.frames_with_output) + ", missing " +
+                    std::to_string(r.frames_missing) + " (movers scored when in view within " +
+                    FormatBandEdge(r.max_range_m) + " m; gate " + FormatBandEdge(r.gate_m) +
+                    " m)\n";
+  const std::vector<int> w{8, 8, 9, 10, 10, 12, 9, 8};
+  out += Row({"mover", "visible", "detected", "pos.med_m", "pos.p95_m", "vel.med_mps", "id.cons",
+              "main_id"},
+             w);
+  std::vector<TrackMetrics> rows = r.movers;
+  rows.push_back(r.overall);
+  for (const TrackMetrics& m : rows) {
+    out +=
+        Row({m.mover >= 0 ? std::to_string(m.mover) : "overall", std::to_string(m.visible_frames),
+             Percent(m.detected_share), Fixed(m.position_error_median_m),
+             Fixed(m.position_error_p95_m), Fixed(m.velocity_error_median_mps),
+             Percent(m.id_consistency), m.main_id ? std::to_string(*m.main_id) : "-"},
+            w);
+  }
+  out += "false objects: " + std::to_string(r.false_objects) + " (in " +
+         std::to_string(r.frames_with_false_objects) + " frames, " +
+         Percent(r.frames_with_false_objects_share) + " of frames with output; " +
+         std::to_string(r.false_objects_near_unscored_movers) +
+         " near a mover out of view or range)\n";
+  return out;
+}
+
+std::string TrackReportJson(const TrackEvalResult& r) {
+  std::vector<std::string> movers;
+  for (const TrackMetrics& m : r.movers) movers.push_back(TrackMetricsJson(m));
+  return JsonObject()
+             .Add("frames", r.frames)
+             .Add("frames_with_output", r.frames_with_output)
+             .Add("frames_missing", r.frames_missing)
+             .Add("max_range_m", r.max_range_m)
+             .Add("gate_m", r.gate_m)
+             .Raw("movers", Array(movers))
+             .Raw("overall", TrackMetricsJson(r.overall))
+             .Add("false_objects", r.false_objects)
+             .Add("frames_with_false_objects", r.frames_with_false_objects)
+             .Add("frames_with_false_objects_share", r.frames_with_false_objects_share)
+             .Add("false_objects_near_unscored_movers", r.false_objects_near_unscored_movers)
              .Str() +
          "\n";
 }

@@ -5,6 +5,7 @@
 #include "tools/eval/grid_metrics.h"
 #include "tools/eval/kitti_lidar.h"
 #include "tools/eval/label_metrics.h"
+#include "tools/eval/track_metrics.h"
 #include "tools/eval/trajectory_metrics.h"
 
 namespace monoplane::eval {
@@ -19,5 +20,7 @@ std::string GridReportTable(const GridEvalResult& result);
 std::string GridReportJson(const GridEvalResult& result);
 std::string TrajectoryReportTable(const TrajectoryEvalResult& result);
 std::string TrajectoryReportJson(const TrajectoryEvalResult& result);
+std::string TrackReportTable(const TrackEvalResult& result);
+std::string TrackReportJson(const TrackEvalResult& result);
 
 }  // namespace monoplane::eval

@@ -9,7 +9,7 @@
 int main(int argc, char** argv) {
   CLI::App app{
       "monoplane-sim: render a synthetic scene (YAML) into images/, times.txt, calib.yaml "
-      "and gt/ (labels, height, depth, trajectory, map, OctoMap)"};
+      "and gt/ (labels, height, depth, trajectory, movers, map, OctoMap)"};
   std::string scene_path, out_dir;
   int frames = -1;
   long long seed = -1;

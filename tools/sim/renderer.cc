@@ -573,7 +573,9 @@ struct SceneRenderer::Impl {
       gt->label = cv::Mat1b(height, width, std::uint8_t{0});
       gt->height = cv::Mat1w(height, width, std::uint16_t{0});
       gt->depth = cv::Mat1w(height, width, std::uint16_t{0});
+      gt->mover_pixels.assign(scene.movers.size(), 0);
     }
+    const int first_mover_id = kShapeIdBase + static_cast<int>(scene.obstacles.size());
     // Row by row: the pixel rays of this row and the next in the world frame; their differences
     // give the per-pixel ray derivatives.
     std::vector<Eigen::Vector3d> row_prev(width), row_cur(width), row_next(width);
@@ -608,6 +610,7 @@ struct SceneRenderer::Impl {
               static_cast<std::uint16_t>(std::clamp(std::floor(z_mm + 0.5), 1.0, 65535.0));
           const double depth_mm = std::floor(hit.t * 1000.0 + 0.5);
           gt->depth(v, u) = depth_mm <= 65535.0 ? static_cast<std::uint16_t>(depth_mm) : 0;
+          if (hit.label == kLabelMoving) ++gt->mover_pixels[hit.id - first_mover_id];
         }
       }
     }
@@ -656,6 +659,7 @@ struct SceneRenderer::Impl {
       frame.label.release();
       frame.height.release();
       frame.depth.release();
+      frame.mover_pixels.clear();
     }
     return frame;
   }

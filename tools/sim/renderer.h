@@ -38,6 +38,9 @@ struct RenderedFrame {
   cv::Mat1b label;   // kLabel*
   cv::Mat1w height;  // height of the surface point above the floor, mm + kHeightOffsetMm; 0 none
   cv::Mat1w depth;   // depth along the optical axis, mm; 0 none or > 65.535 m
+  // Per scene mover (in Scene::movers order): how many pixels of `label` show it, i.e. its share
+  // of the kLabelMoving pixels (at pixel centres, like the label). Filled with the ground truth.
+  std::vector<int> mover_pixels;
 };
 
 // Renders a scene by exact per-pixel ray casting against boxes, cylinders, spheres and the floor

@@ -92,6 +92,15 @@ bool WritePng(const fs::path& path, const cv::Mat& image, std::string* error) {
   return ok;
 }
 
+// The radius of a mover's footprint: a cylinder's (or sphere's) radius, half the diagonal of a
+// box's footprint.
+double FootprintRadius(const Shape& s) {
+  return s.type == ShapeType::kBox ? 0.5 * std::hypot(s.size.x(), s.size.y()) : s.size.x() / 2;
+}
+
+// The value as printed with 6 decimals, without a "-0.000000".
+double Printable(double v) { return std::abs(v) < 5e-7 ? 0.0 : v; }
+
 }  // namespace
 
 bool SequenceOptions::IsValid(std::string* error) const {
@@ -248,6 +257,7 @@ bool GenerateSequence(const Scene& scene_in, const std::string& out_dir,
   const Pose2 map_from_world = world_from_map.Inverse();
   const SceneRenderer renderer(scene, scene.calibration);
   std::string times, trajectory;
+  std::string movers = std::string(kMoversHeader) + "\n";
   for (int i = 0; i < frames; ++i) {
     const double t = i / scene.fps;
     RenderOptions render_options;
@@ -260,13 +270,28 @@ bool GenerateSequence(const Scene& scene_in, const std::string& out_dir,
         !WritePng(root / "gt/depth" / name, frame.depth, error)) {
       return false;
     }
-    char line[64];
+    char line[256];
     std::snprintf(line, sizeof(line), "%.6f ", t);
     times += line + ("images/" + name) + "\n";
     trajectory += TumLine(t, map_from_world * RobotPoseAt(scene, t)) + "\n";
+    for (std::size_t k = 0; k < scene.movers.size(); ++k) {
+      const Mover& mover = scene.movers[k];
+      // Velocity over the ground: central difference over one frame interval centred on t.
+      const double half_dt = 0.5 / scene.fps;
+      const Eigen::Vector2d velocity_in_world = (MoverPoseAt(mover, t + half_dt).Translation() -
+                                                 MoverPoseAt(mover, t - half_dt).Translation()) /
+                                                (2 * half_dt);
+      const Eigen::Vector2d p = map_from_world * MoverPoseAt(mover, t).Translation();
+      const Eigen::Vector2d v = map_from_world.Rotation() * velocity_in_world;
+      std::snprintf(line, sizeof(line), "%d %.6f %zu %.6f %.6f %.6f %.6f %.6f %d\n", i, t, k,
+                    Printable(p.x()), Printable(p.y()), Printable(v.x()), Printable(v.y()),
+                    FootprintRadius(mover.shape), frame.mover_pixels[k] > 0 ? 1 : 0);
+      movers += line;
+    }
   }
   if (!WriteText(root / "times.txt", times, error)) return false;
   if (!WriteText(root / "gt/trajectory.txt", trajectory, error)) return false;
+  if (!WriteText(root / "gt/movers.txt", movers, error)) return false;
   if (!WriteMapServerFiles(StaticObstacleGrid(scene, world_from_map, options.map_resolution_m),
                            (root / "gt/map.yaml").string(), error)) {
     return false;

@@ -24,9 +24,20 @@ struct SequenceOptions {
   bool IsValid(std::string* error) const;
 };
 
+// The first line of gt/movers.txt. Then one line per frame and mover (frame-major, movers in scene
+// order): frame index (as in images/NNNNNN.png), time (s), mover index, footprint centre x, y (m)
+// and velocity over the ground vx, vy (m/s; central difference of MoverPoseAt over +-0.5 / fps),
+// both in the map frame of gt/trajectory.txt, footprint radius (m; cylinder: radius, box: half the
+// diagonal of its footprint), in_view: 1 when at least one pixel of the frame's gt/labels shows
+// this mover (RenderedFrame::mover_pixels > 0), else 0. printf: "%d %.6f %zu %.6f x5 %d".
+inline constexpr const char* kMoversHeader =
+    "# frame_index time_s mover_index x_m y_m vx_mps vy_mps radius_m in_view"
+    " (x, y, vx, vy in the map frame of gt/trajectory.txt)";
+
 // Renders a scene into `out_dir` in the simulator's folder layout (tools/sim/README.md):
 //   images/NNNNNN.png, times.txt, calib.yaml,
 //   gt/labels|height|depth/NNNNNN.png, gt/trajectory.txt (TUM, map frame = base at frame 0),
+//   gt/movers.txt (kMoversHeader; the header alone without movers),
 //   gt/map.yaml + gt/map.pgm (map_server trinary), gt/obstacles.bt (OctoMap).
 // Creates the folders. Returns false with a message naming the file on failure.
 bool GenerateSequence(const Scene& scene, const std::string& out_dir,

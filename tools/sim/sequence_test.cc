@@ -170,6 +170,140 @@ TEST_F(SequenceTest, FramesOnDiskMatchRenderFrame) {
   EXPECT_GT(cv::countNonZero(labels == kLabelFloor), 1000);
 }
 
+// person_crossing in small: the robot starts facing world +y and drives slowly ahead; a person
+// (cylinder) crosses 2.5 m ahead from its right at 1 m/s, a box waits behind the robot until 1 s
+// and then moves at 0.6 m/s. Map frame = the base at frame 0: map (x, y) = world (y, -x).
+const char* const kCrossingScene = R"(
+calibration:
+  camera: {width: 160, height: 120, fx: 114.25, fy: 114.25, cx: 79.5, cy: 59.5}
+  mount: {x: 0.10, y: 0.0, height: 0.40, pitch_deg: 22.0, roll_deg: 0.0, yaw_deg: 0.0}
+fps: 15
+seed: 5
+bounds: [-4.0, -2.0, 4.0, 4.0]
+floor: {material: tiles}
+movers:
+  - {type: cylinder, radius: 0.22, height: 1.7, speed: 1.0, waypoints: [[3.0, 2.5], [-3.0, 2.5]]}
+  - {type: box, size: [0.4, 0.3, 1.0], speed: 0.6, waypoints: [[-0.5, -1.0], [0.5, -1.0]],
+     start_time: 1.0}
+trajectory:
+  start: [0, 0, 90]
+  segments: [{v: 0.3, omega: 0, duration: 4}]
+)";
+
+struct MoverLine {
+  int frame = 0;
+  double t = 0;
+  int mover = 0;
+  double x = 0, y = 0, vx = 0, vy = 0, radius = 0;
+  int in_view = 0;
+};
+
+class MoversFileTest : public ::testing::Test {
+ protected:
+  static constexpr int kFrames = 30;
+  static void SetUpTestSuite() {
+    out_ = new fs::path(fs::path(MONOPLANE_BINARY_DIR) / "tools/sim/sequence_test_movers_out");
+    fs::remove_all(*out_);
+    Scene scene;
+    std::string error;
+    ASSERT_TRUE(ParseSceneYaml(kCrossingScene, &scene, &error)) << error;
+    SequenceOptions options;
+    options.frames = kFrames;
+    ASSERT_TRUE(GenerateSequence(scene, out_->string(), options, &error)) << error;
+  }
+  static void TearDownTestSuite() { delete out_; }
+
+  static fs::path* out_;
+};
+fs::path* MoversFileTest::out_ = nullptr;
+
+TEST_F(MoversFileTest, OneLinePerFrameAndMoverInTheMapFrame) {
+  const auto lines = ReadLines(*out_ / "gt/movers.txt");
+  ASSERT_EQ(lines.size(), 1u + 2u * kFrames);
+  EXPECT_EQ(lines[0].rfind(std::string(kMoversHeader), 0), 0u) << lines[0];
+  std::vector<MoverLine> rows;
+  for (std::size_t i = 1; i < lines.size(); ++i) {
+    std::istringstream in(lines[i]);
+    MoverLine r;
+    ASSERT_TRUE(in >> r.frame >> r.t >> r.mover >> r.x >> r.y >> r.vx >> r.vy >> r.radius >>
+                r.in_view)
+        << lines[i];
+    std::string rest;
+    EXPECT_FALSE(in >> rest) << lines[i];
+    rows.push_back(r);
+  }
+  int person_enters = -1;
+  for (int i = 0; i < kFrames; ++i) {
+    const MoverLine& person = rows[2 * i];
+    const MoverLine& box = rows[2 * i + 1];
+    const double t = i / 15.0;
+    ASSERT_EQ(person.frame, i);
+    ASSERT_EQ(box.frame, i);
+    EXPECT_EQ(person.mover, 0);
+    EXPECT_EQ(box.mover, 1);
+    EXPECT_NEAR(person.t, t, 1e-6);
+    // The person walks world (3 - t, 2.5): map (2.5, t - 3), velocity map (0, 1).
+    EXPECT_NEAR(person.x, 2.5, 2e-6) << "frame " << i;
+    EXPECT_NEAR(person.y, t - 3.0, 2e-6) << "frame " << i;
+    EXPECT_DOUBLE_EQ(person.radius, 0.22);
+    if (i > 0) {  // frame 0: the half interval before t = 0 it stood at its first waypoint
+      EXPECT_NEAR(std::hypot(person.vx, person.vy), 1.0, 0.01) << "frame " << i;
+      EXPECT_NEAR(person.vx, 0.0, 1e-5) << "frame " << i;
+    }
+    // The box: world (-0.5 + 0.6 (t - 1), -1) from 1 s, map (-1, 0.5 - 0.6 (t - 1)).
+    EXPECT_NEAR(box.x, -1.0, 2e-6);
+    EXPECT_NEAR(box.y, 0.5 - 0.6 * std::max(0.0, t - 1.0), 2e-6) << "frame " << i;
+    EXPECT_DOUBLE_EQ(box.radius, 0.25);  // half the diagonal of 0.4 x 0.3
+    const double box_speed = std::hypot(box.vx, box.vy);
+    if (t + 0.5 / 15 <= 1.0) {
+      EXPECT_NEAR(box_speed, 0.0, 1e-9) << "frame " << i;
+    }
+    if (t - 0.5 / 15 >= 1.0) {
+      EXPECT_NEAR(box_speed, 0.6, 0.006) << "frame " << i;
+    }
+    EXPECT_EQ(box.in_view, 0) << "behind the robot, frame " << i;
+    // in_view: the person has pixels in the frame's labels (the only mover that can).
+    char name[16];
+    std::snprintf(name, sizeof(name), "%06d.png", i);
+    const cv::Mat labels = cv::imread((*out_ / "gt/labels" / name).string(), cv::IMREAD_UNCHANGED);
+    ASSERT_FALSE(labels.empty());
+    EXPECT_EQ(person.in_view, cv::countNonZero(labels == kLabelMoving) > 0 ? 1 : 0)
+        << "frame " << i;
+    // It enters the view once and stays in it.
+    if (person_enters < 0 && person.in_view == 1) person_enters = i;
+    if (person_enters >= 0) {
+      EXPECT_EQ(person.in_view, 1) << "frame " << i;
+    }
+  }
+  // Camera half field of view 35 deg: the person's edge enters near 1.95 m to the right of the
+  // optical axis at about 2.3 m ahead, i.e. after about 1 s.
+  EXPECT_GT(person_enters, 8);
+  EXPECT_LT(person_enters, 25);
+}
+
+TEST(MoversFileWithoutMovers, HeaderOnly) {
+  const fs::path out = fs::path(MONOPLANE_BINARY_DIR) / "tools/sim/sequence_test_no_movers_out";
+  fs::remove_all(out);
+  Scene scene;
+  std::string error;
+  ASSERT_TRUE(ParseSceneYaml(R"(
+calibration:
+  camera: {width: 32, height: 24, fx: 22.85, fy: 22.85, cx: 15.5, cy: 11.5}
+  mount: {x: 0.10, y: 0.0, height: 0.40, pitch_deg: 22.0, roll_deg: 0.0, yaw_deg: 0.0}
+bounds: [0, -1, 2, 1]
+trajectory: {start: [0, 0, 0], segments: [{v: 0.5, duration: 1}]}
+)",
+                             &scene, &error))
+      << error;
+  SequenceOptions options;
+  options.frames = 2;
+  ASSERT_TRUE(GenerateSequence(scene, out.string(), options, &error)) << error;
+  const auto lines = ReadLines(out / "gt/movers.txt");
+  ASSERT_EQ(lines.size(), 1u);
+  EXPECT_EQ(lines[0], kMoversHeader);
+  fs::remove_all(out);
+}
+
 TEST(SequenceOptionsTest, RejectsBadValues) {
   SequenceOptions options;
   std::string error;

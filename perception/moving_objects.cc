@@ -1,0 +1,291 @@
+#include "perception/moving_objects.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <opencv2/imgproc.hpp>
+#include <tuple>
+
+namespace monoplane {
+
+bool MovingObjectOptions::IsValid(std::string* error) const {
+  const auto fail = [&](const std::string& what) {
+    *error = "moving_objects." + what;
+    return false;
+  };
+  if (!(gate_m > 0) || !std::isfinite(gate_m)) return fail("gate_m: must be > 0");
+  if (confirm_updates < 1 || confirm_updates > 1000)
+    return fail("confirm_updates: must be in [1, 1000]");
+  if (!(max_coast_s > 0) || !std::isfinite(max_coast_s)) return fail("max_coast_s: must be > 0");
+  if (!(position_sigma_m >= 0) || !std::isfinite(position_sigma_m))
+    return fail("position_sigma_m: must be >= 0");
+  if (!(position_sigma_ratio >= 0) || !std::isfinite(position_sigma_ratio))
+    return fail("position_sigma_ratio: must be >= 0");
+  if (!(position_sigma_m + position_sigma_ratio > 0))
+    return fail("position_sigma_m: it and position_sigma_ratio must not both be 0");
+  if (!(accel_sigma_mps2 > 0) || !std::isfinite(accel_sigma_mps2))
+    return fail("accel_sigma_mps2: must be > 0");
+  if (!(max_range_m > 0) || !std::isfinite(max_range_m)) return fail("max_range_m: must be > 0");
+  return true;
+}
+
+cv::Mat FloorMatchingPixels(const CameraModel& camera, const cv::Mat& previous,
+                            const cv::Mat& current, const Pose2& base2_from_base1,
+                            double max_residual, const cv::Rect& roi) {
+  if (previous.empty() || current.empty() || previous.size() != current.size() ||
+      previous.type() != CV_8U || current.type() != CV_8U) {
+    return cv::Mat();
+  }
+  const cv::Rect area = roi.area() > 0 ? roi & cv::Rect(cv::Point(0, 0), current.size())
+                                       : cv::Rect(cv::Point(0, 0), current.size());
+  cv::Mat matching(current.size(), CV_8U, cv::Scalar(0));
+  if (area.empty()) return matching;
+  // Previous pixel of a current floor pixel: to the floor, into the previous base frame, back
+  // (from the area's own pixel coordinates).
+  Eigen::Matrix3d from_area = Eigen::Matrix3d::Identity();
+  from_area(0, 2) = area.x;
+  from_area(1, 2) = area.y;
+  const Eigen::Matrix3d previous_from_area = camera.pixel_from_floor() *
+                                             base2_from_base1.Inverse().Matrix() *
+                                             camera.floor_from_pixel() * from_area;
+  cv::Matx33d h;
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) h(r, c) = previous_from_area(r, c);
+  }
+  cv::Mat warped, residual;
+  cv::warpPerspective(previous, warped, h, area.size(), cv::INTER_LINEAR | cv::WARP_INVERSE_MAP,
+                      cv::BORDER_CONSTANT, cv::Scalar(0));
+  cv::absdiff(current(area), warped, residual);
+  cv::blur(residual, residual, cv::Size(5, 5));
+  matching(area).setTo(cv::Scalar(255), residual <= max_residual);
+  return matching;
+}
+
+std::vector<MovingRegion> PlaceMovingRegions(const CameraModel& camera, const cv::Mat& moving_mask,
+                                             const cv::Mat& floor_matching,
+                                             const MovingObjectOptions& options) {
+  std::vector<MovingRegion> regions;
+  if (!options.enabled || moving_mask.empty() || moving_mask.type() != CV_8U) return regions;
+  // Regions are found at half resolution (the motion evidence has no finer detail; a quarter of
+  // the cost), their lowest rows at full resolution.
+  cv::Mat half, component, stats, centroids;
+  cv::resize(moving_mask, half, cv::Size((moving_mask.cols + 1) / 2, (moving_mask.rows + 1) / 2), 0,
+             0, cv::INTER_NEAREST);
+  const int n = cv::connectedComponentsWithStats(half, component, stats, centroids, 8, CV_32S);
+  // Component of full-resolution pixel (v, u) when the mask is set there, else 0.
+  const auto component_at = [&](int v, int u) {
+    return moving_mask.at<std::uint8_t>(v, u) != 0 ? component.at<int>(v / 2, u / 2) : 0;
+  };
+  // One thing often leaves several regions (legs and body, parts of its texture): regions that
+  // share at least half of the narrower one's columns are one thing, standing where the lowest
+  // of them ends.
+  std::vector<int> group(n);
+  for (int c = 0; c < n; ++c) group[c] = c;
+  const auto root = [&](int c) {
+    while (group[c] != c) c = group[c] = group[group[c]];
+    return c;
+  };
+  for (int a = 1; a < n; ++a) {
+    for (int b = a + 1; b < n; ++b) {
+      const int a0 = stats.at<int>(a, cv::CC_STAT_LEFT),
+                a1 = a0 + stats.at<int>(a, cv::CC_STAT_WIDTH);
+      const int b0 = stats.at<int>(b, cv::CC_STAT_LEFT),
+                b1 = b0 + stats.at<int>(b, cv::CC_STAT_WIDTH);
+      const int shared = std::min(a1, b1) - std::max(a0, b0);
+      if (2 * shared >= std::min(a1 - a0, b1 - b0)) group[root(b)] = root(a);
+    }
+  }
+  const Eigen::Vector2d centre = camera.CameraCentreInBase().head<2>();
+  std::vector<int> columns;
+  for (int g = 1; g < n; ++g) {
+    if (root(g) != g) continue;
+    int left = moving_mask.cols, right = -1, top = moving_mask.rows, bottom = -1;
+    for (int c = 1; c < n; ++c) {
+      if (root(c) != g) continue;
+      left = std::min(left, stats.at<int>(c, cv::CC_STAT_LEFT));
+      right =
+          std::max(right, stats.at<int>(c, cv::CC_STAT_LEFT) + stats.at<int>(c, cv::CC_STAT_WIDTH));
+      top = std::min(top, stats.at<int>(c, cv::CC_STAT_TOP));
+      bottom = std::max(
+          bottom, stats.at<int>(c, cv::CC_STAT_TOP) + stats.at<int>(c, cv::CC_STAT_HEIGHT) - 1);
+    }
+    // At full resolution.
+    left *= 2;
+    top *= 2;
+    right = std::min(2 * right, moving_mask.cols);
+    bottom = std::min(2 * bottom + 1, moving_mask.rows - 1);
+    // The lowest pixel of the thing itself: one that does not match the floor's motion.
+    const auto counts = [&](int v, int u) {
+      return floor_matching.empty() || floor_matching.at<std::uint8_t>(v, u) == 0;
+    };
+    int lowest = -1;
+    for (int v = bottom; v >= top && lowest < 0; --v) {
+      for (int u = left; u < right; ++u) {
+        const int c = component_at(v, u);
+        if (c > 0 && root(c) == g && counts(v, u)) {
+          lowest = v;
+          break;
+        }
+      }
+    }
+    if (lowest < 0) continue;
+    bottom = lowest;
+    // Where it stands: its lowest rows (a few percent of its height: the feet, the wheels), at
+    // the median column of their pixels.
+    const int band = std::max(2, (bottom - top + 1) / 20);
+    columns.clear();
+    for (int v = std::max(top, bottom - band + 1); v <= bottom; ++v) {
+      for (int u = left; u < right; ++u) {
+        const int c = component_at(v, u);
+        if (c > 0 && root(c) == g && counts(v, u)) columns.push_back(u);
+      }
+    }
+    if (columns.empty()) continue;
+    std::nth_element(columns.begin(), columns.begin() + columns.size() / 2, columns.end());
+    const double u = columns[columns.size() / 2] + 0.5, v = bottom + 1.0;  // its lower edge
+    const auto floor = camera.PixelToFloor(Eigen::Vector2d(u, v));
+    const auto floor_left = camera.PixelToFloor(Eigen::Vector2d(left, v));
+    const auto floor_right = camera.PixelToFloor(Eigen::Vector2d(right, v));
+    if (!floor || !floor_left || !floor_right) continue;
+    const double range = (*floor - centre).norm();
+    if (!(range <= options.max_range_m)) continue;
+    MovingRegion r;
+    r.radius_m = 0.5 * (*floor_right - *floor_left).norm();
+    // The lowest row shows the thing's nearest edge; its centre lies a radius farther along the
+    // view.
+    r.position_in_base = *floor + r.radius_m * (*floor - centre) / std::max(range, 1e-9);
+    r.range_m = range + r.radius_m;
+    regions.push_back(r);
+  }
+  // Regions side by side that stand closer than the gate are parts of one thing (its leading and
+  // trailing edges when its middle has no texture): one region over their extent.
+  for (bool merged = true; merged;) {
+    merged = false;
+    for (std::size_t a = 0; a < regions.size() && !merged; ++a) {
+      for (std::size_t b = a + 1; b < regions.size() && !merged; ++b) {
+        const Eigen::Vector2d d = regions[b].position_in_base - regions[a].position_in_base;
+        if (d.norm() + std::abs(regions[a].radius_m - regions[b].radius_m) > options.gate_m)
+          continue;
+        MovingRegion& m = regions[a];
+        const double radius = 0.5 * (d.norm() + m.radius_m + regions[b].radius_m);
+        m.position_in_base += d * ((radius - m.radius_m) / std::max(d.norm(), 1e-9));
+        m.radius_m = std::max(radius, std::max(m.radius_m, regions[b].radius_m));
+        m.range_m = std::min(m.range_m, regions[b].range_m);
+        regions.erase(regions.begin() + static_cast<std::ptrdiff_t>(b));
+        merged = true;
+      }
+    }
+  }
+  return regions;
+}
+
+std::vector<MovingObject> MovingObjectTracker::Update(const std::vector<MovingRegion>& regions,
+                                                      const Pose2& odom_from_base,
+                                                      TimestampNs stamp_ns) {
+  std::vector<MovingObject> out;
+  if (!options_.enabled) return out;
+  const double dt = has_stamp_ ? std::max(0.0, NsToSeconds(stamp_ns - last_stamp_ns_)) : 0.0;
+  last_stamp_ns_ = stamp_ns;
+  has_stamp_ = true;
+  // Predict: constant velocity, white acceleration noise.
+  Eigen::Matrix4d f = Eigen::Matrix4d::Identity();
+  f(0, 2) = f(1, 3) = dt;
+  const double q = options_.accel_sigma_mps2 * options_.accel_sigma_mps2;
+  Eigen::Matrix4d noise = Eigen::Matrix4d::Zero();
+  const double dt2 = dt * dt, dt3 = dt2 * dt / 2.0, dt4 = dt2 * dt2 / 4.0;
+  noise(0, 0) = noise(1, 1) = dt4 * q;
+  noise(0, 2) = noise(2, 0) = noise(1, 3) = noise(3, 1) = dt3 * q;
+  noise(2, 2) = noise(3, 3) = dt2 * q;
+  for (Track& t : tracks_) {
+    t.state = f * t.state;
+    t.covariance = f * t.covariance * f.transpose() + noise;
+    t.updated_now = false;
+  }
+  // Associate: the closest region and track pairs first, within the gate.
+  std::vector<Eigen::Vector2d> in_odom(regions.size());
+  for (std::size_t r = 0; r < regions.size(); ++r)
+    in_odom[r] = odom_from_base * regions[r].position_in_base;
+  std::vector<std::tuple<double, std::size_t, std::size_t>> pairs;
+  for (std::size_t r = 0; r < regions.size(); ++r) {
+    for (std::size_t t = 0; t < tracks_.size(); ++t) {
+      const double d = (in_odom[r] - tracks_[t].state.head<2>()).norm();
+      if (d <= options_.gate_m) pairs.emplace_back(d, r, t);
+    }
+  }
+  std::sort(pairs.begin(), pairs.end());
+  std::vector<std::uint8_t> region_used(regions.size(), 0);
+  for (const auto& [d, r, t] : pairs) {
+    Track& track = tracks_[t];
+    if (region_used[r] || track.updated_now) continue;
+    region_used[r] = 1;
+    const double sigma =
+        options_.position_sigma_m + options_.position_sigma_ratio * regions[r].range_m;
+    const Eigen::Matrix2d measurement_noise = Eigen::Matrix2d::Identity() * sigma * sigma;
+    const Eigen::Matrix2d s = track.covariance.topLeftCorner<2, 2>() + measurement_noise;
+    const Eigen::Matrix<double, 4, 2> gain = track.covariance.leftCols<2>() * s.inverse();
+    track.state += gain * (in_odom[r] - track.state.head<2>());
+    track.covariance -= gain * track.covariance.topRows<2>();
+    track.radius_m = 0.7 * track.radius_m + 0.3 * regions[r].radius_m;
+    ++track.updates;
+    track.last_update_ns = stamp_ns;
+    track.updated_now = true;
+  }
+  // Drop the tracks lost for too long, and a track that came within the gate of an older one
+  // (one thing followed twice: the older keeps its id and takes the newer's state when only the
+  // newer saw it now).
+  const TimestampNs max_coast_ns = SecondsToNs(options_.max_coast_s);
+  for (std::size_t a = 0; a < tracks_.size(); ++a) {
+    for (std::size_t b = a + 1; b < tracks_.size(); ++b) {
+      Track& older = tracks_[a].id < tracks_[b].id ? tracks_[a] : tracks_[b];
+      Track& newer = tracks_[a].id < tracks_[b].id ? tracks_[b] : tracks_[a];
+      if (newer.dropped || older.dropped) continue;
+      if ((older.state.head<2>() - newer.state.head<2>()).norm() > options_.gate_m) continue;
+      if (newer.updated_now && !older.updated_now) {
+        older.state = newer.state;
+        older.covariance = newer.covariance;
+        older.radius_m = newer.radius_m;
+        older.last_update_ns = newer.last_update_ns;
+        older.updated_now = true;
+      }
+      older.updates = std::max(older.updates, newer.updates);
+      newer.dropped = true;
+    }
+  }
+  tracks_.erase(std::remove_if(tracks_.begin(), tracks_.end(),
+                               [&](const Track& t) {
+                                 return t.dropped || stamp_ns - t.last_update_ns > max_coast_ns;
+                               }),
+                tracks_.end());
+  for (std::size_t r = 0; r < regions.size(); ++r) {
+    if (region_used[r]) continue;
+    Track t;
+    t.id = next_id_++;
+    t.state << in_odom[r], 0.0, 0.0;
+    const double sigma =
+        options_.position_sigma_m + options_.position_sigma_ratio * regions[r].range_m;
+    // The velocity is unknown: walking pace either way.
+    t.covariance = Eigen::Vector4d(sigma * sigma, sigma * sigma, 1.0, 1.0).asDiagonal();
+    t.radius_m = regions[r].radius_m;
+    t.updates = 1;
+    t.last_update_ns = stamp_ns;
+    t.updated_now = true;
+    tracks_.push_back(t);
+  }
+  // Report the confirmed ones in this frame's base frame.
+  const Pose2 base_from_odom = odom_from_base.Inverse();
+  const Eigen::Matrix2d rotation = base_from_odom.Rotation();
+  for (const Track& t : tracks_) {
+    if (t.updates < options_.confirm_updates) continue;
+    MovingObject o;
+    o.id = t.id;
+    o.position_in_base = base_from_odom * Eigen::Vector2d(t.state.head<2>());
+    o.velocity_in_base_mps = rotation * t.state.tail<2>();
+    o.radius_m = t.radius_m;
+    o.updates = t.updates;
+    o.coasting = !t.updated_now;
+    out.push_back(o);
+  }
+  return out;
+}
+
+}  // namespace monoplane

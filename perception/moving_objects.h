@@ -1,0 +1,98 @@
+#pragma once
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+#include <string>
+#include <vector>
+
+#include "perception/frame_types.h"
+#include "perception/geometry/camera_model.h"
+#include "perception/geometry/pose2.h"
+#include "perception/geometry/timestamp.h"
+
+namespace monoplane {
+
+// Things that move, as objects: the moving regions of each frame (MotionEvidence's mask) placed
+// on the floor where they stand, and followed over frames with a constant-velocity Kalman filter
+// each, in the odometry frame (so that their velocity is over the ground, not relative to the
+// robot).
+struct MovingObjectOptions {
+  bool enabled = true;
+  // A region and a track are the same object when the region stands within this of where the
+  // track predicts it, m (> 0).
+  double gate_m = 0.8;
+  // Frames of evidence a track needs before it is reported (>= 1): one region can be a flicker.
+  int confirm_updates = 2;
+  // A track without a region for longer than this is dropped, s (> 0); until then it is reported
+  // where it is predicted to be (a person briefly lost in textureless flow is still there).
+  double max_coast_s = 0.5;
+  // Noise of the position measured from a region's lowest row, m: position_sigma_m plus
+  // position_sigma_ratio x range (>= 0, not both 0). The floor's scale per image row falls with
+  // the square of the range.
+  double position_sigma_m = 0.05;
+  double position_sigma_ratio = 0.05;
+  // How fast an object's velocity may change, m/s^2 (> 0): people and robots accelerate at 1-3.
+  double accel_sigma_mps2 = 2.0;
+  // Regions whose floor position lies farther than this are not placed, m (> 0).
+  double max_range_m = 8.0;
+
+  bool IsValid(std::string* error) const;
+};
+
+// A moving region of one frame placed on the floor.
+struct MovingRegion {
+  Eigen::Vector2d position_in_base{0, 0};  // the floor point under its lowest row
+  double radius_m = 0.0;
+  double range_m = 0.0;  // from the camera, on the floor
+};
+
+// Where the current image matches the previous one moved by the floor's motion of the step
+// (base2_from_base1: previous -> current): CV_8U, 255 where the mean absolute difference over 5 x 5
+// pixels is at most max_residual grey levels. The floor around a moving thing matches; the thing
+// does not (where it has texture). Only within roi when it is given (elsewhere 0).
+cv::Mat FloorMatchingPixels(const CameraModel& camera, const cv::Mat& previous,
+                            const cv::Mat& current, const Pose2& base2_from_base1,
+                            double max_residual, const cv::Rect& roi = cv::Rect());
+
+// The moving regions of a mask (CV_8U over the camera's image, non-zero = moves), each placed on
+// the floor where it stands: below the median column of its lowest pixels, a radius farther along
+// the view (the lowest row shows its nearest edge). Regions that share most of their columns are
+// one thing (legs and body). With floor_matching (FloorMatchingPixels, or empty), pixels of a
+// region that match the floor's motion do not count for its lowest row: the flow of a moving
+// thing spreads onto the floor below it. Regions whose lowest row lies above the horizon or beyond
+// max_range_m are left out.
+std::vector<MovingRegion> PlaceMovingRegions(const CameraModel& camera, const cv::Mat& moving_mask,
+                                             const cv::Mat& floor_matching,
+                                             const MovingObjectOptions& options);
+
+// Follows the regions over frames. No files, threads or clocks: the caller gives each frame's
+// stamp and odometry pose.
+class MovingObjectTracker {
+ public:
+  explicit MovingObjectTracker(const MovingObjectOptions& options) : options_(options) {}
+
+  // One frame: its regions (base frame), its pose in the odometry frame and its stamp (not older
+  // than the last one's). Returns the confirmed tracks in this frame's base frame.
+  std::vector<MovingObject> Update(const std::vector<MovingRegion>& regions,
+                                   const Pose2& odom_from_base, TimestampNs stamp_ns);
+
+ private:
+  struct Track {
+    int id = 0;
+    Eigen::Vector4d state = Eigen::Vector4d::Zero();  // x, y, vx, vy in the odometry frame
+    Eigen::Matrix4d covariance = Eigen::Matrix4d::Identity();
+    double radius_m = 0.0;
+    int updates = 0;
+    TimestampNs last_update_ns = 0;
+    bool updated_now = false;
+    bool dropped = false;  // merged into an older track
+  };
+
+  MovingObjectOptions options_;
+  std::vector<Track> tracks_;
+  int next_id_ = 1;
+  TimestampNs last_stamp_ns_ = 0;
+  bool has_stamp_ = false;
+};
+
+}  // namespace monoplane

@@ -1,0 +1,169 @@
+#include "perception/moving_objects.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <opencv2/imgproc.hpp>
+
+namespace monoplane {
+namespace {
+
+CameraModel MakeCamera() {
+  CameraCalibration c;
+  c.intrinsics = {640, 480, 457.0, 457.0, 319.5, 239.5, {0, 0, 0, 0, 0}};
+  c.mount = {0.1, 0.0, 0.40, 22.0, 0.0, 0.0};
+  return CameraModel(c);
+}
+
+// A person-sized region standing on the floor with its footprint's centre at `centre` (base
+// frame): its lowest row is where its nearest edge meets the floor, 1.7 m tall, width 2 x radius.
+void DrawStanding(const CameraModel& camera, const Eigen::Vector2d& centre, double radius_m,
+                  cv::Mat* mask) {
+  const Eigen::Vector2d view = centre - camera.CameraCentreInBase().head<2>();
+  const Eigen::Vector2d foot = centre - radius_m * view.normalized();
+  const auto bottom = camera.ProjectToPixel(Eigen::Vector3d(foot.x(), foot.y(), 0.0));
+  const auto top = camera.ProjectToPixel(Eigen::Vector3d(foot.x(), foot.y(), 1.7));
+  const auto left = camera.ProjectToPixel(Eigen::Vector3d(foot.x(), foot.y() + radius_m, 0.0));
+  const auto right = camera.ProjectToPixel(Eigen::Vector3d(foot.x(), foot.y() - radius_m, 0.0));
+  ASSERT_TRUE(bottom && top && left && right);
+  cv::rectangle(*mask,
+                cv::Rect(cv::Point(static_cast<int>(std::lround(left->x())),
+                                   std::max(0, static_cast<int>(std::lround(top->y())))),
+                         cv::Point(static_cast<int>(std::lround(right->x())),
+                                   static_cast<int>(std::lround(bottom->y())))),
+                cv::Scalar(255), cv::FILLED);
+}
+
+TEST(MovingObjects, ARegionIsPlacedWhereItStandsOnTheFloor) {
+  const CameraModel camera = MakeCamera();
+  const MovingObjectOptions options;
+  for (const Eigen::Vector2d& foot : {Eigen::Vector2d(1.5, 0.3), Eigen::Vector2d(3.0, -0.8)}) {
+    cv::Mat mask(480, 640, CV_8U, cv::Scalar(0));
+    DrawStanding(camera, foot, 0.25, &mask);
+    const std::vector<MovingRegion> regions = PlaceMovingRegions(camera, mask, cv::Mat(), options);
+    ASSERT_EQ(regions.size(), 1u);
+    // One image row of the floor at 3 m is about 5 cm for this camera.
+    EXPECT_NEAR((regions[0].position_in_base - foot).norm(), 0.0, 0.02 * foot.norm());
+    EXPECT_NEAR(regions[0].radius_m, 0.25, 0.03);
+  }
+  // A thing seen as two regions, one above the other (a gap of textureless flow across its
+  // middle), is one thing, standing where the lower one ends.
+  {
+    const Eigen::Vector2d foot(2.0, 0.2);
+    cv::Mat mask(480, 640, CV_8U, cv::Scalar(0));
+    DrawStanding(camera, foot, 0.25, &mask);
+    const auto waist = camera.ProjectToPixel(Eigen::Vector3d(foot.x(), foot.y(), 0.3));
+    ASSERT_TRUE(waist);
+    mask.rowRange(static_cast<int>(waist->y()) - 10, static_cast<int>(waist->y()) + 10)
+        .setTo(cv::Scalar(0));
+    const std::vector<MovingRegion> regions = PlaceMovingRegions(camera, mask, cv::Mat(), options);
+    ASSERT_EQ(regions.size(), 1u);
+    EXPECT_NEAR((regions[0].position_in_base - foot).norm(), 0.0, 0.04);
+  }
+  // A region whose lowest row lies above the horizon stands nowhere on the floor.
+  cv::Mat sky(480, 640, CV_8U, cv::Scalar(0));
+  cv::rectangle(sky, cv::Rect(300, 0, 40, 20), cv::Scalar(255), cv::FILLED);
+  EXPECT_TRUE(PlaceMovingRegions(camera, sky, cv::Mat(), options).empty());
+}
+
+// A person crossing 2 m ahead at 1 m/s while the robot drives forward at 0.3 m/s and turns
+// slowly: one id throughout, its velocity over the ground (not relative to the robot), and a
+// second person gets an id of its own.
+TEST(MovingObjects, ATrackKeepsItsIdAndMeasuresVelocityOverTheGround) {
+  MovingObjectOptions options;
+  MovingObjectTracker tracker(options);
+  const double dt = 1.0 / 15.0;
+  std::vector<MovingObject> last;
+  int first_id = 0;
+  for (int k = 0; k < 45; ++k) {
+    const double t = k * dt;
+    const Pose2 odom_from_base{0.3 * t, 0.0, 0.1 * t};
+    const Eigen::Vector2d person_in_odom(2.5, -1.0 + 1.0 * t);
+    // Noise of a few cm on the measured position, deterministic.
+    const Eigen::Vector2d noise(0.03 * std::sin(7.0 * k), 0.03 * std::cos(5.0 * k));
+    std::vector<MovingRegion> regions(1);
+    regions[0].position_in_base = odom_from_base.Inverse() * person_in_odom + noise;
+    regions[0].range_m = regions[0].position_in_base.norm();
+    regions[0].radius_m = 0.22;
+    if (k >= 30) {  // a second one appears, far from the first
+      MovingRegion other;
+      other.position_in_base = odom_from_base.Inverse() * Eigen::Vector2d(4.0, 1.0);
+      other.range_m = other.position_in_base.norm();
+      other.radius_m = 0.3;
+      regions.push_back(other);
+    }
+    last = tracker.Update(regions, odom_from_base, SecondsToNs(t));
+    if (k == 0) {
+      EXPECT_TRUE(last.empty());  // one frame of evidence is not enough
+    }
+    if (k >= 1 && k < 30) {
+      ASSERT_EQ(last.size(), 1u) << k;
+      if (first_id == 0) first_id = last[0].id;
+      EXPECT_EQ(last[0].id, first_id);
+    }
+  }
+  ASSERT_EQ(last.size(), 2u);
+  const Pose2 odom_from_base{0.3 * 44 * dt, 0.0, 0.1 * 44 * dt};
+  const MovingObject& person = last[0].id == first_id ? last[0] : last[1];
+  const MovingObject& other = last[0].id == first_id ? last[1] : last[0];
+  EXPECT_NE(other.id, first_id);
+  const Eigen::Vector2d velocity_in_odom = odom_from_base.Rotation() * person.velocity_in_base_mps;
+  EXPECT_NEAR(velocity_in_odom.x(), 0.0, 0.1);
+  EXPECT_NEAR(velocity_in_odom.y(), 1.0, 0.1);
+  EXPECT_NEAR(
+      (odom_from_base * person.position_in_base - Eigen::Vector2d(2.5, -1.0 + 44 * dt)).norm(), 0.0,
+      0.05);
+  const Eigen::Vector2d other_velocity = odom_from_base.Rotation() * other.velocity_in_base_mps;
+  EXPECT_LT(other_velocity.norm(), 0.2);  // it stands still
+}
+
+// A track without regions coasts (reported, predicted) for max_coast_s, then is dropped; an object
+// seen again after that is a new one.
+TEST(MovingObjects, ALostTrackCoastsThenIsDropped) {
+  MovingObjectOptions options;
+  options.max_coast_s = 0.3;
+  MovingObjectTracker tracker(options);
+  const double dt = 0.1;
+  MovingRegion region;
+  region.range_m = 2.0;
+  region.radius_m = 0.2;
+  int id = 0;
+  for (int k = 0; k < 5; ++k) {
+    region.position_in_base = Eigen::Vector2d(2.0, -0.5 + 0.5 * k * dt);
+    const auto out = tracker.Update({region}, Pose2{}, SecondsToNs(k * dt));
+    if (k > 0) {
+      ASSERT_EQ(out.size(), 1u);
+      id = out[0].id;
+      EXPECT_FALSE(out[0].coasting);
+    }
+  }
+  auto out = tracker.Update({}, Pose2{}, SecondsToNs(5 * dt));
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_TRUE(out[0].coasting);
+  EXPECT_NEAR(out[0].position_in_base.y(), -0.5 + 0.5 * 5 * dt, 0.05);  // where it walked on to
+  EXPECT_TRUE(tracker.Update({}, Pose2{}, SecondsToNs(9 * dt)).empty());
+  region.position_in_base = Eigen::Vector2d(2.0, 0.0);
+  tracker.Update({region}, Pose2{}, SecondsToNs(10 * dt));
+  out = tracker.Update({region}, Pose2{}, SecondsToNs(11 * dt));
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_NE(out[0].id, id);
+}
+
+TEST(MovingObjects, OptionsAreChecked) {
+  std::string error;
+  EXPECT_TRUE(MovingObjectOptions{}.IsValid(&error));
+  MovingObjectOptions bad;
+  bad.gate_m = 0;
+  EXPECT_FALSE(bad.IsValid(&error));
+  EXPECT_EQ(error, "moving_objects.gate_m: must be > 0");
+  bad = MovingObjectOptions{};
+  bad.confirm_updates = 0;
+  EXPECT_FALSE(bad.IsValid(&error));
+  bad = MovingObjectOptions{};
+  bad.position_sigma_m = 0;
+  bad.position_sigma_ratio = 0;
+  EXPECT_FALSE(bad.IsValid(&error));
+}
+
+}  // namespace
+}  // namespace monoplane
