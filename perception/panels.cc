@@ -128,10 +128,29 @@ cv::Mat RenderPanels(const cv::Mat& current, const FrameResult& result) {
     const double f = std::min(static_cast<double>(size.width) / map.cols,
                               static_cast<double>(size.height) / map.rows);
     cv::resize(map, map, cv::Size(), f, f, cv::INTER_NEAREST);
-    map.copyTo(top(
-        cv::Rect((size.width - map.cols) / 2, (size.height - map.rows) / 2, map.cols, map.rows)));
+    const cv::Point2d offset((size.width - map.cols) / 2, (size.height - map.rows) / 2);
+    map.copyTo(
+        top(cv::Rect(static_cast<int>(offset.x), static_cast<int>(offset.y), map.cols, map.rows)));
+    // The tracked moving objects: footprint, id, and where they will be in 1 s.
+    const GridGeometry& g = result.local_map.geometry;
+    const double px_per_m = f / g.resolution_m;
+    const auto to_panel = [&](const Eigen::Vector2d& p) {
+      // x (forward) up, y (left) left, as RenderLocalMap draws the cells.
+      return cv::Point2d(offset.x + (g.origin_y_m + g.height * g.resolution_m - p.y()) * px_per_m,
+                         offset.y + (g.origin_x_m + g.width * g.resolution_m - p.x()) * px_per_m);
+    };
+    const cv::Scalar yellow(0, 220, 255);
+    for (const MovingObject& o : result.moving_objects) {
+      const cv::Point2d c = to_panel(o.position_in_base);
+      cv::circle(top, c, std::max(3, static_cast<int>(std::lround(o.radius_m * px_per_m))), yellow,
+                 2);
+      cv::arrowedLine(top, c, to_panel(o.position_in_base + o.velocity_in_base_mps), yellow, 2);
+      cv::putText(top, std::to_string(o.id), c + cv::Point2d(6, -6), cv::FONT_HERSHEY_SIMPLEX, 0.5,
+                  yellow, 1);
+    }
   }
-  Caption(&top, "top view (5 cm cells)");
+  Caption(&top, result.moving_objects.empty() ? "top view (5 cm cells)"
+                                              : "top view (5 cm cells), moving: id, 1 s ahead");
   cv::Mat row1, row2, out;
   cv::hconcat(input, labelled, row1);
   cv::hconcat(disparity, top, row2);

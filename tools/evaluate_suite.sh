@@ -40,6 +40,7 @@ for scene in "${scenes[@]}"; do
     --seen-from "$seq" --json >"$dir/grid.json"
   "$build/tools/eval/monoplane-eval" traj --pred "$dir/trajectory.txt" --gt "$seq/gt/trajectory.txt" \
     --json >"$dir/traj.json"
+  "$build/tools/eval/monoplane-eval" tracks --pred "$dir/frames" --gt "$seq" >"$dir/tracks.txt"
   python3 - "$scene" "$dir" <<'EOF'
 import json, re, sys
 scene, d = sys.argv[1], sys.argv[2]
