@@ -95,6 +95,8 @@ std::vector<MovingRegion> PlaceMovingRegions(const CameraModel& camera, const cv
       if (2 * shared >= std::min(a1 - a0, b1 - b0)) group[root(b)] = root(a);
     }
   }
+  const bool use_matching = !floor_matching.empty() && floor_matching.type() == CV_8U &&
+                            floor_matching.size() == moving_mask.size();
   const Eigen::Vector2d centre = camera.CameraCentreInBase().head<2>();
   std::vector<int> columns;
   for (int g = 1; g < n; ++g) {
@@ -116,7 +118,7 @@ std::vector<MovingRegion> PlaceMovingRegions(const CameraModel& camera, const cv
     bottom = std::min(2 * bottom + 1, moving_mask.rows - 1);
     // The lowest pixel of the thing itself: one that does not match the floor's motion.
     const auto counts = [&](int v, int u) {
-      return floor_matching.empty() || floor_matching.at<std::uint8_t>(v, u) == 0;
+      return !use_matching || floor_matching.at<std::uint8_t>(v, u) == 0;
     };
     int lowest = -1;
     for (int v = bottom; v >= top && lowest < 0; --v) {
