@@ -299,11 +299,16 @@ SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, Timesta
     motion_evidence_.Reset();
   } else {
     out.moving_mask = motion_evidence_.Compute(previous.image, prepared, out.step.base2_from_base1);
-    if (options.moving_objects.enabled && !out.moving_mask.empty() &&
-        cv::countNonZero(out.moving_mask) > 0) {
-      out.floor_matching =
-          FloorMatchingPixels(camera, previous.image, prepared, out.step.base2_from_base1,
-                              options.classification.max_residual);
+    // Only around what moves: the lowest rows of its regions are all that is asked of it (with
+    // room for the labels' sample blocks, which reach a little beyond the evidence).
+    const cv::Rect moving = options.moving_objects.enabled && !out.moving_mask.empty()
+                                ? cv::boundingRect(out.moving_mask)
+                                : cv::Rect();
+    if (moving.area() > 0) {
+      out.floor_matching = FloorMatchingPixels(
+          camera, previous.image, prepared, out.step.base2_from_base1,
+          options.classification.max_residual,
+          cv::Rect(moving.x - 16, moving.y - 16, moving.width + 32, moving.height + 32));
     }
   }
 
