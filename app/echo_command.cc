@@ -84,11 +84,12 @@ void RegisterEchoCommand(CLI::App* app, int* exit_code) {
   auto* cmd = app->add_subcommand(
       "echo",
       "Print a summary line per message of a DDS topic (map, map_updates, odom, tf, clock, "
-      "monoplane/local_map)");
+      "monoplane/local_map, moving_obstacles)");
   static EchoOptions options;
   cmd->add_option(
          "TOPIC", options.topic,
-         "Topic: map, map_updates, odom, tf, clock, monoplane/local_map, or a full rt/... name")
+         "Topic: map, map_updates, odom, tf, clock, monoplane/local_map, moving_obstacles, or a "
+         "full rt/... name")
       ->required();
   cmd->add_option("--domain", options.domain_id, "DDS domain id")->check(CLI::Range(0, 232));
   cmd->add_option("--prefix", options.prefix, "Topic prefix (rt/PREFIX/map)");

@@ -100,7 +100,9 @@ int InfoCommand(const InfoArgs& args) {
         << ", \"local_maps\": " << info.local_maps
         << ", \"floor_feature_sets\": " << info.floor_feature_sets
         << ", \"floor_features\": " << info.floor_features << ", \"tiles\": " << info.tiles
-        << ", \"landmarks\": " << info.landmarks << ", \"octomap_bytes\": " << info.octomap_bytes
+        << ", \"landmarks\": " << info.landmarks << ", \"moving_objects\": " << info.moving_objects
+        << ", \"moving_object_observations\": " << info.moving_object_observations
+        << ", \"octomap_bytes\": " << info.octomap_bytes
         << ", \"resolution_m\": " << (info.tiles ? Num(info.resolution_m) : "null")
         << ", \"extent_m\": ";
     if (info.extent_min_m) {
@@ -140,7 +142,9 @@ int InfoCommand(const InfoArgs& args) {
     } else {
       out << "grid: empty\n";
     }
-    out << "landmarks: " << info.landmarks << "\n"
+    out << "moving objects: " << info.moving_objects << " (seen in "
+        << info.moving_object_observations << " frame observations)\n"
+        << "landmarks: " << info.landmarks << "\n"
         << "octomap: "
         << (info.octomap_bytes ? std::to_string(info.octomap_bytes) + " bytes" : "none") << "\n";
   }
@@ -311,15 +315,17 @@ int QueryCommand(const QueryArgs& args, const std::string& kind) {
 
 struct ExportArgs {
   std::string map;
-  std::string grid_yaml, trajectory_txt, octomap_bt, png;
+  std::string grid_yaml, trajectory_txt, octomap_bt, png, moving_csv;
   std::string poses = "optimised";
   int pixels_per_cell = 2;
 };
 
 int ExportCommand(const ExportArgs& args) {
   if (args.grid_yaml.empty() && args.trajectory_txt.empty() && args.octomap_bt.empty() &&
-      args.png.empty()) {
-    return Fail("export", "nothing to export: give --grid, --trajectory, --octomap and/or --png");
+      args.png.empty() && args.moving_csv.empty()) {
+    return Fail("export",
+                "nothing to export: give --grid, --trajectory, --octomap, --png and/or "
+                "--moving-objects");
   }
   std::unique_ptr<MapDatabase> db;
   StorageStatus st = OpenMap(args.map, &db);
@@ -339,6 +345,11 @@ int ExportCommand(const ExportArgs& args) {
   std::vector<TrajectoryPoint> trajectory;
   if (!args.trajectory_txt.empty() || !args.png.empty()) {
     st = db->ReadTrajectory(std::nullopt, source, &trajectory);
+    if (!st.ok()) return Fail("export", st.message(), ExitFor(st));
+  }
+  std::vector<MovingObjectObservation> moving;
+  if (!args.moving_csv.empty()) {
+    st = db->ReadMovingObjects(std::nullopt, source, &moving);
     if (!st.ok()) return Fail("export", st.message(), ExitFor(st));
   }
   StoredOctomap octomap;
@@ -367,6 +378,11 @@ int ExportCommand(const ExportArgs& args) {
       return fail_and_clean_up(error);
     written.push_back(args.trajectory_txt);
     report << "trajectory: " << args.trajectory_txt << " (" << trajectory.size() << " poses)\n";
+  }
+  if (!args.moving_csv.empty()) {
+    if (!WriteMovingObjectsCsv(moving, args.moving_csv, &error)) return fail_and_clean_up(error);
+    written.push_back(args.moving_csv);
+    report << "moving objects: " << args.moving_csv << " (" << moving.size() << " observations)\n";
   }
   if (!args.octomap_bt.empty()) {
     if (!WriteBytesFile(octomap.bytes, args.octomap_bt, &error)) return fail_and_clean_up(error);
@@ -439,6 +455,8 @@ void RegisterMapCommands(CLI::App* app, int* exit_code) {
   exp->add_option("--trajectory", export_args.trajectory_txt, "TUM trajectory text file");
   exp->add_option("--octomap", export_args.octomap_bt, "OctoMap binary tree (.bt)");
   exp->add_option("--png", export_args.png, "A picture of the map with the trajectory");
+  exp->add_option("--moving-objects", export_args.moving_csv,
+                  "CSV of the moving objects tracked in each frame (map frame)");
   exp->add_option("--poses", export_args.poses, "raw or optimised (default)")
       ->check(CLI::IsMember({"raw", "optimised"}));
   exp->add_option("--pixels-per-cell", export_args.pixels_per_cell, "PNG scale, 1..16 (default 2)")

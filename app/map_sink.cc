@@ -110,7 +110,9 @@ struct MapSink::Impl {
 
   // Mapping-thread state.
   std::vector<FrameRecord> pending_frames;  // not yet handed to the writer
-  std::vector<FrameRecord> records;         // every frame given to the mapper, as first written
+  // Moving objects of frames already stored or pending, not yet handed to the writer.
+  std::vector<MovingObjectRecord> pending_moving;
+  std::vector<FrameRecord> records;  // every frame given to the mapper, as first written
   std::map<int, std::size_t> record_of_keyframe;  // mapper keyframe id -> index into records
   std::optional<Pose2> last_odom;
   // rt/odom's velocity and uncertainty: the last frame's stamp and the variances accumulated over
@@ -183,13 +185,15 @@ struct MapSink::Impl {
   }
 
   void FlushFrames() {
-    if (!db || pending_frames.empty()) return;
-    Enqueue([this, frames = std::move(pending_frames)](std::string* error) {
-      const StorageStatus s = db->WriteFrames(run_id, frames);
+    if (!db || (pending_frames.empty() && pending_moving.empty())) return;
+    Enqueue([this, frames = std::move(pending_frames),
+             moving = std::move(pending_moving)](std::string* error) {
+      const StorageStatus s = db->WriteFrames(run_id, frames, moving);
       if (!s.ok()) *error = s.message();
       return s.ok();
     });
     pending_frames.clear();
+    pending_moving.clear();
   }
   void FlushTiles() {
     if (!db) return;
@@ -318,6 +322,7 @@ bool MapSink::Open(std::string* error) {
   if (m.request.publish) {
     interfaces::MapPublisher::Options publisher_options = config.dds.publisher;
     publisher_options.publish_clock = m.recorded_input && !m.request.wall_stamps;
+    publisher_options.publish_moving_obstacles = true;
     // No Options::node: the publisher's own ROS 2 node, "/monoplane", owns the writers.
     m.publisher = interfaces::MapPublisher::Create(publisher_options, error);
     if (!m.publisher) {
@@ -391,6 +396,12 @@ bool MapSink::Add(const InputFrame& frame, const SequenceDetector::Output& outpu
       m.pending_frames.push_back(record);
       if (m.pending_frames.size() >= 100) m.FlushFrames();
     }
+    // After the frame itself (a keyframe is written above): the next flush stores them.
+    if (output.result) {
+      for (const MovingObject& o : output.result->moving_objects) {
+        m.pending_moving.push_back({frame.index, o});
+      }
+    }
     if (update.loop_closed || update.map_rebuilt) {
       m.WriteOptimisedTrajectory();
       m.FlushTiles();
@@ -401,10 +412,19 @@ bool MapSink::Add(const InputFrame& frame, const SequenceDetector::Output& outpu
     const auto [velocity, uncertainty] = m.OdometryOf(frame.stamp_ns, output.step);
     const Pose2 map_from_odom = update.map_from_base * output.odom_from_base.Inverse();
     std::optional<OccupancyGrid> local_map;
-    if (output.result) local_map = output.result->local_map;
+    std::vector<interfaces::MovingObstacle> moving;
+    if (output.result) {
+      local_map = output.result->local_map;
+      const Pose2& map_from_base = update.map_from_base;
+      for (const MovingObject& o : output.result->moving_objects) {
+        const Eigen::Vector2d p = map_from_base * o.position_in_base;
+        const Eigen::Vector2d v = map_from_base.Rotation() * o.velocity_in_base_mps;
+        moving.push_back({o.id, p.x(), p.y(), v.x(), v.y(), o.radius_m, o.coasting});
+      }
+    }
     m.Enqueue([&m, map_from_odom, odom = output.odom_from_base, stamp = stamp_ns,
-               velocity = velocity, uncertainty = uncertainty,
-               local_map = std::move(local_map)](std::string* e) {
+               velocity = velocity, uncertainty = uncertainty, local_map = std::move(local_map),
+               moving = std::move(moving)](std::string* e) {
       // Dropped samples (a full reader backlog) are counted by the publisher; only errors stop.
       // The clock first: a use_sim_time node then has reached the stamp when the pose arrives.
       if (m.publisher->PublishClock(stamp, e) == interfaces::PublishStatus::kError) return false;
@@ -413,6 +433,9 @@ bool MapSink::Add(const InputFrame& frame, const SequenceDetector::Output& outpu
         return false;
       if (local_map &&
           m.publisher->PublishLocalMap(*local_map, stamp, e) == interfaces::PublishStatus::kError)
+        return false;
+      if (m.publisher->PublishMovingObstacles(moving, stamp, e) ==
+          interfaces::PublishStatus::kError)
         return false;
       return true;
     });
@@ -492,9 +515,10 @@ bool MapSink::Close(std::string* error) {
   }
   if (m.publisher) {
     s.dds_sent = m.publisher->map_stats().sent + m.publisher->odom_stats().sent +
-                 m.publisher->local_map_stats().sent;
+                 m.publisher->local_map_stats().sent + m.publisher->moving_obstacles_stats().sent;
     s.dds_dropped = m.publisher->map_stats().dropped + m.publisher->odom_stats().dropped +
-                    m.publisher->local_map_stats().dropped + m.publisher->tf_stats().dropped;
+                    m.publisher->local_map_stats().dropped + m.publisher->tf_stats().dropped +
+                    m.publisher->moving_obstacles_stats().dropped;
   }
   return ok;
 }

@@ -11,6 +11,7 @@
 #include "idl/nav_msgs.h"
 #include "idl/rosgraph_msgs.h"
 #include "idl/tf2_msgs.h"
+#include "idl/visualization_msgs.h"
 
 namespace monoplane::interfaces {
 
@@ -66,7 +67,17 @@ bool MapPublisher::Options::IsValid(std::string* error) const {
 
 namespace {
 
-enum Endpoint { kMap = 0, kMapUpdates, kOdom, kTf, kLocalMap, kClock, kNumEndpoints };
+// Indices match MapPublisher::Topic.
+enum Endpoint {
+  kMap = 0,
+  kMapUpdates,
+  kOdom,
+  kTf,
+  kLocalMap,
+  kClock,
+  kMovingObstacles,
+  kNumEndpoints
+};
 
 std_msgs_msg_dds__Header_ MakeHeader(TimestampNs stamp_ns, const std::string& frame) {
   std_msgs_msg_dds__Header_ header{};
@@ -194,9 +205,13 @@ std::unique_ptr<MapPublisher> MapPublisher::Create(const Options& options, std::
       {&rosgraph_msgs_msg_dds__Clock__desc,
        "clock",
        {true, Durability::kVolatile, false, 1, max_blocking_ns, -1, false, {}}},
+      {&visualization_msgs_msg_dds__MarkerArray__desc,
+       "moving_obstacles",
+       {true, Durability::kVolatile, false, 1, max_blocking_ns, -1, false, {}}},
   };
   for (int i = 0; i < kNumEndpoints; ++i) {
     if (i == kClock && !options.publish_clock) continue;
+    if (i == kMovingObstacles && !options.publish_moving_obstacles) continue;
     // ROS 2 nodes read the time from /clock whatever the other topics' namespace.
     const std::string name =
         RosTopicName(i == kClock ? std::string() : options.topic_prefix, specs[i].name);
@@ -209,7 +224,7 @@ std::unique_ptr<MapPublisher> MapPublisher::Create(const Options& options, std::
     }
   }
   for (int i = 0; i < kNumEndpoints; ++i) {
-    if (impl->writers[i] == 0) continue;  // rt/clock when not asked for
+    if (impl->writers[i] == 0) continue;  // topics not asked for
     impl->match_waitsets[i] = e.Waitset(error);
     if (impl->match_waitsets[i] <= 0) return nullptr;
     dds_set_status_mask(impl->writers[i], DDS_PUBLICATION_MATCHED_STATUS);
@@ -314,6 +329,72 @@ PublishStatus MapPublisher::PublishLocalMap(const OccupancyGrid& grid_in_base, T
   return impl_->WriteGrid(kLocalMap, grid_in_base, stamp_ns, impl_->options.base_frame, error);
 }
 
+PublishStatus MapPublisher::PublishMovingObstacles(
+    const std::vector<MovingObstacle>& obstacles_in_map, TimestampNs stamp_ns, std::string* error) {
+  if (impl_->writers[kMovingObstacles] == 0) return PublishStatus::kSent;
+  for (const MovingObstacle& o : obstacles_in_map) {
+    if (!(std::isfinite(o.x_m) && std::isfinite(o.y_m) && std::isfinite(o.vx_mps) &&
+          std::isfinite(o.vy_mps) && std::isfinite(o.radius_m) && o.radius_m >= 0.0)) {
+      ++impl_->stats[kMovingObstacles].errors;
+      if (error) *error = "moving obstacle " + std::to_string(o.id) + " is not finite";
+      return PublishStatus::kError;
+    }
+  }
+  // The writer only reads the sample: strings and sequences borrow from here.
+  static char kEmpty[] = "";
+  static char kBodies[] = "moving_obstacles";
+  static char kArrows[] = "moving_obstacles/velocity";
+  constexpr double kDiscHeightM = 0.1;
+  constexpr double kArrowSeconds = 1.0;
+  const auto base_marker = [&](char* ns, int id, std::int32_t type) {
+    visualization_msgs_msg_dds__Marker_ m{};
+    m.header = MakeHeader(stamp_ns, impl_->options.map_frame);
+    m.ns = ns;
+    m.id = id;
+    m.type = type;
+    m.action = 0;  // ADD
+    m.pose.orientation = YawQuaternion(0.0);
+    m.lifetime.sec = 1;
+    m.texture_resource = kEmpty;
+    m.texture.header = m.header;
+    m.texture.format = kEmpty;
+    m.text = kEmpty;
+    m.mesh_resource = kEmpty;
+    m.mesh_file.filename = kEmpty;
+    return m;
+  };
+  std::vector<visualization_msgs_msg_dds__Marker_> markers;
+  std::vector<geometry_msgs_msg_dds__Point_> points(2 * obstacles_in_map.size());
+  markers.reserve(1 + 2 * obstacles_in_map.size());
+  visualization_msgs_msg_dds__Marker_ clear = base_marker(kEmpty, 0, 0);
+  clear.action = 3;  // DELETEALL
+  markers.push_back(clear);
+  for (std::size_t i = 0; i < obstacles_in_map.size(); ++i) {
+    const MovingObstacle& o = obstacles_in_map[i];
+    const float alpha = o.coasting ? 0.4f : 0.8f;
+    visualization_msgs_msg_dds__Marker_ body = base_marker(kBodies, o.id, 3);  // CYLINDER
+    body.pose.position = {o.x_m, o.y_m, 0.5 * kDiscHeightM};
+    body.scale = {2.0 * o.radius_m, 2.0 * o.radius_m, kDiscHeightM};
+    body.color = {1.0f, 0.5f, 0.0f, alpha};
+    markers.push_back(body);
+    visualization_msgs_msg_dds__Marker_ arrow = base_marker(kArrows, o.id, 0);  // ARROW
+    points[2 * i] = {o.x_m, o.y_m, kDiscHeightM};
+    points[2 * i + 1] = {o.x_m + kArrowSeconds * o.vx_mps, o.y_m + kArrowSeconds * o.vy_mps,
+                         kDiscHeightM};
+    arrow.points._length = arrow.points._maximum = 2;
+    arrow.points._buffer = &points[2 * i];
+    arrow.points._release = false;
+    arrow.scale = {0.05, 0.1, 0.1};  // shaft diameter, head diameter, head length
+    arrow.color = {1.0f, 0.5f, 0.0f, alpha};
+    markers.push_back(arrow);
+  }
+  visualization_msgs_msg_dds__MarkerArray_ msg{};
+  msg.markers._length = msg.markers._maximum = static_cast<uint32_t>(markers.size());
+  msg.markers._buffer = markers.data();
+  msg.markers._release = false;
+  return impl_->Write(kMovingObstacles, &msg, error);
+}
+
 std::vector<EndpointInfo> MapPublisher::Endpoints() const {
   std::vector<EndpointInfo> out;
   for (dds_entity_t writer : impl_->writers) {
@@ -327,6 +408,7 @@ PublishStats MapPublisher::map_update_stats() const { return impl_->stats[kMapUp
 PublishStats MapPublisher::odom_stats() const { return impl_->stats[kOdom]; }
 PublishStats MapPublisher::tf_stats() const { return impl_->stats[kTf]; }
 PublishStats MapPublisher::local_map_stats() const { return impl_->stats[kLocalMap]; }
+PublishStats MapPublisher::moving_obstacles_stats() const { return impl_->stats[kMovingObstacles]; }
 
 namespace {
 int CountMatched(dds_entity_t writer) {

@@ -52,6 +52,15 @@ struct OdometryUncertainty {
 };
 inline constexpr double kUnmeasuredVariance = 1e6;
 
+// A tracked moving obstacle in the map frame (perception's MovingObject moved by its frame's pose).
+struct MovingObstacle {
+  int id = 0;  // the same for the object's whole track
+  double x_m = 0.0, y_m = 0.0;
+  double vx_mps = 0.0, vy_mps = 0.0;  // over the ground
+  double radius_m = 0.0;              // footprint
+  bool coasting = false;              // predicted: not seen in this frame
+};
+
 // Counters per topic, since creation.
 struct PublishStats {
   std::int64_t sent = 0;
@@ -71,6 +80,9 @@ struct PublishStats {
 //   rt/monoplane/local_map   nav_msgs/OccupancyGrid in base_link, one per frame; reliable,
 //                            volatile, keep-last `local_map_history_depth` (default 1: a reader
 //                            that falls behind gets the newest local map, not a backlog)
+//   rt/moving_obstacles      visualization_msgs/MarkerArray, frame map, one per frame (see
+//                            PublishMovingObstacles), with Options::publish_moving_obstacles;
+//                            reliable, volatile, keep-last 1
 // All types are final, XCDR1, named "<pkg>::msg::dds_::<Name>_".
 // Not thread-safe: call from one thread (Cyclone's own calls are thread-safe).
 class MapPublisher {
@@ -89,6 +101,8 @@ class MapPublisher {
     // prefixed), the time of recorded input, for ROS 2 nodes with use_sim_time (tf2 then accepts
     // the stamps).
     bool publish_clock = false;
+    // Also publish rt/moving_obstacles (PublishMovingObstacles; `monoplane run --publish` does).
+    bool publish_moving_obstacles = false;
     // The ROS 2 node whose participant carries the writers (on domain_id); nullptr: a node of
     // its own named "monoplane" (ros_node.h).
     std::shared_ptr<RosNode> node;
@@ -125,9 +139,19 @@ class MapPublisher {
   // The per-frame local grid in base_link on rt/monoplane/local_map.
   PublishStatus PublishLocalMap(const OccupancyGrid& grid_in_base, TimestampNs stamp_ns,
                                 std::string* error = nullptr);
+  // The moving obstacles tracked at this frame on rt/moving_obstacles, one MarkerArray per frame
+  // (also when there are none) in the map frame: first a DELETEALL marker (what the previous
+  // array showed is gone), then per obstacle a CYLINDER in namespace "moving_obstacles" (id = the
+  // obstacle's id; pose.position = its centre on the floor, z = half the disc's 0.1 m height;
+  // scale.x = scale.y = its footprint diameter) and an ARROW in "moving_obstacles/velocity" (same
+  // id; points = where it is and where it will be in 1 s at its velocity). Coasting obstacles are
+  // drawn fainter (alpha 0.4 instead of 0.8). Lifetime 1 s: markers vanish when publishing stops.
+  // kSent and nothing written without Options::publish_moving_obstacles.
+  PublishStatus PublishMovingObstacles(const std::vector<MovingObstacle>& obstacles_in_map,
+                                       TimestampNs stamp_ns, std::string* error = nullptr);
 
   // Topic names, type names and QoS as DDS reports them for the writers, in the order
-  // map, map_updates, odom, tf, local_map.
+  // map, map_updates, odom, tf, local_map, clock (when published), moving_obstacles.
   std::vector<EndpointInfo> Endpoints() const;
   // Counters of rt/map, rt/map_updates, rt/odom, rt/tf, rt/monoplane/local_map.
   PublishStats map_stats() const;
@@ -135,9 +159,10 @@ class MapPublisher {
   PublishStats odom_stats() const;
   PublishStats tf_stats() const;
   PublishStats local_map_stats() const;
+  PublishStats moving_obstacles_stats() const;
 
   // The topics of this publisher.
-  enum class Topic { kMap = 0, kMapUpdates, kOdom, kTf, kLocalMap };
+  enum class Topic { kMap = 0, kMapUpdates, kOdom, kTf, kLocalMap, kMovingObstacles = 6 };
   // How many readers are currently matched to the writer of `topic`.
   int MatchedReaders(Topic topic) const;
   // Waits (on DDS match events, no polling) up to timeout_s until `done(number of matched readers

@@ -12,6 +12,7 @@
 #include <string>
 
 #include "idl/nav_msgs.h"
+#include "idl/visualization_msgs.h"
 #include "interfaces/map_subscriber.h"
 #include "interfaces/test/loopback.h"
 #include "interfaces/test/random_grid.h"
@@ -344,6 +345,126 @@ TEST(MapPublisherTest, StalledReaderDoesNotStallPublishing) {
   while (healthy->Take(0.0)) ++received;
   EXPECT_GE(received, stats.sent);
   EXPECT_LE(received, kMessages);
+  dds_delete(participant);
+}
+
+// rt/moving_obstacles as a ROS 2 reader (rviz2) receives it: one MarkerArray per frame, DELETEALL
+// first, then a cylinder and a velocity arrow per obstacle in the map frame.
+TEST(MapPublisherTest, MovingObstaclesAreMarkerArraysInTheMapFrame) {
+  MapPublisher::Options options;
+  options.domain_id = kDomain;
+  options.topic_prefix = "moving";
+  std::string error;
+  EXPECT_EQ(MakePublisher("moving_off")->Endpoints().size(), 5u);  // only when asked for
+  EXPECT_EQ(MakePublisher("moving_off")->PublishMovingObstacles({}, 1), PublishStatus::kSent);
+  options.publish_moving_obstacles = true;
+  auto publisher = MapPublisher::Create(options, &error);
+  ASSERT_NE(publisher, nullptr) << error;
+  const std::vector<EndpointInfo> endpoints = publisher->Endpoints();
+  ASSERT_EQ(endpoints.size(), 6u);
+  EXPECT_EQ(endpoints[5].topic_name, "rt/moving/moving_obstacles");
+  EXPECT_EQ(endpoints[5].type_name, "visualization_msgs::msg::dds_::MarkerArray_");
+  EXPECT_EQ(endpoints[5].reliability, "reliable");
+  EXPECT_EQ(endpoints[5].durability, "volatile");
+  EXPECT_EQ(endpoints[5].history_depth, 1);
+
+  const dds_entity_t participant = dds_create_participant(kDomain, nullptr, nullptr);
+  ASSERT_GT(participant, 0);
+  const dds_entity_t topic =
+      dds_create_topic(participant, &visualization_msgs_msg_dds__MarkerArray__desc,
+                       "rt/moving/moving_obstacles", nullptr, nullptr);
+  ASSERT_GT(topic, 0);
+  dds_qos_t* qos = dds_create_qos();
+  dds_qset_reliability(qos, DDS_RELIABILITY_RELIABLE, DDS_SECS(1));
+  dds_qset_history(qos, DDS_HISTORY_KEEP_ALL, 0);
+  const dds_entity_t reader = dds_create_reader(participant, topic, qos, nullptr);
+  dds_delete_qos(qos);
+  ASSERT_GT(reader, 0);
+  ASSERT_TRUE(publisher->WaitForReaders(
+      MapPublisher::Topic::kMovingObstacles, [](int n) { return n >= 1; }, 10.0));
+  // Takes one sample within 10 s into `samples` (a loan the caller returns); its markers.
+  void* samples[1] = {nullptr};
+  const auto take = [&](std::vector<visualization_msgs_msg_dds__Marker_>* markers,
+                        std::string* frame) {
+    dds_sample_info_t info;
+    for (int i = 0; i < 1000; ++i) {
+      samples[0] = nullptr;
+      const dds_return_t n = dds_take(reader, samples, &info, 1, 1);
+      if (n > 0 && info.valid_data) {
+        const auto* msg = static_cast<visualization_msgs_msg_dds__MarkerArray_*>(samples[0]);
+        markers->assign(msg->markers._buffer, msg->markers._buffer + msg->markers._length);
+        *frame = markers->empty() ? "" : markers->front().header.frame_id;
+        return true;
+      }
+      if (n > 0) dds_return_loan(reader, samples, n);
+      dds_sleepfor(DDS_MSECS(10));
+    }
+    return false;
+  };
+
+  MovingObstacle walking{7, 1.5, -0.5, 0.2, 1.0, 0.3, false};
+  MovingObstacle coasting{9, 3.0, 2.0, 0.0, 0.0, 0.25, true};
+  ASSERT_EQ(publisher->PublishMovingObstacles({walking, coasting}, 2'500'000'000LL, &error),
+            PublishStatus::kSent)
+      << error;
+  std::vector<visualization_msgs_msg_dds__Marker_> markers;
+  std::string frame;
+  ASSERT_TRUE(take(&markers, &frame));
+  ASSERT_EQ(markers.size(), 5u);
+  EXPECT_EQ(frame, "map");
+  EXPECT_EQ(markers[0].action, 3);  // DELETEALL
+  const visualization_msgs_msg_dds__Marker_& body = markers[1];
+  EXPECT_STREQ(body.ns, "moving_obstacles");
+  EXPECT_EQ(body.id, 7);
+  EXPECT_EQ(body.type, 3);  // CYLINDER
+  EXPECT_EQ(body.action, 0);
+  EXPECT_EQ(body.header.stamp.sec, 2);
+  EXPECT_EQ(body.header.stamp.nanosec, 500000000u);
+  EXPECT_DOUBLE_EQ(body.pose.position.x, 1.5);
+  EXPECT_DOUBLE_EQ(body.pose.position.y, -0.5);
+  EXPECT_DOUBLE_EQ(body.scale.x, 0.6);
+  EXPECT_DOUBLE_EQ(body.scale.y, 0.6);
+  EXPECT_DOUBLE_EQ(body.pose.orientation.w, 1.0);
+  EXPECT_EQ(body.lifetime.sec, 1);
+  const visualization_msgs_msg_dds__Marker_& arrow = markers[2];
+  EXPECT_STREQ(arrow.ns, "moving_obstacles/velocity");
+  EXPECT_EQ(arrow.id, 7);
+  EXPECT_EQ(arrow.type, 0);  // ARROW
+  ASSERT_EQ(arrow.points._length, 2u);
+  EXPECT_DOUBLE_EQ(arrow.points._buffer[0].x, 1.5);
+  EXPECT_DOUBLE_EQ(arrow.points._buffer[1].x, 1.7);  // where it is in 1 s
+  EXPECT_DOUBLE_EQ(arrow.points._buffer[1].y, 0.5);
+  EXPECT_EQ(markers[3].id, 9);
+  EXPECT_LT(markers[3].color.a, body.color.a);  // coasting: fainter
+  dds_return_loan(reader, samples, 1);
+
+  // No obstacles: the array only clears what was shown.
+  ASSERT_EQ(publisher->PublishMovingObstacles({}, 2'600'000'000LL), PublishStatus::kSent);
+  ASSERT_TRUE(take(&markers, &frame));
+  ASSERT_EQ(markers.size(), 1u);
+  EXPECT_EQ(markers[0].action, 3);
+  dds_return_loan(reader, samples, 1);
+  EXPECT_EQ(publisher->moving_obstacles_stats().sent, 2);
+
+  // What MapSubscriber (and `monoplane echo moving_obstacles`) reads back.
+  auto subscriber = MakeSubscriber("moving_obstacles", "moving");
+  ASSERT_NE(subscriber, nullptr);
+  ASSERT_TRUE(publisher->WaitForReaders(
+      MapPublisher::Topic::kMovingObstacles, [](int n) { return n >= 2; }, 10.0));
+  ASSERT_EQ(publisher->PublishMovingObstacles({walking, coasting}, 2'650'000'000LL),
+            PublishStatus::kSent);
+  const std::optional<ReceivedMessage> back = subscriber->Take(10.0);
+  ASSERT_TRUE(back.has_value());
+  EXPECT_EQ(back->kind, MessageKind::kMovingObstacles);
+  EXPECT_EQ(Summarize(*back),
+            "rt/moving/moving_obstacles stamp=2.650000000 frame=map obstacles=2 "
+            "7=(1.500,-0.500) v=(0.200,1.000) r=0.300 9=(3.000,2.000) v=(0.000,0.000) r=0.250 "
+            "coasting");
+
+  walking.radius_m = std::nan("");
+  EXPECT_EQ(publisher->PublishMovingObstacles({walking}, 2'700'000'000LL, &error),
+            PublishStatus::kError);
+  EXPECT_NE(error.find("moving obstacle 7"), std::string::npos) << error;
   dds_delete(participant);
 }
 

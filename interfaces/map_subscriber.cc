@@ -13,6 +13,7 @@
 #include "idl/nav_msgs.h"
 #include "idl/rosgraph_msgs.h"
 #include "idl/tf2_msgs.h"
+#include "idl/visualization_msgs.h"
 
 namespace monoplane::interfaces {
 
@@ -88,6 +89,33 @@ std::string Format(const char* format, double a, double b, double c) {
   return buffer;
 }
 
+void Convert(const visualization_msgs_msg_dds__MarkerArray_& msg, ReceivedMessage* out) {
+  const auto& markers = msg.markers;
+  if (markers._length > 0) FillHeader(markers._buffer[0].header, out);
+  const auto ns_is = [](const char* ns, const char* want) {
+    return ns != nullptr && std::string(ns) == want;
+  };
+  for (std::uint32_t i = 0; i < markers._length; ++i) {
+    const visualization_msgs_msg_dds__Marker_& m = markers._buffer[i];
+    if (m.action != 0 || m.type != 3 || !ns_is(m.ns, "moving_obstacles")) continue;
+    MovingObstacle o;
+    o.id = m.id;
+    o.x_m = m.pose.position.x;
+    o.y_m = m.pose.position.y;
+    o.radius_m = 0.5 * m.scale.x;
+    o.coasting = m.color.a < 0.6f;
+    for (std::uint32_t k = 0; k < markers._length; ++k) {
+      const visualization_msgs_msg_dds__Marker_& a = markers._buffer[k];
+      if (a.type == 0 && a.id == m.id && ns_is(a.ns, "moving_obstacles/velocity") &&
+          a.points._length == 2) {
+        o.vx_mps = a.points._buffer[1].x - a.points._buffer[0].x;  // the arrow spans 1 s
+        o.vy_mps = a.points._buffer[1].y - a.points._buffer[0].y;
+      }
+    }
+    out->moving_obstacles.push_back(o);
+  }
+}
+
 std::string StampText(TimestampNs stamp_ns) {
   const RosTime t = ToRosTime(stamp_ns);
   char buffer[48];
@@ -147,6 +175,14 @@ std::string Summarize(const ReceivedMessage& m) {
                     t.parent_from_child.yaw);
       }
       break;
+    case MessageKind::kMovingObstacles:
+      s += " obstacles=" + std::to_string(m.moving_obstacles.size());
+      for (const MovingObstacle& o : m.moving_obstacles) {
+        s += " " + std::to_string(o.id) + Format("=(%.3f,%.3f)", o.x_m, o.y_m, 0) +
+             Format(" v=(%.3f,%.3f)", o.vx_mps, o.vy_mps, 0) + Format(" r=%.3f", o.radius_m, 0, 0) +
+             (o.coasting ? " coasting" : "");
+      }
+      break;
   }
   return s;
 }
@@ -203,10 +239,14 @@ std::unique_ptr<MapSubscriber> MapSubscriber::Create(const Options& options,
   } else if (last == "clock") {
     impl->kind = MessageKind::kClock;
     descriptor = &rosgraph_msgs_msg_dds__Clock__desc;
+  } else if (last == "moving_obstacles") {
+    impl->kind = MessageKind::kMovingObstacles;
+    descriptor = &visualization_msgs_msg_dds__MarkerArray__desc;
   } else {
     if (error)
       *error = "unknown topic \"" + topic +
-               "\" (known: map, map_updates, odom, tf, clock, monoplane/local_map)";
+               "\" (known: map, map_updates, odom, tf, clock, monoplane/local_map, "
+               "moving_obstacles)";
     return nullptr;
   }
   auto node = NodeOrNew(options.node, options.domain_id, "monoplane_subscriber", error);
@@ -262,6 +302,10 @@ std::optional<ReceivedMessage> MapSubscriber::Take(double timeout_s, std::string
             break;
           case MessageKind::kTf:
             Convert(*static_cast<const tf2_msgs_msg_dds__TFMessage_*>(samples[0]), &*out);
+            break;
+          case MessageKind::kMovingObstacles:
+            Convert(*static_cast<const visualization_msgs_msg_dds__MarkerArray_*>(samples[0]),
+                    &*out);
             break;
           case MessageKind::kClock: {
             const auto& clock =

@@ -23,6 +23,8 @@ enum class MessageKind {
   kOdometry,             // .../odom: nav_msgs/Odometry
   kTf,                   // .../tf: tf2_msgs/TFMessage
   kClock,                // .../clock: rosgraph_msgs/Clock (its time is stamp_ns)
+  kMovingObstacles,      // .../moving_obstacles: visualization_msgs/MarkerArray as
+                         // MapPublisher::PublishMovingObstacles writes it
 };
 
 // One transform of a TFMessage (planar part; z, roll, pitch dropped).
@@ -51,6 +53,9 @@ struct ReceivedMessage {
   Velocity2 twist;  // in child_frame_id
   std::array<double, 36> pose_covariance{}, twist_covariance{};
   std::vector<StampedTransform> transforms;  // tf
+  // Moving obstacles: the arrays' cylinders (id, centre, radius, coasting from the fainter
+  // colour) with the velocity of the arrow of the same id; stamp and frame of the first marker.
+  std::vector<MovingObstacle> moving_obstacles;
 };
 
 // One summary line, e.g.

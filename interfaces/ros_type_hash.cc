@@ -35,6 +35,8 @@ RosField Nested(std::string name, std::string type_name, std::uint8_t offset = 0
 std::vector<RosTypeDescription> MakeDescriptions() {
   constexpr std::uint8_t kSequence = kRosUnboundedSequence;
   const std::string time = "builtin_interfaces/msg/Time";
+  const std::string duration = "builtin_interfaces/msg/Duration";
+  const std::string color = "std_msgs/msg/ColorRGBA";
   const std::string header = "std_msgs/msg/Header";
   const std::string point = "geometry_msgs/msg/Point";
   const std::string quaternion = "geometry_msgs/msg/Quaternion";
@@ -81,6 +83,27 @@ std::vector<RosTypeDescription> MakeDescriptions() {
       {"tf2_msgs/msg/TFMessage",
        {Nested("transforms", "geometry_msgs/msg/TransformStamped", kSequence)}},
       {"rosgraph_msgs/msg/Clock", {Nested("clock", time)}},
+      {duration, {Plain("sec", kRosInt32), Plain("nanosec", kRosUint32)}},
+      {color,
+       {Plain("r", kRosFloat), Plain("g", kRosFloat), Plain("b", kRosFloat),
+        Plain("a", kRosFloat)}},
+      // visualization_msgs/msg/Marker as defined since Iron (texture, UV coordinates, mesh file).
+      {"visualization_msgs/msg/UVCoordinate", {Plain("u", kRosFloat), Plain("v", kRosFloat)}},
+      {"visualization_msgs/msg/MeshFile",
+       {Plain("filename", kRosString), Plain("data", kRosUint8 + kSequence)}},
+      {"visualization_msgs/msg/Marker",
+       {Nested("header", header), Plain("ns", kRosString), Plain("id", kRosInt32),
+        Plain("type", kRosInt32), Plain("action", kRosInt32), Nested("pose", pose),
+        Nested("scale", vector3), Nested("color", color), Nested("lifetime", duration),
+        Plain("frame_locked", kRosBoolean), Nested("points", point, kSequence),
+        Nested("colors", color, kSequence), Plain("texture_resource", kRosString),
+        Nested("texture", "sensor_msgs/msg/CompressedImage"),
+        Nested("uv_coordinates", "visualization_msgs/msg/UVCoordinate", kSequence),
+        Plain("text", kRosString), Plain("mesh_resource", kRosString),
+        Nested("mesh_file", "visualization_msgs/msg/MeshFile"),
+        Plain("mesh_use_embedded_materials", kRosBoolean)}},
+      {"visualization_msgs/msg/MarkerArray",
+       {Nested("markers", "visualization_msgs/msg/Marker", kSequence)}},
       {"sensor_msgs/msg/Image",
        {Nested("header", header), Plain("height", kRosUint32), Plain("width", kRosUint32),
         Plain("encoding", kRosString), Plain("is_bigendian", kRosUint8), Plain("step", kRosUint32),

@@ -47,6 +47,9 @@ constexpr int kDomain = 187;
 //      the `get_type_hash` bytes and `__EXPECTED_HASH` of referenced types in
 //      rmw_dds_common/msg/detail/{participant_entities_info,node_entities_info,gid}__description.c
 //      of a public repository's generated headers.
+//  [V] the same micro-ROS Kilted headers' visualization_msgs/msg/detail/
+//      {marker_array,marker,uv_coordinate,mesh_file}__description.c (`get_type_hash` bytes, and
+//      `__EXPECTED_HASH` of std_msgs/ColorRGBA and builtin_interfaces/Duration there).
 //  [J] Jazzy's installed /opt/ros/jazzy/share/<pkg>/msg/<Type>.json as quoted in CARLA's ROS 2
 //      type-hash golden test (tf2_msgs/msg/TFMessage, rosgraph_msgs/msg/Clock).
 struct Golden {
@@ -105,6 +108,18 @@ constexpr Golden kGoldens[] = {
      "RIHS01_ab6f21cfbb0a6dbb837161e1110c2051a2850ed9f9c53944d7115d9bcebedf71", "[R]"},
     {"geometry_msgs/msg/TransformStamped",
      "RIHS01_0a241f87d04668d94099cbb5ba11691d5ad32c2f29682e4eb5653424bd275206", "[J]"},
+    {"visualization_msgs/msg/MarkerArray",
+     "RIHS01_86cb8800b6fb05b5eff1abd7a56f62a5641d3ae9a1c29e78e67e704f1d067dcf", "[V]"},
+    {"visualization_msgs/msg/Marker",
+     "RIHS01_45b13ccf791f225962bf74e746f9644518855d783a6f42ba0cc14fde2b4f3ce0", "[V]"},
+    {"visualization_msgs/msg/UVCoordinate",
+     "RIHS01_f27f7ed21fe360c6066944f856b801a0c0d1e94e815b6886444b42d90b196a26", "[V]"},
+    {"visualization_msgs/msg/MeshFile",
+     "RIHS01_7710ece15a148fb7c9b546364cfb215bb06098087bd6394fe5b73a493508f8c4", "[V]"},
+    {"std_msgs/msg/ColorRGBA",
+     "RIHS01_77a7a5b9ae477306097665106e0413ba74440245b1f3d0c6d6405fe5c7813fe8", "[V]"},
+    {"builtin_interfaces/msg/Duration",
+     "RIHS01_e8d009f659816f758b75334ee1a9ca5b5c0b859843261f14c7f937349599d93b", "[V]"},
 };
 
 TEST(RosTypeHashTest, MatchesTheHashesRos2Publishes) {
@@ -230,9 +245,9 @@ TEST(RosTypeHashTest, DescriptionsMatchTheIdl) {
   const std::regex struct_re(R"(struct\s+(\w+)\s*\{([^}]*)\})");
   const std::regex member_re(R"(^\s*([\w:]+(?:<\s*[\w:]+\s*>)?)\s+(\w+)\s*(?:\[(\d+)\])?\s*;)");
   int structs_checked = 0;
-  for (const char* file :
-       {"builtin_interfaces", "std_msgs", "geometry_msgs", "nav_msgs", "map_msgs", "tf2_msgs",
-        "rosgraph_msgs", "sensor_msgs", "monoplane_interfaces", "rmw_dds_common"}) {
+  for (const char* file : {"builtin_interfaces", "std_msgs", "geometry_msgs", "nav_msgs",
+                           "map_msgs", "tf2_msgs", "rosgraph_msgs", "sensor_msgs",
+                           "visualization_msgs", "monoplane_interfaces", "rmw_dds_common"}) {
     const std::string text =
         ReadFile(std::string(MONOPLANE_SOURCE_DIR) + "/interfaces/idl/" + file + ".idl");
     ASSERT_FALSE(text.empty()) << file;
@@ -370,6 +385,7 @@ TEST(RosTypeHashTest, EveryMonoplaneEndpointCarriesItsTypeHash) {
   publisher_options.domain_id = kDomain;
   publisher_options.topic_prefix = "hash";
   publisher_options.publish_clock = true;
+  publisher_options.publish_moving_obstacles = true;
   auto publisher = MapPublisher::Create(publisher_options, &error);
   ASSERT_NE(publisher, nullptr) << error;
   std::vector<EndpointInfo> endpoints = publisher->Endpoints();
@@ -391,7 +407,7 @@ TEST(RosTypeHashTest, EveryMonoplaneEndpointCarriesItsTypeHash) {
   ASSERT_NE(server, nullptr) << error;
   for (const EndpointInfo& e : server->Endpoints()) endpoints.push_back(e);
 
-  ASSERT_GE(endpoints.size(), 12u);
+  ASSERT_GE(endpoints.size(), 13u);
   std::map<std::string, int> per_type;
   for (const EndpointInfo& e : endpoints) {
     const std::string hash = RosTypeHash(RosTypeNameFromDds(e.type_name));
@@ -410,6 +426,7 @@ TEST(RosTypeHashTest, EveryMonoplaneEndpointCarriesItsTypeHash) {
     ++per_type[e.type_name];
   }
   EXPECT_EQ(per_type.count("rosgraph_msgs::msg::dds_::Clock_"), 1u);
+  EXPECT_EQ(per_type.count("visualization_msgs::msg::dds_::MarkerArray_"), 1u);
   EXPECT_EQ(per_type.count("monoplane_interfaces::srv::dds_::MapQuery_Request_"), 1u);
 }
 

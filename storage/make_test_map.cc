@@ -2,7 +2,9 @@
 //   make_test_map OUT.db            a corridor along x at 0.1 m: free floor y in [0, 1), walls
 //                                   at y = -0.1 and 1.0, a wall across at x = 3.0, seen up to
 //                                   x = 5.1; one run of 20 frames (every 5th a keyframe) along
-//                                   y = 0.55; an OctoMap with one occupied voxel.
+//                                   y = 0.55; a person (object 1, radius 0.25 m) walking across
+//                                   ahead of the robot in frames 10..12; an OctoMap with one
+//                                   occupied voxel.
 //   make_test_map OUT.db --newer-schema   the same, marked as written by schema version 99.
 #include <octomap/OcTree.h>
 #include <sqlite3.h>
@@ -61,7 +63,18 @@ int main(int argc, char** argv) {
       frames.push_back(f);
     }
   }
-  if (st.ok()) st = db->WriteFrames(run, frames);
+  // Frame 10 stands at x = 1.2: the person 1.5 m ahead, at map (2.7, 0.05 + 0.1 k) walking +y.
+  std::vector<MovingObjectRecord> moving;
+  for (int k = 0; k < 3; ++k) {
+    MovingObject person;
+    person.id = 1;
+    person.position_in_base = {1.5 - 0.1 * k, -0.5 + 0.1 * k};
+    person.velocity_in_base_mps = {0.0, 1.0};
+    person.radius_m = 0.25;
+    person.coasting = k == 2;
+    moving.push_back({10 + k, person});
+  }
+  if (st.ok()) st = db->WriteFrames(run, frames, moving);
   octomap::OcTree tree(0.1);
   tree.updateNode(octomap::point3d(3.05f, 0.55f, 0.25f), true);
   std::ostringstream bytes;

@@ -90,7 +90,7 @@ struct Migration {
 };
 
 // The schema, one migration per version. Append; never edit a released migration.
-constexpr std::array<Migration, 2> kMigrations = {{
+constexpr std::array<Migration, 3> kMigrations = {{
     {1, "initial schema", R"sql(
 CREATE TABLE runs (
   id INTEGER PRIMARY KEY,
@@ -163,6 +163,19 @@ CREATE TABLE floor_features (
   encoding TEXT NOT NULL,
   data BLOB NOT NULL,
   PRIMARY KEY (run_id, frame_index),
+  FOREIGN KEY (run_id, frame_index) REFERENCES frames(run_id, frame_index)
+);
+)sql"},
+    {3, "moving objects seen in frames", R"sql(
+CREATE TABLE moving_objects (
+  run_id INTEGER NOT NULL,
+  frame_index INTEGER NOT NULL,
+  object_id INTEGER NOT NULL,
+  x_m REAL NOT NULL, y_m REAL NOT NULL,
+  vx_mps REAL NOT NULL, vy_mps REAL NOT NULL,
+  radius_m REAL NOT NULL,
+  coasting INTEGER NOT NULL,
+  PRIMARY KEY (run_id, frame_index, object_id),
   FOREIGN KEY (run_id, frame_index) REFERENCES frames(run_id, frame_index)
 );
 )sql"},

@@ -63,6 +63,25 @@ struct TrajectoryPoint {
   Pose2 map_from_base;
 };
 
+// A moving object tracked in one frame of a run (perception's MovingObjectTracker), as stored:
+// position and velocity in the robot base frame of that frame.
+struct MovingObjectRecord {
+  std::int64_t frame_index = 0;  // the frame (FrameRecord::index) it was seen in
+  MovingObject object;
+};
+
+// A moving object of a stored frame as read back, in the map frame at the frame's pose.
+struct MovingObjectObservation {
+  std::int64_t run_id = 0;
+  std::int64_t frame_index = 0;
+  TimestampNs stamp_ns = 0;
+  int object_id = 0;  // one id per object within a run (ids restart in every run)
+  Eigen::Vector2d position_in_map{0, 0};
+  Eigen::Vector2d velocity_in_map_mps{0, 0};  // over the ground
+  double radius_m = 0.0;
+  bool coasting = false;  // predicted: no image region for it in that frame
+};
+
 // A 3-D landmark in the map frame as mapping defines it (kind is mapping's code).
 struct Landmark {
   std::int64_t id = 0;      // chosen by the caller, unique in the map
@@ -89,8 +108,10 @@ struct MapInfo {
   std::int64_t floor_features = 0;      // floor features stored, over all keyframes
   std::int64_t tiles = 0;
   std::int64_t landmarks = 0;
-  std::int64_t octomap_bytes = 0;  // 0 when no OctoMap is stored
-  double resolution_m = 0.0;       // of the global grid; 0 when it has no tiles
+  std::int64_t moving_object_observations = 0;  // (frame, object) pairs stored
+  std::int64_t moving_objects = 0;              // distinct objects (per run) among them
+  std::int64_t octomap_bytes = 0;               // 0 when no OctoMap is stored
+  double resolution_m = 0.0;                    // of the global grid; 0 when it has no tiles
   // Observed extent of the global grid in the map frame, metres (outer cell edges).
   std::optional<Eigen::Vector2d> extent_min_m;
   std::optional<Eigen::Vector2d> extent_max_m;
@@ -100,9 +121,9 @@ struct MapInfo {
 // The persistent map: one SQLite file (WAL mode, versioned schema) holding runs, frames, keyframe
 // local maps and floor features, landmarks, the global grid in tiles, the OctoMap and statistics.
 //
-// Schema versions: 1 the initial schema; 2 adds keyframes' floor features. Opening an older map
-// for writing migrates it (one transaction per version); its keyframes simply have no floor
-// features.
+// Schema versions: 1 the initial schema; 2 adds keyframes' floor features; 3 adds the moving
+// objects tracked in frames. Opening an older map for writing migrates it (one transaction per
+// version); its keyframes simply have no floor features, its frames no moving objects.
 //
 // Every write call is one transaction: after a crash (even SIGKILL) the file opens, passes
 // `PRAGMA integrity_check` and holds every call that returned ok. Readers in other processes (or
@@ -120,7 +141,7 @@ class MapDatabase {
     bool IsValid(std::string* error) const;
   };
 
-  static constexpr int kSchemaVersion = 2;
+  static constexpr int kSchemaVersion = 3;
 
   // Opens a map. On failure *db is reset and the status names the file and the cause (not a
   // database, not a monoplane map, corrupt or truncated, read-only, busy, disk full, newer schema).
@@ -157,8 +178,11 @@ class MapDatabase {
   StorageStatus DeleteKeyframes(std::int64_t run_id,
                                 const std::vector<std::int64_t>& frame_indices);
   // Stores (or updates, e.g. with optimised poses) frames of a run in one transaction. A frame
-  // already stored as a keyframe stays a keyframe.
-  StorageStatus WriteFrames(std::int64_t run_id, const std::vector<FrameRecord>& frames);
+  // already stored as a keyframe stays a keyframe. `moving_objects` (stored or replaced by frame
+  // and object id in the same transaction) must belong to frames of the run that are stored
+  // already or are among `frames`.
+  StorageStatus WriteFrames(std::int64_t run_id, const std::vector<FrameRecord>& frames,
+                            const std::vector<MovingObjectRecord>& moving_objects = {});
   // Stores the given tiles of the global grid (all tiles when `changed` is empty). Tiles holding no
   // observed cell are deleted rather than stored. The grid's resolution must match the map's.
   StorageStatus WriteGridTiles(std::int64_t run_id, const TiledGrid& grid,
@@ -198,6 +222,11 @@ class MapDatabase {
   // The stored OctoMap (kNotFound when none).
   StorageStatus ReadOctomap(StoredOctomap* octomap);
   StorageStatus ReadLandmarks(std::vector<Landmark>* landmarks);
+  // The moving objects of one run's frames (all runs when run_id is unset), in the map frame at
+  // each frame's pose from `source`, ordered by run, frame and object id. A map of schema 1 or 2
+  // has none.
+  StorageStatus ReadMovingObjects(std::optional<std::int64_t> run_id, PoseSource source,
+                                  std::vector<MovingObjectObservation>* observations);
   StorageStatus ReadStatistics(std::int64_t run_id, std::map<std::string, double>* stats);
   StorageStatus Info(MapInfo* info);
   // Runs PRAGMA integrity_check; *result is "ok" for a sound file.

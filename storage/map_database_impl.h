@@ -27,6 +27,8 @@ constexpr int kMaxLocalMapSide = 1 << 14;
 
 // The first schema version that stores floor features.
 constexpr int kFloorFeaturesSchemaVersion = 2;
+// The first schema version that stores moving objects.
+constexpr int kMovingObjectsSchemaVersion = 3;
 
 // The size of a file in bytes, -1 when it cannot be read.
 std::int64_t FileSize(const std::string& path);

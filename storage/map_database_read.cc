@@ -79,6 +79,45 @@ StorageStatus MapDatabase::ReadTrajectory(std::optional<std::int64_t> run_id, Po
   });
 }
 
+StorageStatus MapDatabase::ReadMovingObjects(std::optional<std::int64_t> run_id, PoseSource source,
+                                             std::vector<MovingObjectObservation>* observations) {
+  constexpr const char* kContext = "reading moving objects";
+  observations->clear();
+  if (impl_->schema_version < kMovingObjectsSchemaVersion) return StorageStatus();
+  Statement s;
+  const std::string sql =
+      std::string(
+          "SELECT o.run_id, o.frame_index, f.stamp_ns, o.object_id, o.x_m, o.y_m, "
+          "o.vx_mps, o.vy_mps, o.radius_m, o.coasting, ") +
+      (source == PoseSource::kRaw ? "f.raw_x, f.raw_y, f.raw_yaw "
+                                  : "coalesce(f.opt_x, f.raw_x), coalesce(f.opt_y, f.raw_y), "
+                                    "coalesce(f.opt_yaw, f.raw_yaw) ") +
+      "FROM moving_objects o JOIN frames f ON f.run_id = o.run_id AND "
+      "f.frame_index = o.frame_index" +
+      (run_id ? " WHERE o.run_id = ?" : "") + " ORDER BY o.run_id, o.frame_index, o.object_id";
+  StorageStatus st = impl_->Prepare(sql.c_str(), &s, kContext);
+  if (st.ok() && run_id) st = impl_->BindInt(s, 1, *run_id, kContext);
+  if (!st.ok()) return st;
+  return impl_->ForEachRow(s, kContext, [&](sqlite3_stmt* row) {
+    MovingObjectObservation o;
+    o.run_id = sqlite3_column_int64(row, 0);
+    o.frame_index = sqlite3_column_int64(row, 1);
+    o.stamp_ns = sqlite3_column_int64(row, 2);
+    o.object_id = sqlite3_column_int(row, 3);
+    const Pose2 map_from_base{sqlite3_column_double(row, 10), sqlite3_column_double(row, 11),
+                              sqlite3_column_double(row, 12)};
+    o.position_in_map = map_from_base * Eigen::Vector2d(sqlite3_column_double(row, 4),
+                                                        sqlite3_column_double(row, 5));
+    o.velocity_in_map_mps =
+        map_from_base.Rotation() *
+        Eigen::Vector2d(sqlite3_column_double(row, 6), sqlite3_column_double(row, 7));
+    o.radius_m = sqlite3_column_double(row, 8);
+    o.coasting = sqlite3_column_int(row, 9) != 0;
+    observations->push_back(o);
+    return StorageStatus();
+  });
+}
+
 StorageStatus MapDatabase::ReadLocalMap(std::int64_t run_id, std::int64_t frame_index,
                                         OccupancyGrid* local_map_in_base) {
   constexpr const char* kContext = "reading a local map";
@@ -308,6 +347,15 @@ StorageStatus MapDatabase::Info(MapInfo* info) {
     if (st.ok()) {
       st = impl_->QueryInt("SELECT coalesce(sum(count), 0) FROM floor_features",
                            &info->floor_features, kContext);
+    }
+  }
+  if (st.ok() && impl_->schema_version >= kMovingObjectsSchemaVersion) {
+    st = impl_->QueryInt("SELECT count(*) FROM moving_objects", &info->moving_object_observations,
+                         kContext);
+    if (st.ok()) {
+      st = impl_->QueryInt(
+          "SELECT count(*) FROM (SELECT DISTINCT run_id, object_id FROM moving_objects)",
+          &info->moving_objects, kContext);
     }
   }
   if (st.ok()) st = impl_->ReadGridResolution();

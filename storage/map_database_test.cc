@@ -372,6 +372,81 @@ TEST(MapDatabase, SecondRunExtendsTheMapAndUsesWal) {
   sqlite3_close(raw);
 }
 
+TEST(MapDatabase, MovingObjectsAreStoredWithTheirFramesAndReadInTheMapFrame) {
+  TempDir dir;
+  auto db = MustOpen(dir.File("map.db"), OpenMode::kCreate);
+  ASSERT_TRUE(db);
+  const std::int64_t run = MustBeginRun(db.get());
+  std::vector<FrameRecord> frames(3);
+  for (int i = 0; i < 3; ++i) {
+    frames[i].index = i;
+    frames[i].stamp_ns = 1000 + 100 * i;
+    frames[i].map_from_base_raw = {1.0 + i, 2.0, M_PI / 2};  // base x along map y
+  }
+  auto object = [](int id, double x, double y, double vx, bool coasting) {
+    MovingObject o;
+    o.id = id;
+    o.position_in_base = {x, y};
+    o.velocity_in_base_mps = {vx, 0.0};
+    o.radius_m = 0.25;
+    o.coasting = coasting;
+    return o;
+  };
+  ASSERT_TRUE(db->WriteFrames(run, frames,
+                              {{1, object(4, 2.0, 0.5, 1.0, false)},
+                               {1, object(2, 3.0, 0.0, 0.0, false)},
+                               {2, object(4, 2.0, 0.4, 1.0, true)}})
+                  .ok());
+  // A second write of a frame's object replaces it; pose updates keep the objects.
+  ASSERT_TRUE(db->WriteFrames(run, {}, {{2, object(4, 2.5, 0.4, 1.0, true)}}).ok());
+  frames[2].map_from_base_optimised = Pose2{3.0, 3.0, 0.0};
+  ASSERT_TRUE(db->WriteFrames(run, {frames[2]}).ok());
+
+  std::vector<MovingObjectObservation> raw;
+  ASSERT_TRUE(db->ReadMovingObjects(run, PoseSource::kRaw, &raw).ok());
+  ASSERT_EQ(raw.size(), 3u);
+  EXPECT_EQ(raw[0].frame_index, 1);
+  EXPECT_EQ(raw[0].object_id, 2);  // ordered by frame, then id
+  EXPECT_EQ(raw[0].stamp_ns, 1100);
+  EXPECT_NEAR(raw[0].position_in_map.x(), 2.0, 1e-12);
+  EXPECT_NEAR(raw[0].position_in_map.y(), 5.0, 1e-12);
+  EXPECT_EQ(raw[1].object_id, 4);
+  EXPECT_NEAR(raw[1].position_in_map.x(), 1.5, 1e-12);
+  EXPECT_NEAR(raw[1].position_in_map.y(), 4.0, 1e-12);
+  EXPECT_NEAR(raw[1].velocity_in_map_mps.x(), 0.0, 1e-12);
+  EXPECT_NEAR(raw[1].velocity_in_map_mps.y(), 1.0, 1e-12);
+  EXPECT_DOUBLE_EQ(raw[1].radius_m, 0.25);
+  EXPECT_FALSE(raw[1].coasting);
+  EXPECT_TRUE(raw[2].coasting);
+  EXPECT_NEAR(raw[2].position_in_map.x(), 2.6, 1e-12);
+  EXPECT_NEAR(raw[2].position_in_map.y(), 4.5, 1e-12);
+  // The optimised pose moves the frame's objects with it.
+  std::vector<MovingObjectObservation> optimised;
+  ASSERT_TRUE(db->ReadMovingObjects(std::nullopt, PoseSource::kOptimised, &optimised).ok());
+  ASSERT_EQ(optimised.size(), 3u);
+  EXPECT_NEAR(optimised[2].position_in_map.x(), 5.5, 1e-12);
+  EXPECT_NEAR(optimised[2].position_in_map.y(), 3.4, 1e-12);
+  EXPECT_NEAR(optimised[2].velocity_in_map_mps.x(), 1.0, 1e-12);
+  MapInfo info;
+  ASSERT_TRUE(db->Info(&info).ok());
+  EXPECT_EQ(info.moving_object_observations, 3);
+  EXPECT_EQ(info.moving_objects, 2);
+  // An object of a frame that is not stored is refused, and so is one that is not finite; the
+  // transaction (with its frame) is not committed.
+  FrameRecord f3 = frames[0];
+  f3.index = 3;
+  EXPECT_FALSE(db->WriteFrames(run, {f3}, {{7, object(1, 0.0, 0.0, 0.0, false)}}).ok());
+  const StorageStatus st =
+      db->WriteFrames(run, {f3}, {{3, object(1, std::nan(""), 0.0, 0.0, false)}});
+  EXPECT_EQ(st.kind(), StorageErrorKind::kInvalidArgument);
+  EXPECT_NE(st.message().find("not finite"), std::string::npos) << st.message();
+  std::vector<TrajectoryPoint> trajectory;
+  ASSERT_TRUE(db->ReadTrajectory(run, PoseSource::kRaw, &trajectory).ok());
+  EXPECT_EQ(trajectory.size(), 3u);
+  ASSERT_TRUE(db->ReadMovingObjects(run, PoseSource::kRaw, &raw).ok());
+  EXPECT_EQ(raw.size(), 3u);
+}
+
 TEST(MapDatabase, DeletedKeyframesBecomePlainFramesWithoutLocalMaps) {
   TempDir dir;
   MakeSmallMap(dir.File("map.db"));
@@ -563,11 +638,11 @@ TEST(MapDatabase, RefusesANewerSchemaWithItsVersion) {
   const std::string path = dir.File("map.db");
   MakeSmallMap(path);
   RawExec(path,
-          "INSERT INTO schema_migrations (version, description) VALUES (3, 'from the future')");
+          "INSERT INTO schema_migrations (version, description) VALUES (4, 'from the future')");
   const std::string before = testing::ReadFileBytes(path);
   for (OpenMode mode : {OpenMode::kReadOnly, OpenMode::kReadWrite, OpenMode::kCreate}) {
     ExpectRefused(path, mode, StorageErrorKind::kNewerSchema,
-                  "map schema version 3 is newer than this program supports (2)");
+                  "map schema version 4 is newer than this program supports (3)");
   }
   EXPECT_EQ(testing::ReadFileBytes(path), before);
 }
@@ -605,6 +680,10 @@ TEST(MapDatabase, ReadsASchema1MapAsItIs) {
     EXPECT_EQ(info.schema_version, 1);
     EXPECT_EQ(info.keyframes, 4);
     EXPECT_EQ(info.floor_feature_sets, 0);
+    EXPECT_EQ(info.moving_object_observations, 0);
+    std::vector<MovingObjectObservation> moving;
+    ASSERT_TRUE(db->ReadMovingObjects(std::nullopt, PoseSource::kOptimised, &moving).ok());
+    EXPECT_TRUE(moving.empty());
     TiledGrid grid;
     EXPECT_TRUE(db->LoadTiledGrid(&grid).ok());
     EXPECT_FALSE(grid.empty());
@@ -647,14 +726,14 @@ TEST(MapDatabase, MigratesASchema1MapWhenOpenedForWriting) {
                                -1, &s, nullptr),
             SQLITE_OK);
   ASSERT_EQ(sqlite3_step(s), SQLITE_ROW);
-  EXPECT_STREQ(reinterpret_cast<const char*>(sqlite3_column_text(s, 0)), "1,2");
-  EXPECT_EQ(sqlite3_column_int(s, 1), 2);
+  EXPECT_STREQ(reinterpret_cast<const char*>(sqlite3_column_text(s, 0)), "1,2,3");
+  EXPECT_EQ(sqlite3_column_int(s, 1), 3);
   sqlite3_finalize(s);
   sqlite3_close(raw);
 
   auto db = MustOpen(path, OpenMode::kReadOnly);
   ASSERT_TRUE(db);
-  EXPECT_EQ(db->schema_version(), 2);
+  EXPECT_EQ(db->schema_version(), 3);
   ASSERT_TRUE(db->ReadFloorFeatures(2, 1, &features).ok());
   EXPECT_TRUE(SameFloorFeatures(features, TestFloorFeatures(300, 1)));
   EXPECT_EQ(db->ReadFloorFeatures(2, 0, &features).kind(), StorageErrorKind::kNotFound);

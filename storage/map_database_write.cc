@@ -23,6 +23,15 @@ constexpr const char* kUpsertFrameSql =
     "raw_y = excluded.raw_y, raw_yaw = excluded.raw_yaw, opt_x = excluded.opt_x, "
     "opt_y = excluded.opt_y, opt_yaw = excluded.opt_yaw";
 
+constexpr const char* kUpsertMovingObjectSql =
+    "INSERT OR REPLACE INTO moving_objects (run_id, frame_index, object_id, x_m, y_m, vx_mps, "
+    "vy_mps, radius_m, coasting) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)";
+
+bool Finite(const MovingObject& o) {
+  return o.position_in_base.allFinite() && o.velocity_in_base_mps.allFinite() &&
+         std::isfinite(o.radius_m) && o.radius_m >= 0.0;
+}
+
 }  // namespace
 
 StorageStatus MapDatabase::BeginRun(const CameraCalibration& calibration,
@@ -114,15 +123,40 @@ StorageStatus MapDatabase::DeleteKeyframes(std::int64_t run_id,
   });
 }
 
-StorageStatus MapDatabase::WriteFrames(std::int64_t run_id,
-                                       const std::vector<FrameRecord>& frames) {
+StorageStatus MapDatabase::WriteFrames(std::int64_t run_id, const std::vector<FrameRecord>& frames,
+                                       const std::vector<MovingObjectRecord>& moving_objects) {
   constexpr const char* kContext = "writing frames";
   Impl& d = *impl_;
+  for (const MovingObjectRecord& r : moving_objects) {
+    if (!Finite(r.object)) {
+      return d.Error(StorageErrorKind::kInvalidArgument,
+                     std::string(kContext) + ": moving object " + std::to_string(r.object.id) +
+                         " of frame " + std::to_string(r.frame_index) +
+                         " has a position, velocity or radius that is not finite");
+    }
+  }
   return d.InTransaction(run_id, kContext, [&] {
     Statement s;
     StorageStatus st = d.Prepare(kUpsertFrameSql, &s, kContext);
     for (std::size_t i = 0; i < frames.size() && st.ok(); ++i) {
       st = d.UpsertFrame(run_id, frames[i], s, kContext);
+    }
+    if (!st.ok() || moving_objects.empty()) return st;
+    Statement o;
+    st = d.Prepare(kUpsertMovingObjectSql, &o, kContext);
+    for (std::size_t i = 0; i < moving_objects.size() && st.ok(); ++i) {
+      const MovingObjectRecord& r = moving_objects[i];
+      sqlite3_reset(o.get());
+      st = d.BindInt(o, 1, run_id, kContext);
+      if (st.ok()) st = d.BindInt(o, 2, r.frame_index, kContext);
+      if (st.ok()) st = d.BindInt(o, 3, r.object.id, kContext);
+      if (st.ok()) st = d.BindDouble(o, 4, r.object.position_in_base.x(), kContext);
+      if (st.ok()) st = d.BindDouble(o, 5, r.object.position_in_base.y(), kContext);
+      if (st.ok()) st = d.BindDouble(o, 6, r.object.velocity_in_base_mps.x(), kContext);
+      if (st.ok()) st = d.BindDouble(o, 7, r.object.velocity_in_base_mps.y(), kContext);
+      if (st.ok()) st = d.BindDouble(o, 8, r.object.radius_m, kContext);
+      if (st.ok()) st = d.BindInt(o, 9, r.object.coasting ? 1 : 0, kContext);
+      if (st.ok()) st = d.StepDone(o, kContext);
     }
     return st;
   });

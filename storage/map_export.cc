@@ -76,19 +76,41 @@ bool WriteMapServerFiles(const OccupancyGrid& grid, const std::string& yaml_path
   return WriteText(yaml, yaml_path, error);
 }
 
+namespace {
+// Seconds with all nine decimals, exact for any int64 stamp.
+std::string StampSeconds(TimestampNs s) {
+  const long long whole = s / 1000000000, frac = s % 1000000000;
+  char text[48];
+  std::snprintf(text, sizeof(text), "%s%lld.%09lld", s < 0 && whole == 0 ? "-" : "", whole,
+                std::llabs(frac));
+  return text;
+}
+}  // namespace
+
 bool WriteTumTrajectory(const std::vector<TrajectoryPoint>& trajectory, const std::string& path,
                         std::string* error) {
   std::string text = "# timestamp tx ty tz qx qy qz qw (monoplane, map frame)\n";
   char line[256];
   for (const TrajectoryPoint& p : trajectory) {
     const double yaw = p.map_from_base.yaw;
-    const TimestampNs s = p.stamp_ns;
-    // Seconds with all nine decimals, exact for any int64 stamp.
-    const long long whole = s / 1000000000, frac = s % 1000000000;
-    const bool negative = s < 0 && (whole == 0);
-    std::snprintf(line, sizeof(line), "%s%lld.%09lld %.9f %.9f 0 0 0 %.9f %.9f\n",
-                  negative ? "-" : "", whole, std::llabs(frac), p.map_from_base.x,
-                  p.map_from_base.y, std::sin(yaw / 2.0), std::cos(yaw / 2.0));
+    std::snprintf(line, sizeof(line), "%s %.9f %.9f 0 0 0 %.9f %.9f\n",
+                  StampSeconds(p.stamp_ns).c_str(), p.map_from_base.x, p.map_from_base.y,
+                  std::sin(yaw / 2.0), std::cos(yaw / 2.0));
+    text += line;
+  }
+  return WriteText(text, path, error);
+}
+
+bool WriteMovingObjectsCsv(const std::vector<MovingObjectObservation>& observations,
+                           const std::string& path, std::string* error) {
+  std::string text = "stamp_s,run,frame,id,x_m,y_m,vx_mps,vy_mps,radius_m,coasting\n";
+  char line[256];
+  for (const MovingObjectObservation& o : observations) {
+    std::snprintf(line, sizeof(line), "%s,%lld,%lld,%d,%.4f,%.4f,%.4f,%.4f,%.4f,%d\n",
+                  StampSeconds(o.stamp_ns).c_str(), static_cast<long long>(o.run_id),
+                  static_cast<long long>(o.frame_index), o.object_id, o.position_in_map.x(),
+                  o.position_in_map.y(), o.velocity_in_map_mps.x(), o.velocity_in_map_mps.y(),
+                  o.radius_m, o.coasting ? 1 : 0);
     text += line;
   }
   return WriteText(text, path, error);

@@ -33,6 +33,11 @@ std::string MapServerImagePath(const std::string& yaml_path);
 bool WriteTumTrajectory(const std::vector<TrajectoryPoint>& trajectory, const std::string& path,
                         std::string* error);
 
+// Moving objects as CSV with a header line: `stamp_s,run,frame,id,x_m,y_m,vx_mps,vy_mps,radius_m,
+// coasting` (map frame, seconds with nine decimals), in the order given.
+bool WriteMovingObjectsCsv(const std::vector<MovingObjectObservation>& observations,
+                           const std::string& path, std::string* error);
+
 // Writes bytes as they are (the stored OctoMap as a .bt file).
 bool WriteBytesFile(const std::string& bytes, const std::string& path, std::string* error);
 

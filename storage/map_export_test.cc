@@ -207,6 +207,24 @@ TEST(MapExport, TumTrajectory) {
   EXPECT_NEAR(2.0 * std::atan2(rows[2][5], rows[2][6]), -3.0, 1e-8);
 }
 
+TEST(MapExport, MovingObjectsCsv) {
+  TempDir dir;
+  std::vector<MovingObjectObservation> observations(2);
+  observations[0] = {1, 10, 1700000000123456789ll, 4, {2.5, -1.25}, {0.5, 1.0}, 0.3, false};
+  observations[1] = {2, 3, 5, 1, {0.0, 0.0}, {0.0, 0.0}, 0.25, true};
+  std::string error;
+  ASSERT_TRUE(WriteMovingObjectsCsv(observations, dir.File("moving.csv"), &error)) << error;
+  std::ifstream in(dir.File("moving.csv"));
+  std::stringstream text;
+  text << in.rdbuf();
+  EXPECT_EQ(text.str(),
+            "stamp_s,run,frame,id,x_m,y_m,vx_mps,vy_mps,radius_m,coasting\n"
+            "1700000000.123456789,1,10,4,2.5000,-1.2500,0.5000,1.0000,0.3000,0\n"
+            "0.000000005,2,3,1,0.0000,0.0000,0.0000,0.0000,0.2500,1\n");
+  EXPECT_FALSE(WriteMovingObjectsCsv(observations, dir.File("no_dir/moving.csv"), &error));
+  EXPECT_NE(error.find("no_dir/moving.csv"), std::string::npos) << error;
+}
+
 TEST(MapExport, OctomapBytesRoundTripThroughTheDatabaseIntoABtFileOctomapReads) {
   TempDir dir;
   octomap::OcTree tree(0.05);
