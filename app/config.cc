@@ -265,11 +265,19 @@ OptionTable::OptionTable(AppConfig* config) : config_(config) {
   AddInt("moving_objects", "confirm_updates", &mo.confirm_updates,
          "frames of evidence before a track is reported [1, 1000]");
   AddDouble("moving_objects", "max_coast_s", &mo.max_coast_s,
-            "a track without a region for longer is dropped, s (> 0)");
+            "a track without a region for longer, or for longer than it has been followed, is "
+            "dropped, s (> 0)");
   AddDouble("moving_objects", "position_sigma_m", &mo.position_sigma_m,
-            "noise of a region's floor position, m, plus position_sigma_ratio x range (>= 0)");
+            "noise of a region's floor position along the view, m, plus position_sigma_ratio x "
+            "range (>= 0)");
   AddDouble("moving_objects", "position_sigma_ratio", &mo.position_sigma_ratio,
             "... per metre of range (>= 0)");
+  AddDouble("moving_objects", "bearing_sigma_rad", &mo.bearing_sigma_rad,
+            "noise of the direction a region is seen in, rad (>= 0): across the view the "
+            "position's noise is position_sigma_m plus this x range");
+  AddDouble("moving_objects", "across_velocity_sigma_mps", &mo.across_velocity_sigma_mps,
+            "noise of a region's velocity across the view measured from its pixels' flow, m/s "
+            "(> 0); along the view (from its lowest pixels) twice this");
   AddDouble("moving_objects", "accel_sigma_mps2", &mo.accel_sigma_mps2,
             "how fast an object's velocity may change, m/s^2 (> 0)");
   AddDouble("moving_objects", "max_range_m", &mo.max_range_m,

@@ -41,7 +41,8 @@ MotionEvidence::MotionEvidence(const CameraModel& camera, const MotionEvidenceOp
 }
 
 cv::Mat MotionEvidence::Compute(const cv::Mat& previous, const cv::Mat& current,
-                                const Pose2& base2_from_base1) {
+                                const Pose2& base2_from_base1, cv::Mat* backward_flow) {
+  if (backward_flow) backward_flow->release();
   if (!options_.enabled || previous.size() != current.size() || previous.empty()) return {};
   const int s = options_.downscale;
   cv::Mat cur_small;
@@ -65,6 +66,7 @@ cv::Mat MotionEvidence::Compute(const cv::Mat& previous, const cv::Mat& current,
   cv::Mat backward, forward;  // current -> previous, previous -> current (CV_32FC2)
   flow_->calc(cur_small, prev_small, backward);
   flow_->calc(prev_small, cur_small, forward);
+  if (backward_flow) *backward_flow = backward;
 
   // Pixels of the shrunk images: K scaled.
   Eigen::Matrix3d scale = Eigen::Matrix3d::Identity();

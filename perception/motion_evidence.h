@@ -50,7 +50,10 @@ class MotionEvidence {
   // previous prepared frame and the floor motion of the step base2_from_base1 (previous ->
   // current). Empty when off. Call once per consecutive pair, in order; Reset() when the chain of
   // steps breaks (an unusable frame, no motion).
-  cv::Mat Compute(const cv::Mat& previous, const cv::Mat& current, const Pose2& base2_from_base1);
+  // With `backward_flow`: also the flow from `current` to `previous` (CV_32FC2 over the shrunk
+  // image, in shrunk pixels; empty when off): where each pixel of `current` was in `previous`.
+  cv::Mat Compute(const cv::Mat& previous, const cv::Mat& current, const Pose2& base2_from_base1,
+                  cv::Mat* backward_flow = nullptr);
   void Reset() {
     previous_regions_.release();
     previous_small_.release();

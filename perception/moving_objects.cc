@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <opencv2/imgproc.hpp>
 #include <tuple>
@@ -23,6 +24,10 @@ bool MovingObjectOptions::IsValid(std::string* error) const {
     return fail("position_sigma_ratio: must be >= 0");
   if (!(position_sigma_m + position_sigma_ratio > 0))
     return fail("position_sigma_m: it and position_sigma_ratio must not both be 0");
+  if (!(bearing_sigma_rad >= 0) || !std::isfinite(bearing_sigma_rad))
+    return fail("bearing_sigma_rad: must be >= 0");
+  if (!(across_velocity_sigma_mps > 0) || !std::isfinite(across_velocity_sigma_mps))
+    return fail("across_velocity_sigma_mps: must be > 0");
   if (!(accel_sigma_mps2 > 0) || !std::isfinite(accel_sigma_mps2))
     return fail("accel_sigma_mps2: must be > 0");
   if (!(max_range_m > 0) || !std::isfinite(max_range_m)) return fail("max_range_m: must be > 0");
@@ -61,9 +66,81 @@ cv::Mat FloorMatchingPixels(const CameraModel& camera, const cv::Mat& previous,
   return matching;
 }
 
+namespace {
+
+// A region's velocity from the flow of its own pixels (`own`, within `box`, full resolution):
+// across the view from those well inside it (`in_region` all around: the flow at its border is
+// smoothed with the background's), each seen from both cameras at the thing's distance (it stands
+// upright: its pixels lie about as far as its nearest edge on the floor, `range`); along the view
+// from its lowest `band` rows, each seen on the floor in both frames. Medians over the pixels.
+void MeasureVelocity(const CameraModel& camera, const MovingRegionFlow& flow,
+                     const std::function<bool(int, int)>& own,
+                     const std::function<bool(int, int)>& in_region, const cv::Rect& box, int band,
+                     double range, MovingRegion* r) {
+  const int fs = std::max(1, flow.downscale);
+  const Eigen::Vector2d centre = camera.CameraCentreInBase().head<2>();
+  // The previous camera's centre in the current base frame.
+  const Eigen::Vector2d previous_centre = flow.base2_from_base1 * centre;
+  const auto azimuth = [&](double u, double v) {
+    const Eigen::Vector3d ray = camera.RayInBase(Eigen::Vector2d(u, v));
+    return std::atan2(ray.y(), ray.x());
+  };
+  // Where pixel (row, col) of the current image was in the previous one.
+  const auto previous_pixel = [&](int row, int col) {
+    const cv::Vec2f f = flow.backward.at<cv::Vec2f>(std::min(row / fs, flow.backward.rows - 1),
+                                                    std::min(col / fs, flow.backward.cols - 1));
+    return Eigen::Vector2d(col + 0.5 + fs * f[0], row + 0.5 + fs * f[1]);
+  };
+  const Eigen::Vector2d normal(-r->view_in_base.y(), r->view_in_base.x());
+  const int rows = static_cast<int>(flow.backward.rows) * fs;
+  const int cols = static_cast<int>(flow.backward.cols) * fs;
+  std::vector<double> across;
+  for (int row = box.y; row < box.y + box.height; row += fs) {
+    for (int col = box.x; col < box.x + box.width; col += fs) {
+      if (!own(row, col)) continue;
+      bool inside = true;
+      for (int dv = -6 * fs; dv <= 6 * fs && inside; dv += 3 * fs) {
+        for (int du = -6 * fs; du <= 6 * fs && inside; du += 3 * fs) {
+          const int rr = row + dv, cc = col + du;
+          inside = rr >= 0 && cc >= 0 && rr < rows && cc < cols && in_region(rr, cc);
+        }
+      }
+      if (!inside) continue;
+      const Eigen::Vector2d before_pixel = previous_pixel(row, col);
+      const double now = azimuth(col + 0.5, row + 0.5);
+      const double before = azimuth(before_pixel.x(), before_pixel.y()) + flow.base2_from_base1.yaw;
+      const Eigen::Vector2d x2 = centre + range * Eigen::Vector2d(std::cos(now), std::sin(now));
+      const Eigen::Vector2d x1 =
+          previous_centre +
+          (x2 - previous_centre).norm() * Eigen::Vector2d(std::cos(before), std::sin(before));
+      across.push_back(normal.dot(x2 - x1));
+    }
+  }
+  std::vector<double> along;
+  for (int row = std::max(box.y, box.y + box.height - band); row < box.y + box.height; ++row) {
+    for (int col = box.x; col < box.x + box.width; ++col) {
+      if (!own(row, col)) continue;
+      // The pixel's lower edge: where it meets the floor.
+      const auto now = camera.PixelToFloor(Eigen::Vector2d(col + 0.5, row + 1.0));
+      const auto before = camera.PixelToFloor(previous_pixel(row, col) + Eigen::Vector2d(0, 0.5));
+      if (!now || !before) continue;
+      along.push_back(r->view_in_base.dot(*now - flow.base2_from_base1 * *before));
+    }
+  }
+  const auto median = [](std::vector<double>* v) {
+    std::nth_element(v->begin(), v->begin() + v->size() / 2, v->end());
+    return (*v)[v->size() / 2];
+  };
+  if (across.size() >= 20) r->across_velocity_mps = median(&across) / flow.dt_s;
+  if (along.size() >= 5) r->along_velocity_mps = median(&along) / flow.dt_s;
+}
+
+}  // namespace
+
 std::vector<MovingRegion> PlaceMovingRegions(const CameraModel& camera, const cv::Mat& moving_mask,
                                              const cv::Mat& floor_matching,
-                                             const MovingObjectOptions& options) {
+                                             const MovingObjectOptions& options,
+                                             const MovingRegionFlow& flow) {
   std::vector<MovingRegion> regions;
   if (!options.enabled || moving_mask.empty() || moving_mask.type() != CV_8U) return regions;
   // Regions are found at half resolution (the motion evidence has no finer detail; a quarter of
@@ -98,6 +175,10 @@ std::vector<MovingRegion> PlaceMovingRegions(const CameraModel& camera, const cv
   const bool use_matching = !floor_matching.empty() && floor_matching.type() == CV_8U &&
                             floor_matching.size() == moving_mask.size();
   const Eigen::Vector2d centre = camera.CameraCentreInBase().head<2>();
+  const int fs = std::max(1, flow.downscale);
+  const bool use_flow = !flow.backward.empty() && flow.backward.type() == CV_32FC2 &&
+                        flow.backward.cols * fs <= moving_mask.cols + fs &&
+                        flow.backward.rows * fs <= moving_mask.rows + fs && flow.dt_s > 0.0;
   std::vector<int> columns;
   for (int g = 1; g < n; ++g) {
     if (root(g) != g) continue;
@@ -157,6 +238,20 @@ std::vector<MovingRegion> PlaceMovingRegions(const CameraModel& camera, const cv
     // view.
     r.position_in_base = *floor + r.radius_m * (*floor - centre) / std::max(range, 1e-9);
     r.range_m = range + r.radius_m;
+    r.view_in_base = (*floor - centre) / std::max(range, 1e-9);
+    r.clipped = left <= 1 || right >= moving_mask.cols - 1;
+    if (use_flow) {
+      const auto own = [&](int row, int col) {
+        const int c = component_at(row, col);
+        return c > 0 && root(c) == g && counts(row, col);
+      };
+      const auto in_region = [&](int row, int col) {
+        const int c = component_at(row, col);
+        return c > 0 && root(c) == g;
+      };
+      MeasureVelocity(camera, flow, own, in_region,
+                      cv::Rect(left, top, right - left, bottom - top + 1), band, range, &r);
+    }
     regions.push_back(r);
   }
   // Regions side by side that stand closer than the gate are parts of one thing (its leading and
@@ -173,12 +268,27 @@ std::vector<MovingRegion> PlaceMovingRegions(const CameraModel& camera, const cv
         m.position_in_base += d * ((radius - m.radius_m) / std::max(d.norm(), 1e-9));
         m.radius_m = std::max(radius, std::max(m.radius_m, regions[b].radius_m));
         m.range_m = std::min(m.range_m, regions[b].range_m);
+        m.clipped = m.clipped || regions[b].clipped;
+        if (!m.across_velocity_mps) m.across_velocity_mps = regions[b].across_velocity_mps;
+        if (!m.along_velocity_mps) m.along_velocity_mps = regions[b].along_velocity_mps;
         regions.erase(regions.begin() + static_cast<std::ptrdiff_t>(b));
         merged = true;
       }
     }
   }
   return regions;
+}
+
+Eigen::Matrix2d MovingObjectTracker::MeasurementNoise(const MovingRegion& region,
+                                                      const Pose2& odom_from_base) const {
+  const double along = options_.position_sigma_m + options_.position_sigma_ratio * region.range_m;
+  double across = options_.position_sigma_m + options_.bearing_sigma_rad * region.range_m;
+  if (region.clipped) across += 2.0 * region.radius_m;
+  // Axes: along the view and across it, in the odometry frame.
+  Eigen::Matrix2d axes;
+  axes.col(0) = odom_from_base.Rotation() * region.view_in_base;
+  axes.col(1) = Eigen::Vector2d(-axes(1, 0), axes(0, 0));
+  return axes * Eigen::Vector2d(along * along, across * across).asDiagonal() * axes.transpose();
 }
 
 std::vector<MovingObject> MovingObjectTracker::Update(const std::vector<MovingRegion>& regions,
@@ -220,13 +330,32 @@ std::vector<MovingObject> MovingObjectTracker::Update(const std::vector<MovingRe
     Track& track = tracks_[t];
     if (region_used[r] || track.updated_now) continue;
     region_used[r] = 1;
-    const double sigma =
-        options_.position_sigma_m + options_.position_sigma_ratio * regions[r].range_m;
-    const Eigen::Matrix2d measurement_noise = Eigen::Matrix2d::Identity() * sigma * sigma;
-    const Eigen::Matrix2d s = track.covariance.topLeftCorner<2, 2>() + measurement_noise;
+    const Eigen::Matrix2d s =
+        track.covariance.topLeftCorner<2, 2>() + MeasurementNoise(regions[r], odom_from_base);
     const Eigen::Matrix<double, 4, 2> gain = track.covariance.leftCols<2>() * s.inverse();
     track.state += gain * (in_odom[r] - track.state.head<2>());
     track.covariance -= gain * track.covariance.topRows<2>();
+    if (regions[r].across_velocity_mps) {
+      // The velocity across the view, measured from the flow: one more scalar update.
+      const Eigen::Vector2d view = odom_from_base.Rotation() * regions[r].view_in_base;
+      Eigen::Matrix<double, 1, 4> h;
+      h << 0.0, 0.0, -view.y(), view.x();
+      const double sv = options_.across_velocity_sigma_mps;
+      const double innovation_var = (h * track.covariance * h.transpose())(0, 0) + sv * sv;
+      const Eigen::Vector4d k = track.covariance * h.transpose() / innovation_var;
+      track.state += k * (*regions[r].across_velocity_mps - (h * track.state)(0, 0));
+      track.covariance -= k * h * track.covariance;
+    }
+    if (regions[r].along_velocity_mps) {
+      const Eigen::Vector2d view = odom_from_base.Rotation() * regions[r].view_in_base;
+      Eigen::Matrix<double, 1, 4> h;
+      h << 0.0, 0.0, view.x(), view.y();
+      const double sv = 2.0 * options_.across_velocity_sigma_mps;
+      const double innovation_var = (h * track.covariance * h.transpose())(0, 0) + sv * sv;
+      const Eigen::Vector4d k = track.covariance * h.transpose() / innovation_var;
+      track.state += k * (*regions[r].along_velocity_mps - (h * track.state)(0, 0));
+      track.covariance -= k * h * track.covariance;
+    }
     track.radius_m = 0.7 * track.radius_m + 0.3 * regions[r].radius_m;
     ++track.updates;
     track.last_update_ns = stamp_ns;
@@ -247,6 +376,7 @@ std::vector<MovingObject> MovingObjectTracker::Update(const std::vector<MovingRe
         older.covariance = newer.covariance;
         older.radius_m = newer.radius_m;
         older.last_update_ns = newer.last_update_ns;
+        older.first_update_ns = std::min(older.first_update_ns, newer.first_update_ns);
         older.updated_now = true;
       }
       older.updates = std::max(older.updates, newer.updates);
@@ -255,7 +385,11 @@ std::vector<MovingObject> MovingObjectTracker::Update(const std::vector<MovingRe
   }
   tracks_.erase(std::remove_if(tracks_.begin(), tracks_.end(),
                                [&](const Track& t) {
-                                 return t.dropped || stamp_ns - t.last_update_ns > max_coast_ns;
+                                 // Absence of evidence for longer than there was evidence
+                                 // ends a track too: a flicker does not coast for long.
+                                 const TimestampNs coast_ns =
+                                     std::min(max_coast_ns, t.last_update_ns - t.first_update_ns);
+                                 return t.dropped || stamp_ns - t.last_update_ns > coast_ns;
                                }),
                 tracks_.end());
   for (std::size_t r = 0; r < regions.size(); ++r) {
@@ -263,12 +397,21 @@ std::vector<MovingObject> MovingObjectTracker::Update(const std::vector<MovingRe
     Track t;
     t.id = next_id_++;
     t.state << in_odom[r], 0.0, 0.0;
-    const double sigma =
-        options_.position_sigma_m + options_.position_sigma_ratio * regions[r].range_m;
     // The velocity is unknown: walking pace either way.
-    t.covariance = Eigen::Vector4d(sigma * sigma, sigma * sigma, 1.0, 1.0).asDiagonal();
+    t.covariance = Eigen::Vector4d(0.0, 0.0, 1.0, 1.0).asDiagonal();
+    t.covariance.topLeftCorner<2, 2>() = MeasurementNoise(regions[r], odom_from_base);
+    if (regions[r].across_velocity_mps) {
+      // Across the view the flow tells it already.
+      const Eigen::Vector2d view = odom_from_base.Rotation() * regions[r].view_in_base;
+      const Eigen::Vector2d across(-view.y(), view.x());
+      const double sv = options_.across_velocity_sigma_mps;
+      t.state.tail<2>() = *regions[r].across_velocity_mps * across;
+      t.covariance.bottomRightCorner<2, 2>() =
+          view * view.transpose() + sv * sv * across * across.transpose();
+    }
     t.radius_m = regions[r].radius_m;
     t.updates = 1;
+    t.first_update_ns = stamp_ns;
     t.last_update_ns = stamp_ns;
     t.updated_now = true;
     tracks_.push_back(t);

@@ -2,6 +2,7 @@
 
 #include <Eigen/Core>
 #include <opencv2/core.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -23,14 +24,22 @@ struct MovingObjectOptions {
   double gate_m = 0.8;
   // Frames of evidence a track needs before it is reported (>= 1): one region can be a flicker.
   int confirm_updates = 2;
-  // A track without a region for longer than this is dropped, s (> 0); until then it is reported
-  // where it is predicted to be (a person briefly lost in textureless flow is still there).
-  double max_coast_s = 0.5;
-  // Noise of the position measured from a region's lowest row, m: position_sigma_m plus
-  // position_sigma_ratio x range (>= 0, not both 0). The floor's scale per image row falls with
-  // the square of the range.
+  // A track without a region for longer than this, or than it has been followed, is dropped,
+  // s (> 0); until then it is reported where it is predicted to be (a person briefly lost in
+  // textureless flow or behind another is still there), flagged as coasting.
+  double max_coast_s = 1.0;
+  // Noise of the position measured from a region's lowest row along the view, m:
+  // position_sigma_m plus position_sigma_ratio x range (>= 0, not both 0). The floor's scale per
+  // image row falls with the square of the range.
   double position_sigma_m = 0.05;
   double position_sigma_ratio = 0.05;
+  // Noise of the direction in which a region is seen, rad (>= 0): across the view the position's
+  // noise is position_sigma_m plus this x range, far less than along it at a distance. A region
+  // cut by the image's side is centred on what is visible: across the view it adds its diameter.
+  double bearing_sigma_rad = 0.02;
+  // Noise of a region's velocity across the view measured from its pixels' flow, m/s (> 0). Along
+  // the view, measured from the few pixels where it meets the floor (feet swing), twice this.
+  double across_velocity_sigma_mps = 0.15;
   // How fast an object's velocity may change, m/s^2 (> 0): people and robots accelerate at 1-3.
   double accel_sigma_mps2 = 2.0;
   // Regions whose floor position lies farther than this are not placed, m (> 0).
@@ -43,7 +52,23 @@ struct MovingObjectOptions {
 struct MovingRegion {
   Eigen::Vector2d position_in_base{0, 0};  // the floor point under its lowest row
   double radius_m = 0.0;
-  double range_m = 0.0;  // from the camera, on the floor
+  double range_m = 0.0;                // from the camera, on the floor
+  Eigen::Vector2d view_in_base{1, 0};  // unit direction from the camera to it, on the floor
+  bool clipped = false;                // cut by the image's left or right side
+  // Its velocity across the view (along view_in_base rotated +90 degrees), m/s, from the flow of
+  // its own pixels (MovingRegionFlow); unset without a usable flow.
+  std::optional<double> across_velocity_mps;
+  // Its velocity along the view, m/s, from the flow of its lowest pixels (where it meets the
+  // floor: each seen on the floor in both frames); unset without a usable flow.
+  std::optional<double> along_velocity_mps;
+};
+
+// The dense flow of the step to the frame whose regions are placed, for their velocities.
+struct MovingRegionFlow {
+  cv::Mat backward;  // CV_32FC2, current -> previous, at 1 / downscale of the image; empty: none
+  int downscale = 1;
+  Pose2 base2_from_base1;  // the step, previous -> current
+  double dt_s = 0.0;       // its duration, s
 };
 
 // Where the current image matches the previous one moved by the floor's motion of the step
@@ -60,10 +85,13 @@ cv::Mat FloorMatchingPixels(const CameraModel& camera, const cv::Mat& previous,
 // one thing (legs and body). With floor_matching (FloorMatchingPixels, or empty), pixels of a
 // region that match the floor's motion do not count for its lowest row: the flow of a moving
 // thing spreads onto the floor below it. Regions whose lowest row lies above the horizon or beyond
-// max_range_m are left out.
+// max_range_m are left out. With `flow`, each region's velocity across the view: its own pixels'
+// displacement between the frames at its range (the horizontal bearing each pixel had from the
+// previous camera and has from the current one), the median over them.
 std::vector<MovingRegion> PlaceMovingRegions(const CameraModel& camera, const cv::Mat& moving_mask,
                                              const cv::Mat& floor_matching,
-                                             const MovingObjectOptions& options);
+                                             const MovingObjectOptions& options,
+                                             const MovingRegionFlow& flow = {});
 
 // Follows the regions over frames. No files, threads or clocks: the caller gives each frame's
 // stamp and odometry pose.
@@ -77,12 +105,16 @@ class MovingObjectTracker {
                                    const Pose2& odom_from_base, TimestampNs stamp_ns);
 
  private:
+  // The covariance of a region's measured position in the odometry frame: position_sigma_ratio
+  // along the view, bearing_sigma_rad across it (more when the region is cut by the image's side).
+  Eigen::Matrix2d MeasurementNoise(const MovingRegion& region, const Pose2& odom_from_base) const;
   struct Track {
     int id = 0;
     Eigen::Vector4d state = Eigen::Vector4d::Zero();  // x, y, vx, vy in the odometry frame
     Eigen::Matrix4d covariance = Eigen::Matrix4d::Identity();
     double radius_m = 0.0;
     int updates = 0;
+    TimestampNs first_update_ns = 0;
     TimestampNs last_update_ns = 0;
     bool updated_now = false;
     bool dropped = false;  // merged into an older track

@@ -66,6 +66,85 @@ TEST(MovingObjects, ARegionIsPlacedWhereItStandsOnTheFloor) {
   EXPECT_TRUE(PlaceMovingRegions(camera, sky, cv::Mat(), options).empty());
 }
 
+// A person walking over the ground while the robot drives and turns: the flow of its pixels (made
+// here from the true motion of its points) gives its velocity across the view, and that of its
+// lowest pixels (where it meets the floor) its velocity along the view.
+TEST(MovingObjects, ARegionsVelocityComesFromTheFlowOfItsPixels) {
+  const CameraModel camera = MakeCamera();
+  const MovingObjectOptions options;
+  const Eigen::Vector2d centre(2.0, 0.3);
+  const double radius = 0.25, dt = 1.0 / 15.0;
+  const Eigen::Vector2d velocity(0.3, -1.0);      // over the ground, current base axes
+  const Pose2 base2_from_base1{0.02, 0.0, 0.01};  // the robot's step
+  const Eigen::Vector2d eye = camera.CameraCentreInBase().head<2>();
+  const Eigen::Vector2d view = (centre - eye).normalized();
+  const double near_edge = (centre - eye).norm() - radius;  // its pixels' horizontal distance
+  cv::Mat mask(480, 640, CV_8U, cv::Scalar(0));
+  DrawStanding(camera, centre, radius, &mask);
+  // Where each pixel's point was in the previous image: at the same horizontal distance from the
+  // camera now (an upright thing), moved back by velocity x dt, seen from the previous camera.
+  cv::Mat flow(480, 640, CV_32FC2, cv::Scalar(0, 0));
+  const Pose2 base1_from_base2 = base2_from_base1.Inverse();
+  const Eigen::Isometry3d base1_from_base2_3d = [&] {
+    Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
+    t.linear().topLeftCorner<2, 2>() = base1_from_base2.Rotation();
+    t.translation().head<2>() = base1_from_base2.Translation();
+    return t;
+  }();
+  for (int v = 0; v < mask.rows; ++v) {
+    for (int u = 0; u < mask.cols; ++u) {
+      if (!mask.at<std::uint8_t>(v, u)) continue;
+      const Eigen::Vector2d pixel(u + 0.5, v + 0.5);
+      const Eigen::Vector3d ray = camera.RayInBase(pixel);
+      const Eigen::Vector3d point =
+          camera.CameraCentreInBase() + ray * (near_edge / ray.head<2>().norm());
+      Eigen::Vector3d before = point;
+      before.head<2>() -= velocity * dt;
+      const auto seen = camera.ProjectToPixel(base1_from_base2_3d * before);
+      ASSERT_TRUE(seen);
+      flow.at<cv::Vec2f>(v, u) = cv::Vec2f(static_cast<float>(seen->x() - pixel.x()),
+                                           static_cast<float>(seen->y() - pixel.y()));
+    }
+  }
+  MovingRegionFlow region_flow;
+  region_flow.backward = flow;
+  region_flow.downscale = 1;
+  region_flow.base2_from_base1 = base2_from_base1;
+  region_flow.dt_s = dt;
+  const std::vector<MovingRegion> regions =
+      PlaceMovingRegions(camera, mask, cv::Mat(), options, region_flow);
+  ASSERT_EQ(regions.size(), 1u);
+  const MovingRegion& r = regions[0];
+  EXPECT_NEAR(r.view_in_base.dot(view), 1.0, 1e-3);
+  ASSERT_TRUE(r.across_velocity_mps.has_value());
+  ASSERT_TRUE(r.along_velocity_mps.has_value());
+  const Eigen::Vector2d across(-r.view_in_base.y(), r.view_in_base.x());
+  EXPECT_NEAR(*r.across_velocity_mps, velocity.dot(across), 0.05);
+  EXPECT_NEAR(*r.along_velocity_mps, velocity.dot(r.view_in_base), 0.1);
+  EXPECT_FALSE(r.clipped);
+  // Without a flow, no velocity; a thing cut by the image's side is clipped.
+  const std::vector<MovingRegion> still = PlaceMovingRegions(camera, mask, cv::Mat(), options);
+  ASSERT_EQ(still.size(), 1u);
+  EXPECT_FALSE(still[0].across_velocity_mps.has_value());
+  cv::Mat cut(480, 640, CV_8U, cv::Scalar(0));
+  cv::rectangle(cut, cv::Rect(600, 150, 40, 150), cv::Scalar(255), cv::FILLED);
+  const std::vector<MovingRegion> side = PlaceMovingRegions(camera, cut, cv::Mat(), options);
+  ASSERT_EQ(side.size(), 1u);
+  EXPECT_TRUE(side[0].clipped);
+
+  // The tracker reports that velocity from its second frame (its first two regions), and the
+  // position's noise across the view is the smaller one.
+  MovingObjectTracker tracker(options);
+  std::vector<MovingObject> objects;
+  for (int k = 0; k < 2; ++k) {
+    MovingRegion at = r;
+    at.position_in_base = centre + velocity * dt * k;
+    objects = tracker.Update({at}, Pose2{}, static_cast<TimestampNs>(k * dt * 1e9));
+  }
+  ASSERT_EQ(objects.size(), 1u);
+  EXPECT_NEAR((objects[0].velocity_in_base_mps - velocity).norm(), 0.0, 0.25);
+}
+
 // A person crossing 2 m ahead at 1 m/s while the robot drives forward at 0.3 m/s and turns
 // slowly: one id throughout, its velocity over the ground (not relative to the robot), and a
 // second person gets an id of its own.
@@ -163,6 +242,14 @@ TEST(MovingObjects, OptionsAreChecked) {
   bad.position_sigma_m = 0;
   bad.position_sigma_ratio = 0;
   EXPECT_FALSE(bad.IsValid(&error));
+  bad = MovingObjectOptions{};
+  bad.bearing_sigma_rad = -0.1;
+  EXPECT_FALSE(bad.IsValid(&error));
+  EXPECT_EQ(error, "moving_objects.bearing_sigma_rad: must be >= 0");
+  bad = MovingObjectOptions{};
+  bad.across_velocity_sigma_mps = 0;
+  EXPECT_FALSE(bad.IsValid(&error));
+  EXPECT_EQ(error, "moving_objects.across_velocity_sigma_mps: must be > 0");
 }
 
 }  // namespace

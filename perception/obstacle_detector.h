@@ -107,6 +107,7 @@ class SequenceDetector {
     Pose2 odom_from_base;                      // dead-reckoned pose of this frame
     TimestampNs stamp_ns = 0;                  // of this frame
     GroundMotion step;                         // motion from the previous good frame
+    double step_dt_s = 0.0;                    // time since the previous good frame, s
     std::vector<FeatureObservation> features;  // corners tracked into this frame
     bool image_ok = false;
     std::string message;  // why the image was unusable
@@ -127,6 +128,9 @@ class SequenceDetector {
     // without a step). Finish labels them moving in a carried result too, and tracks them as
     // objects (FrameResult::moving_objects).
     cv::Mat moving_mask;
+    // With moving_mask: the dense flow from this image to the previous one (CV_32FC2 at
+    // 1 / motion_evidence.downscale of the image, in those pixels).
+    cv::Mat moving_flow;
     // Where this image matches the previous one under the floor's motion (FloorMatchingPixels),
     // when something moves: where moving things stand.
     cv::Mat floor_matching;

@@ -219,9 +219,16 @@ void SequenceDetector::TrackMovingObjects(Output& output) {
   cv::Mat moving;
   if (output.result && !output.result->labels.empty())
     moving = output.result->labels == static_cast<int>(PixelLabel::kMoving);
+  MovingRegionFlow flow;
+  if (!output.moving_flow.empty() && output.step.status != GroundMotion::Status::kFailed) {
+    flow.backward = output.moving_flow;
+    flow.downscale = detector_.options().motion_evidence.downscale;
+    flow.base2_from_base1 = output.step.base2_from_base1;
+    flow.dt_s = output.step_dt_s;
+  }
   std::vector<MovingObject> objects =
       moving_objects_.Update(PlaceMovingRegions(detector_.camera(), moving, output.floor_matching,
-                                                detector_.options().moving_objects),
+                                                detector_.options().moving_objects, flow),
                              output.odom_from_base, output.stamp_ns);
   if (output.result) output.result->moving_objects = std::move(objects);
 }
@@ -272,6 +279,7 @@ SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, Timesta
   }
   // A step that cannot have been driven is an outlier fit: the last step is kept instead.
   const double dt_s = static_cast<double>(stamp_ns - previous.stamp_ns) * 1e-9;
+  out.step_dt_s = dt_s;
   if (out.step.status == GroundMotion::Status::kOk && last_step_) {
     if (!IsDrivableStep(out.step.base2_from_base1, dt_s, *last_step_, last_step_dt_s_, gm) &&
         rejected_steps_ < gm.max_rejected_steps) {
@@ -298,7 +306,8 @@ SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, Timesta
   if (out.step.status == GroundMotion::Status::kFailed) {
     motion_evidence_.Reset();
   } else {
-    out.moving_mask = motion_evidence_.Compute(previous.image, prepared, out.step.base2_from_base1);
+    out.moving_mask = motion_evidence_.Compute(previous.image, prepared, out.step.base2_from_base1,
+                                               &out.moving_flow);
     // Only around what moves: the lowest rows of its regions are all that is asked of it (with
     // room for the labels' sample blocks, which reach a little beyond the evidence).
     const cv::Rect moving = options.moving_objects.enabled && !out.moving_mask.empty()

@@ -251,20 +251,23 @@ void BM_MotionEvidence(benchmark::State& state) {
 BENCHMARK(BM_MotionEvidence)->Unit(benchmark::kMillisecond);
 
 // The moving regions as objects on the same frames (the motion evidence computed beforehand):
-// the floor-matching image of the pair, the regions placed on the floor, the tracker. Time per
-// frame.
+// the floor-matching image of the pair, the regions placed on the floor with their velocities from
+// the flow, the tracker. Time per frame.
 void BM_MovingObjects(benchmark::State& state) {
   const Sequence& seq = SceneSequence("person_crossing");
   const ObstacleDetector detector(seq.calibration, DetectorOptions());
-  std::vector<cv::Mat> prepared, masks;
+  std::vector<cv::Mat> prepared, masks, flows;
   std::string error;
   for (const cv::Mat& f : seq.frames) prepared.push_back(detector.Prepare(f, &error));
   MotionEvidence evidence(detector.camera(), MotionEvidenceOptions());
   Pose2 step;
   step.x = -0.3 / seq.fps;
   masks.emplace_back();
-  for (std::size_t i = 1; i < prepared.size(); ++i)
-    masks.push_back(evidence.Compute(prepared[i - 1], prepared[i], step));
+  flows.emplace_back();
+  for (std::size_t i = 1; i < prepared.size(); ++i) {
+    flows.emplace_back();
+    masks.push_back(evidence.Compute(prepared[i - 1], prepared[i], step, &flows.back()));
+  }
   const MovingObjectOptions options;
   const double max_residual = ClassificationOptions().max_residual;
   MovingObjectTracker tracker(options);
@@ -279,8 +282,13 @@ void BM_MovingObjects(benchmark::State& state) {
                                  : cv::Mat();
     odom_from_base = odom_from_base * step.Inverse();
     stamp_ns += SecondsToNs(1.0 / seq.fps);
+    MovingRegionFlow flow;
+    flow.backward = flows[next];
+    flow.downscale = MotionEvidenceOptions().downscale;
+    flow.base2_from_base1 = step;
+    flow.dt_s = 1.0 / seq.fps;
     benchmark::DoNotOptimize(
-        tracker.Update(PlaceMovingRegions(detector.camera(), masks[next], matching, options),
+        tracker.Update(PlaceMovingRegions(detector.camera(), masks[next], matching, options, flow),
                        odom_from_base, stamp_ns));
     next = next + 1 == prepared.size() ? 1 : next + 1;
   }
