@@ -31,6 +31,8 @@ bool MovingObjectOptions::IsValid(std::string* error) const {
   if (!(accel_sigma_mps2 > 0) || !std::isfinite(accel_sigma_mps2))
     return fail("accel_sigma_mps2: must be > 0");
   if (!(max_range_m > 0) || !std::isfinite(max_range_m)) return fail("max_range_m: must be > 0");
+  if (!(footprint_margin_m >= 0) || !std::isfinite(footprint_margin_m))
+    return fail("footprint_margin_m: must be >= 0");
   return true;
 }
 
@@ -277,6 +279,28 @@ std::vector<MovingRegion> PlaceMovingRegions(const CameraModel& camera, const cv
     }
   }
   return regions;
+}
+
+void ForgetMovingFootprints(const std::vector<MovingObject>& objects,
+                            const MovingObjectOptions& options, OccupancyGrid* local_map_in_base) {
+  OccupancyGrid& map = *local_map_in_base;
+  const GridGeometry& g = map.geometry;
+  if (map.cells.size() != g.NumCells() || !(g.resolution_m > 0)) return;
+  for (const MovingObject& o : objects) {
+    const double reach = o.radius_m + options.footprint_margin_m;
+    const Eigen::Vector2d low = o.position_in_base - Eigen::Vector2d::Constant(reach);
+    const int col0 =
+        std::max(0, static_cast<int>(std::floor((low.x() - g.origin_x_m) / g.resolution_m)));
+    const int row0 =
+        std::max(0, static_cast<int>(std::floor((low.y() - g.origin_y_m) / g.resolution_m)));
+    const int span = static_cast<int>(std::ceil(2.0 * reach / g.resolution_m)) + 1;
+    for (int row = row0; row < std::min(g.height, row0 + span + 1); ++row) {
+      for (int col = col0; col < std::min(g.width, col0 + span + 1); ++col) {
+        if ((g.CellCenter(col, row) - o.position_in_base).norm() <= reach)
+          map.cells[g.Index(col, row)] = kCellUnknown;
+      }
+    }
+  }
 }
 
 Eigen::Matrix2d MovingObjectTracker::MeasurementNoise(const MovingRegion& region,

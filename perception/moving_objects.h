@@ -8,6 +8,7 @@
 
 #include "perception/frame_types.h"
 #include "perception/geometry/camera_model.h"
+#include "perception/geometry/occupancy_grid.h"
 #include "perception/geometry/pose2.h"
 #include "perception/geometry/timestamp.h"
 
@@ -44,6 +45,10 @@ struct MovingObjectOptions {
   double accel_sigma_mps2 = 2.0;
   // Regions whose floor position lies farther than this are not placed, m (> 0).
   double max_range_m = 8.0;
+  // A tracked object's footprint, this much wider, is unknown in its frame's local map (neither
+  // obstacle nor floor reaches the map from where a moving thing is), m (>= 0): about its
+  // position's error.
+  double footprint_margin_m = 0.15;
 
   bool IsValid(std::string* error) const;
 };
@@ -92,6 +97,12 @@ std::vector<MovingRegion> PlaceMovingRegions(const CameraModel& camera, const cv
                                              const cv::Mat& floor_matching,
                                              const MovingObjectOptions& options,
                                              const MovingRegionFlow& flow = {});
+
+// Makes the cells of `local_map_in_base` within each object's footprint (radius plus
+// options.footprint_margin_m) unknown: what covers a moving thing is not static, and what it
+// hides is not seen.
+void ForgetMovingFootprints(const std::vector<MovingObject>& objects,
+                            const MovingObjectOptions& options, OccupancyGrid* local_map_in_base);
 
 // Follows the regions over frames. No files, threads or clocks: the caller gives each frame's
 // stamp and odometry pose.

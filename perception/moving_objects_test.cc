@@ -228,6 +228,33 @@ TEST(MovingObjects, ALostTrackCoastsThenIsDropped) {
   EXPECT_NE(out[0].id, id);
 }
 
+// Where a tracked object stands (and a margin around it) the frame's local map knows nothing:
+// neither the obstacle its edges look like nor the floor it hides; elsewhere it is unchanged.
+TEST(MovingObjects, AMovingThingsFootprintIsUnknownInTheLocalMap) {
+  GridGeometry g;
+  g.resolution_m = 0.05;
+  g.width = g.height = 100;
+  g.origin_x_m = 0.0;
+  g.origin_y_m = -2.5;
+  OccupancyGrid local(g, kCellFree);
+  local.At(40, 50) = kCellOccupied;  // under the object, at (2.025, 0.025)
+  local.At(80, 50) = kCellOccupied;  // a wall 2 m farther
+  MovingObject person;
+  person.position_in_base = {2.0, 0.0};
+  person.radius_m = 0.25;
+  MovingObjectOptions options;
+  options.footprint_margin_m = 0.1;
+  ForgetMovingFootprints({person}, options, &local);
+  EXPECT_EQ(local.At(40, 50), kCellUnknown);
+  EXPECT_EQ(local.At(46, 50), kCellUnknown);  // 0.325 m from its centre: within the margin
+  EXPECT_EQ(local.At(48, 50), kCellFree);     // 0.425 m: beyond it
+  EXPECT_EQ(local.At(80, 50), kCellOccupied);
+  int unknown = 0;
+  for (const std::int8_t v : local.cells) unknown += v == kCellUnknown;
+  // The disc of 0.35 m: about pi x 7^2 cells of 5 cm.
+  EXPECT_NEAR(unknown, M_PI * 7.0 * 7.0, 12.0);
+}
+
 TEST(MovingObjects, OptionsAreChecked) {
   std::string error;
   EXPECT_TRUE(MovingObjectOptions{}.IsValid(&error));
@@ -250,6 +277,9 @@ TEST(MovingObjects, OptionsAreChecked) {
   bad.across_velocity_sigma_mps = 0;
   EXPECT_FALSE(bad.IsValid(&error));
   EXPECT_EQ(error, "moving_objects.across_velocity_sigma_mps: must be > 0");
+  bad = MovingObjectOptions{};
+  bad.footprint_margin_m = -0.1;
+  EXPECT_FALSE(bad.IsValid(&error));
 }
 
 }  // namespace

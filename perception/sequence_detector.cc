@@ -230,7 +230,10 @@ void SequenceDetector::TrackMovingObjects(Output& output) {
       moving_objects_.Update(PlaceMovingRegions(detector_.camera(), moving, output.floor_matching,
                                                 detector_.options().moving_objects, flow),
                              output.odom_from_base, output.stamp_ns);
-  if (output.result) output.result->moving_objects = std::move(objects);
+  if (output.result) {
+    ForgetMovingFootprints(objects, detector_.options().moving_objects, &output.result->local_map);
+    output.result->moving_objects = std::move(objects);
+  }
 }
 
 SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, TimestampNs stamp_ns,

@@ -2,6 +2,7 @@
 // ground truth.
 // Exit codes: 0 scored, 2 unreadable or invalid input (one line naming the file and the reason).
 #include <CLI/CLI.hpp>
+#include <filesystem>
 #include <iostream>
 #include <string>
 
@@ -158,6 +159,18 @@ int main(int argc, char** argv) {
                       seen.empty() ? nullptr : &seen, seen_floor.empty() ? nullptr : &seen_floor)) {
       exit_code = Fail(error);
       return;
+    }
+    // A simulated sequence with moving things: what the map kept where they went.
+    const std::string movers_path = grid_seen_from + "/gt/movers.txt";
+    if (!grid_seen_from.empty() && std::filesystem::exists(movers_path)) {
+      std::vector<GtMoverState> movers;
+      if (!LoadGtMovers(movers_path, &movers, &error)) {
+        exit_code = Fail(error);
+        return;
+      }
+      std::vector<std::pair<Eigen::Vector2d, double>> footprints;
+      for (const GtMoverState& m : movers) footprints.emplace_back(m.position_m, m.radius_m);
+      MoverPathOccupancy(pred, gt, footprints, &result);
     }
     std::cout << (json ? GridReportJson(result) : GridReportTable(result));
   });

@@ -317,6 +317,11 @@ std::string GridReportTable(const GridEvalResult& r) {
         << "free of seen floor:   " << Percent(r.free_recall_seen) << " (" << r.gt_free_seen_free
         << " / " << r.gt_free_seen << ")\n";
   }
+  if (r.mover_path_scored) {
+    out << "mover path cells:     " << r.mover_path_cells
+        << " (GT free, under a moving thing in some frame)\n"
+        << "  read occupied:      " << r.mover_path_occupied << "\n";
+  }
   return out.str();
 }
 
@@ -346,6 +351,10 @@ std::string GridReportJson(const GridEvalResult& r) {
     json.Add("gt_free_seen", r.gt_free_seen)
         .Add("gt_free_seen_free", r.gt_free_seen_free)
         .Add("free_recall_seen", r.free_recall_seen);
+  }
+  if (r.mover_path_scored) {
+    json.Add("mover_path_cells", r.mover_path_cells)
+        .Add("mover_path_occupied", r.mover_path_occupied);
   }
   return json.Str() + "\n";
 }

@@ -43,6 +43,36 @@ std::optional<double> F1(const std::optional<double>& precision,
 
 }  // namespace
 
+void MoverPathOccupancy(const MapServerMap& pred, const MapServerMap& gt,
+                        const std::vector<std::pair<Eigen::Vector2d, double>>& movers_in_map,
+                        GridEvalResult* result) {
+  const GridGeometry& g = gt.grid.geometry;
+  std::vector<std::uint8_t> path(g.NumCells(), 0);
+  // Every cell against every footprint (GT grids are small; works for rotated origins too).
+  for (int row = 0; row < g.height; ++row) {
+    for (int col = 0; col < g.width; ++col) {
+      const Eigen::Vector2d centre = gt.CellCenterInMap(col, row);
+      for (const auto& [position, radius] : movers_in_map) {
+        if ((centre - position).norm() > radius) continue;
+        path[g.Index(col, row)] = 1;
+        break;
+      }
+    }
+  }
+  result->mover_path_scored = true;
+  result->mover_path_cells = 0;
+  result->mover_path_occupied = 0;
+  for (int row = 0; row < g.height; ++row) {
+    for (int col = 0; col < g.width; ++col) {
+      if (!path[g.Index(col, row)] || StateOfValue(gt.grid.At(col, row)) != CellState::kFree)
+        continue;
+      ++result->mover_path_cells;
+      const auto value = pred.ValueAt(gt.CellCenterInMap(col, row));
+      if (value && StateOfValue(*value) == CellState::kOccupied) ++result->mover_path_occupied;
+    }
+  }
+}
+
 bool CompareGrids(const MapServerMap& pred, const MapServerMap& gt, const GridEvalOptions& options,
                   const std::vector<Eigen::Vector2d>& positions_in_map, GridEvalResult* result,
                   std::string* error, const std::vector<std::uint8_t>* seen_cells,

@@ -4,6 +4,7 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "tools/eval/map_server_map.h"
@@ -55,6 +56,12 @@ struct GridEvalResult {
   std::int64_t gt_free_seen = 0;
   std::int64_t gt_free_seen_free = 0;
   std::optional<double> free_recall_seen;  // gt_free_seen_free / gt_free_seen
+  // With movers (MoverPathOccupancy): the GT-free cells a moving thing's footprint covered in
+  // some frame, and those of them the prediction reads occupied (same cell): what the static map
+  // kept of things that moved.
+  bool mover_path_scored = false;
+  std::int64_t mover_path_cells = 0;
+  std::int64_t mover_path_occupied = 0;
 };
 
 // Compares a predicted grid with a ground-truth grid in map-frame metres: the prediction is
@@ -67,6 +74,13 @@ bool CompareGrids(const MapServerMap& pred, const MapServerMap& gt, const GridEv
                   const std::vector<Eigen::Vector2d>& positions_in_map, GridEvalResult* result,
                   std::string* error, const std::vector<std::uint8_t>* seen_cells = nullptr,
                   const std::vector<std::uint8_t>* seen_floor_cells = nullptr);
+
+// Adds the mover_path_* figures to `result`: every GT-free cell whose centre lay within a mover's
+// radius of its position (`movers_in_map`: position and radius per mover and frame, in the GT
+// map's frame), and how many of them `pred` reads occupied.
+void MoverPathOccupancy(const MapServerMap& pred, const MapServerMap& gt,
+                        const std::vector<std::pair<Eigen::Vector2d, double>>& movers_in_map,
+                        GridEvalResult* result);
 
 // The cells of `gt`'s grid in which the camera of a simulated sequence saw a surface at least
 // min_height_m above the floor within max_range_m (ground distance from the robot's base; the

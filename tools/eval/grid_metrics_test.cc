@@ -8,6 +8,7 @@
 #include <fstream>
 #include <opencv2/imgcodecs.hpp>
 
+#include "tools/eval/eval_report.h"
 #include "tools/eval/eval_test_fixtures.h"
 
 namespace monoplane::eval {
@@ -285,6 +286,30 @@ TEST_F(GridMetricsTest, SeenCellsComeFromGroundTruthDepthAtTheTrajectory) {
   EXPECT_NE(error.find("must be > 0"), std::string::npos) << error;
   const std::vector<std::uint8_t> wrong_size(7, 0);
   EXPECT_FALSE(CompareGrids(pred, gt, tolerant, {}, &r, &error, &wrong_size));
+}
+
+// The GT-free cells under a mover's footprint, and those the prediction keeps occupied; GT
+// obstacles under a footprint are not part of the path.
+TEST_F(GridMetricsTest, MoverPathCellsReadOccupiedAreCounted) {
+  // GT: 40 x 40 cells of 0.1 m, origin (0, 0), a wall in column 30 (x 3.0-3.1 m).
+  const MapServerMap gt = WriteAndLoad("gt", WallImage(30), 0.1, 0.0, 0.0);
+  // Prediction: the wall, and an obstacle left where the mover walked (x 1.0-1.1 m, y 2.0-2.1 m).
+  cv::Mat pred_image = WallImage(30);
+  pred_image.at<std::uint8_t>(40 - 1 - 20, 10) = 0;
+  const MapServerMap pred = WriteAndLoad("pred", pred_image, 0.1, 0.0, 0.0);
+  // A mover of radius 0.08 m walking along y = 2.05 from x = 0.55 to 3.05 (into the wall).
+  std::vector<std::pair<Eigen::Vector2d, double>> footprints;
+  for (int k = 0; k <= 25; ++k)
+    footprints.emplace_back(Eigen::Vector2d(0.55 + 0.1 * k, 2.05), 0.08);
+  GridEvalResult result;
+  MoverPathOccupancy(pred, gt, footprints, &result);
+  EXPECT_TRUE(result.mover_path_scored);
+  // Columns 5..30 of row 20, less the wall's cell (GT occupied), plus nothing else: the disc of
+  // 0.08 m around a cell centre covers only that cell.
+  EXPECT_EQ(result.mover_path_cells, 25);
+  EXPECT_EQ(result.mover_path_occupied, 1);
+  const std::string json = GridReportJson(result);
+  EXPECT_NE(json.find("\"mover_path_occupied\": 1"), std::string::npos) << json;
 }
 
 TEST_F(GridMetricsTest, InvalidOptionsAreRejected) {
