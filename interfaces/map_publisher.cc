@@ -78,6 +78,8 @@ enum Endpoint {
   kMovingObstacles,
   kNumEndpoints
 };
+static_assert(static_cast<int>(MapPublisher::Topic::kMovingObstacles) == kMovingObstacles);
+static_assert(static_cast<int>(MapPublisher::Topic::kLocalMap) == kLocalMap);
 
 std_msgs_msg_dds__Header_ MakeHeader(TimestampNs stamp_ns, const std::string& frame) {
   std_msgs_msg_dds__Header_ header{};
@@ -336,14 +338,16 @@ PublishStatus MapPublisher::PublishMovingObstacles(
     if (!(std::isfinite(o.x_m) && std::isfinite(o.y_m) && std::isfinite(o.vx_mps) &&
           std::isfinite(o.vy_mps) && std::isfinite(o.radius_m) && o.radius_m >= 0.0)) {
       ++impl_->stats[kMovingObstacles].errors;
-      if (error) *error = "moving obstacle " + std::to_string(o.id) + " is not finite";
+      if (error)
+        *error = "moving obstacle " + std::to_string(o.id) +
+                 " has a position, velocity or radius that is not finite, or a negative radius";
       return PublishStatus::kError;
     }
   }
   // The writer only reads the sample: strings and sequences borrow from here.
-  static char kEmpty[] = "";
-  static char kBodies[] = "moving_obstacles";
-  static char kArrows[] = "moving_obstacles/velocity";
+  char* const empty = const_cast<char*>("");
+  char* const bodies = const_cast<char*>("moving_obstacles");
+  char* const arrows = const_cast<char*>("moving_obstacles/velocity");
   constexpr double kDiscHeightM = 0.1;
   constexpr double kArrowSeconds = 1.0;
   const auto base_marker = [&](char* ns, int id, std::int32_t type) {
@@ -355,29 +359,29 @@ PublishStatus MapPublisher::PublishMovingObstacles(
     m.action = 0;  // ADD
     m.pose.orientation = YawQuaternion(0.0);
     m.lifetime.sec = 1;
-    m.texture_resource = kEmpty;
+    m.texture_resource = empty;
     m.texture.header = m.header;
-    m.texture.format = kEmpty;
-    m.text = kEmpty;
-    m.mesh_resource = kEmpty;
-    m.mesh_file.filename = kEmpty;
+    m.texture.format = empty;
+    m.text = empty;
+    m.mesh_resource = empty;
+    m.mesh_file.filename = empty;
     return m;
   };
   std::vector<visualization_msgs_msg_dds__Marker_> markers;
   std::vector<geometry_msgs_msg_dds__Point_> points(2 * obstacles_in_map.size());
   markers.reserve(1 + 2 * obstacles_in_map.size());
-  visualization_msgs_msg_dds__Marker_ clear = base_marker(kEmpty, 0, 0);
+  visualization_msgs_msg_dds__Marker_ clear = base_marker(empty, 0, 0);
   clear.action = 3;  // DELETEALL
   markers.push_back(clear);
   for (std::size_t i = 0; i < obstacles_in_map.size(); ++i) {
     const MovingObstacle& o = obstacles_in_map[i];
-    const float alpha = o.coasting ? 0.4f : 0.8f;
-    visualization_msgs_msg_dds__Marker_ body = base_marker(kBodies, o.id, 3);  // CYLINDER
+    const float alpha = o.coasting ? kCoastingObstacleAlpha : kSeenObstacleAlpha;
+    visualization_msgs_msg_dds__Marker_ body = base_marker(bodies, o.id, 3);  // CYLINDER
     body.pose.position = {o.x_m, o.y_m, 0.5 * kDiscHeightM};
     body.scale = {2.0 * o.radius_m, 2.0 * o.radius_m, kDiscHeightM};
     body.color = {1.0f, 0.5f, 0.0f, alpha};
     markers.push_back(body);
-    visualization_msgs_msg_dds__Marker_ arrow = base_marker(kArrows, o.id, 0);  // ARROW
+    visualization_msgs_msg_dds__Marker_ arrow = base_marker(arrows, o.id, 0);  // ARROW
     points[2 * i] = {o.x_m, o.y_m, kDiscHeightM};
     points[2 * i + 1] = {o.x_m + kArrowSeconds * o.vx_mps, o.y_m + kArrowSeconds * o.vy_mps,
                          kDiscHeightM};

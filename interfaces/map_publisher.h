@@ -52,6 +52,10 @@ struct OdometryUncertainty {
 };
 inline constexpr double kUnmeasuredVariance = 1e6;
 
+// rt/moving_obstacles' marker colours' alpha: an obstacle seen in this frame, and one predicted.
+inline constexpr float kSeenObstacleAlpha = 0.8f;
+inline constexpr float kCoastingObstacleAlpha = 0.4f;
+
 // A tracked moving obstacle in the map frame (perception's MovingObject moved by its frame's pose).
 struct MovingObstacle {
   int id = 0;  // the same for the object's whole track
@@ -145,15 +149,17 @@ class MapPublisher {
   // obstacle's id; pose.position = its centre on the floor, z = half the disc's 0.1 m height;
   // scale.x = scale.y = its footprint diameter) and an ARROW in "moving_obstacles/velocity" (same
   // id; points = where it is and where it will be in 1 s at its velocity). Coasting obstacles are
-  // drawn fainter (alpha 0.4 instead of 0.8). Lifetime 1 s: markers vanish when publishing stops.
-  // kSent and nothing written without Options::publish_moving_obstacles.
+  // drawn fainter (kCoastingObstacleAlpha instead of kSeenObstacleAlpha). Lifetime 1 s: markers
+  // vanish when publishing stops. kSent and nothing written without
+  // Options::publish_moving_obstacles.
   PublishStatus PublishMovingObstacles(const std::vector<MovingObstacle>& obstacles_in_map,
                                        TimestampNs stamp_ns, std::string* error = nullptr);
 
   // Topic names, type names and QoS as DDS reports them for the writers, in the order
   // map, map_updates, odom, tf, local_map, clock (when published), moving_obstacles.
   std::vector<EndpointInfo> Endpoints() const;
-  // Counters of rt/map, rt/map_updates, rt/odom, rt/tf, rt/monoplane/local_map.
+  // Counters of rt/map, rt/map_updates, rt/odom, rt/tf, rt/monoplane/local_map,
+  // rt/moving_obstacles.
   PublishStats map_stats() const;
   PublishStats map_update_stats() const;
   PublishStats odom_stats() const;

@@ -103,7 +103,7 @@ void Convert(const visualization_msgs_msg_dds__MarkerArray_& msg, ReceivedMessag
     o.x_m = m.pose.position.x;
     o.y_m = m.pose.position.y;
     o.radius_m = 0.5 * m.scale.x;
-    o.coasting = m.color.a < 0.6f;
+    o.coasting = m.color.a < 0.5f * (kSeenObstacleAlpha + kCoastingObstacleAlpha);
     for (std::uint32_t k = 0; k < markers._length; ++k) {
       const visualization_msgs_msg_dds__Marker_& a = markers._buffer[k];
       if (a.type == 0 && a.id == m.id && ns_is(a.ns, "moving_obstacles/velocity") &&
@@ -178,9 +178,12 @@ std::string Summarize(const ReceivedMessage& m) {
     case MessageKind::kMovingObstacles:
       s += " obstacles=" + std::to_string(m.moving_obstacles.size());
       for (const MovingObstacle& o : m.moving_obstacles) {
-        s += " " + std::to_string(o.id) + Format("=(%.3f,%.3f)", o.x_m, o.y_m, 0) +
-             Format(" v=(%.3f,%.3f)", o.vx_mps, o.vy_mps, 0) + Format(" r=%.3f", o.radius_m, 0, 0) +
-             (o.coasting ? " coasting" : "");
+        s += " ";
+        s += std::to_string(o.id);
+        s += Format("=(%.3f,%.3f)", o.x_m, o.y_m, 0);
+        s += Format(" v=(%.3f,%.3f)", o.vx_mps, o.vy_mps, 0);
+        s += Format(" r=%.3f", o.radius_m, 0, 0);
+        if (o.coasting) s += " coasting";
       }
       break;
   }

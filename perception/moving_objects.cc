@@ -94,12 +94,12 @@ void MeasureVelocity(const CameraModel& camera, const MovingRegionFlow& flow,
     return Eigen::Vector2d(col + 0.5 + fs * f[0], row + 0.5 + fs * f[1]);
   };
   const Eigen::Vector2d normal(-r->view_in_base.y(), r->view_in_base.x());
-  const int rows = static_cast<int>(flow.backward.rows) * fs;
-  const int cols = static_cast<int>(flow.backward.cols) * fs;
+  // The flow covers the mask (PlaceMovingRegions checks its size): its pixels are the bounds.
+  const int rows = flow.backward.rows * fs, cols = flow.backward.cols * fs;
   std::vector<double> across;
   for (int row = box.y; row < box.y + box.height; row += fs) {
     for (int col = box.x; col < box.x + box.width; col += fs) {
-      if (!own(row, col)) continue;
+      if (row >= rows || col >= cols || !own(row, col)) continue;
       bool inside = true;
       for (int dv = -6 * fs; dv <= 6 * fs && inside; dv += 3 * fs) {
         for (int du = -6 * fs; du <= 6 * fs && inside; du += 3 * fs) {
@@ -121,7 +121,7 @@ void MeasureVelocity(const CameraModel& camera, const MovingRegionFlow& flow,
   std::vector<double> along;
   for (int row = std::max(box.y, box.y + box.height - band); row < box.y + box.height; ++row) {
     for (int col = box.x; col < box.x + box.width; ++col) {
-      if (!own(row, col)) continue;
+      if (row >= rows || col >= cols || !own(row, col)) continue;
       // The pixel's lower edge: where it meets the floor.
       const auto now = camera.PixelToFloor(Eigen::Vector2d(col + 0.5, row + 1.0));
       const auto before = camera.PixelToFloor(previous_pixel(row, col) + Eigen::Vector2d(0, 0.5));
@@ -178,9 +178,10 @@ std::vector<MovingRegion> PlaceMovingRegions(const CameraModel& camera, const cv
                             floor_matching.size() == moving_mask.size();
   const Eigen::Vector2d centre = camera.CameraCentreInBase().head<2>();
   const int fs = std::max(1, flow.downscale);
+  // The flow at 1 / fs of the mask (MotionEvidence shrinks by integer division).
   const bool use_flow = !flow.backward.empty() && flow.backward.type() == CV_32FC2 &&
-                        flow.backward.cols * fs <= moving_mask.cols + fs &&
-                        flow.backward.rows * fs <= moving_mask.rows + fs && flow.dt_s > 0.0;
+                        flow.backward.cols == moving_mask.cols / fs &&
+                        flow.backward.rows == moving_mask.rows / fs && flow.dt_s > 0.0;
   std::vector<int> columns;
   for (int g = 1; g < n; ++g) {
     if (root(g) != g) continue;
@@ -271,8 +272,23 @@ std::vector<MovingRegion> PlaceMovingRegions(const CameraModel& camera, const cv
         m.radius_m = std::max(radius, std::max(m.radius_m, regions[b].radius_m));
         m.range_m = std::min(m.range_m, regions[b].range_m);
         m.clipped = m.clipped || regions[b].clipped;
-        if (!m.across_velocity_mps) m.across_velocity_mps = regions[b].across_velocity_mps;
-        if (!m.along_velocity_mps) m.along_velocity_mps = regions[b].along_velocity_mps;
+        // The velocities were measured along and across each part's own view: they stay only
+        // when the merged thing is seen in about the same direction (within 5 degrees).
+        const Eigen::Vector2d view = (m.position_in_base - centre).normalized();
+        const MovingRegion& other = regions[b];
+        const auto seen_alike = [&](const MovingRegion& part, std::optional<double> velocity) {
+          return view.dot(part.view_in_base) > std::cos(5.0 * M_PI / 180.0) ? velocity
+                                                                            : std::nullopt;
+        };
+        const std::optional<double> across = m.across_velocity_mps
+                                                 ? seen_alike(m, m.across_velocity_mps)
+                                                 : seen_alike(other, other.across_velocity_mps);
+        const std::optional<double> along = m.along_velocity_mps
+                                                ? seen_alike(m, m.along_velocity_mps)
+                                                : seen_alike(other, other.along_velocity_mps);
+        m.view_in_base = view;
+        m.across_velocity_mps = across;
+        m.along_velocity_mps = along;
         regions.erase(regions.begin() + static_cast<std::ptrdiff_t>(b));
         merged = true;
       }
@@ -286,8 +302,14 @@ void ForgetMovingFootprints(const std::vector<MovingObject>& objects,
   OccupancyGrid& map = *local_map_in_base;
   const GridGeometry& g = map.geometry;
   if (map.cells.size() != g.NumCells() || !(g.resolution_m > 0)) return;
+  const Eigen::Vector2d map_low(g.origin_x_m, g.origin_y_m);
+  const Eigen::Vector2d map_high = map_low + g.resolution_m * Eigen::Vector2d(g.width, g.height);
   for (const MovingObject& o : objects) {
     const double reach = o.radius_m + options.footprint_margin_m;
+    if (!o.position_in_base.allFinite() || !std::isfinite(reach) ||
+        (o.position_in_base.array() + reach < map_low.array()).any() ||
+        (o.position_in_base.array() - reach > map_high.array()).any())
+      continue;
     const Eigen::Vector2d low = o.position_in_base - Eigen::Vector2d::Constant(reach);
     const int col0 =
         std::max(0, static_cast<int>(std::floor((low.x() - g.origin_x_m) / g.resolution_m)));
@@ -301,6 +323,17 @@ void ForgetMovingFootprints(const std::vector<MovingObject>& objects,
       }
     }
   }
+}
+
+void MovingObjectTracker::UpdateVelocity(const Eigen::Vector2d& axis, double velocity_mps,
+                                         double sigma_mps, Track* track) {
+  Eigen::Matrix<double, 1, 4> h;
+  h << 0.0, 0.0, axis.x(), axis.y();
+  const double innovation_var =
+      (h * track->covariance * h.transpose())(0, 0) + sigma_mps * sigma_mps;
+  const Eigen::Vector4d gain = track->covariance * h.transpose() / innovation_var;
+  track->state += gain * (velocity_mps - (h * track->state)(0, 0));
+  track->covariance -= gain * h * track->covariance;
 }
 
 Eigen::Matrix2d MovingObjectTracker::MeasurementNoise(const MovingRegion& region,
@@ -359,26 +392,16 @@ std::vector<MovingObject> MovingObjectTracker::Update(const std::vector<MovingRe
     const Eigen::Matrix<double, 4, 2> gain = track.covariance.leftCols<2>() * s.inverse();
     track.state += gain * (in_odom[r] - track.state.head<2>());
     track.covariance -= gain * track.covariance.topRows<2>();
+    // The velocities measured from the flow: one scalar update each, along their axes.
+    const Eigen::Vector2d view = odom_from_base.Rotation() * regions[r].view_in_base;
+    const Eigen::Vector2d across(-view.y(), view.x());
     if (regions[r].across_velocity_mps) {
-      // The velocity across the view, measured from the flow: one more scalar update.
-      const Eigen::Vector2d view = odom_from_base.Rotation() * regions[r].view_in_base;
-      Eigen::Matrix<double, 1, 4> h;
-      h << 0.0, 0.0, -view.y(), view.x();
-      const double sv = options_.across_velocity_sigma_mps;
-      const double innovation_var = (h * track.covariance * h.transpose())(0, 0) + sv * sv;
-      const Eigen::Vector4d k = track.covariance * h.transpose() / innovation_var;
-      track.state += k * (*regions[r].across_velocity_mps - (h * track.state)(0, 0));
-      track.covariance -= k * h * track.covariance;
+      UpdateVelocity(across, *regions[r].across_velocity_mps, options_.across_velocity_sigma_mps,
+                     &track);
     }
     if (regions[r].along_velocity_mps) {
-      const Eigen::Vector2d view = odom_from_base.Rotation() * regions[r].view_in_base;
-      Eigen::Matrix<double, 1, 4> h;
-      h << 0.0, 0.0, view.x(), view.y();
-      const double sv = 2.0 * options_.across_velocity_sigma_mps;
-      const double innovation_var = (h * track.covariance * h.transpose())(0, 0) + sv * sv;
-      const Eigen::Vector4d k = track.covariance * h.transpose() / innovation_var;
-      track.state += k * (*regions[r].along_velocity_mps - (h * track.state)(0, 0));
-      track.covariance -= k * h * track.covariance;
+      UpdateVelocity(view, *regions[r].along_velocity_mps, 2.0 * options_.across_velocity_sigma_mps,
+                     &track);
     }
     track.radius_m = 0.7 * track.radius_m + 0.3 * regions[r].radius_m;
     ++track.updates;

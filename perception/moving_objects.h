@@ -90,9 +90,10 @@ cv::Mat FloorMatchingPixels(const CameraModel& camera, const cv::Mat& previous,
 // one thing (legs and body). With floor_matching (FloorMatchingPixels, or empty), pixels of a
 // region that match the floor's motion do not count for its lowest row: the flow of a moving
 // thing spreads onto the floor below it. Regions whose lowest row lies above the horizon or beyond
-// max_range_m are left out. With `flow`, each region's velocity across the view: its own pixels'
-// displacement between the frames at its range (the horizontal bearing each pixel had from the
-// previous camera and has from the current one), the median over them.
+// max_range_m are left out. With `flow`, each region's velocity across the view (its own pixels'
+// displacement between the frames at its range: the horizontal bearing each had from the previous
+// camera and has from the current one, the median over them) and along it (its lowest pixels
+// placed on the floor in both frames, the median).
 std::vector<MovingRegion> PlaceMovingRegions(const CameraModel& camera, const cv::Mat& moving_mask,
                                              const cv::Mat& floor_matching,
                                              const MovingObjectOptions& options,
@@ -116,9 +117,6 @@ class MovingObjectTracker {
                                    const Pose2& odom_from_base, TimestampNs stamp_ns);
 
  private:
-  // The covariance of a region's measured position in the odometry frame: position_sigma_ratio
-  // along the view, bearing_sigma_rad across it (more when the region is cut by the image's side).
-  Eigen::Matrix2d MeasurementNoise(const MovingRegion& region, const Pose2& odom_from_base) const;
   struct Track {
     int id = 0;
     Eigen::Vector4d state = Eigen::Vector4d::Zero();  // x, y, vx, vy in the odometry frame
@@ -130,6 +128,13 @@ class MovingObjectTracker {
     bool updated_now = false;
     bool dropped = false;  // merged into an older track
   };
+
+  // The covariance of a region's measured position in the odometry frame: position_sigma_ratio
+  // along the view, bearing_sigma_rad across it (more when the region is cut by the image's side).
+  Eigen::Matrix2d MeasurementNoise(const MovingRegion& region, const Pose2& odom_from_base) const;
+  // A Kalman update of `track` with its velocity along the unit `axis` (odometry frame) measured.
+  static void UpdateVelocity(const Eigen::Vector2d& axis, double velocity_mps, double sigma_mps,
+                             Track* track);
 
   MovingObjectOptions options_;
   std::vector<Track> tracks_;

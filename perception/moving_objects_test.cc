@@ -107,21 +107,38 @@ TEST(MovingObjects, ARegionsVelocityComesFromTheFlowOfItsPixels) {
     }
   }
   MovingRegionFlow region_flow;
-  region_flow.backward = flow;
-  region_flow.downscale = 1;
   region_flow.base2_from_base1 = base2_from_base1;
   region_flow.dt_s = dt;
-  const std::vector<MovingRegion> regions =
-      PlaceMovingRegions(camera, mask, cv::Mat(), options, region_flow);
-  ASSERT_EQ(regions.size(), 1u);
-  const MovingRegion& r = regions[0];
-  EXPECT_NEAR(r.view_in_base.dot(view), 1.0, 1e-3);
-  ASSERT_TRUE(r.across_velocity_mps.has_value());
-  ASSERT_TRUE(r.along_velocity_mps.has_value());
-  const Eigen::Vector2d across(-r.view_in_base.y(), r.view_in_base.x());
-  EXPECT_NEAR(*r.across_velocity_mps, velocity.dot(across), 0.05);
-  EXPECT_NEAR(*r.along_velocity_mps, velocity.dot(r.view_in_base), 0.1);
-  EXPECT_FALSE(r.clipped);
+  MovingRegion r;
+  // At full resolution, and as MotionEvidence gives it: at half resolution, in its pixels.
+  for (const int downscale : {1, 2}) {
+    SCOPED_TRACE(downscale);
+    region_flow.downscale = downscale;
+    if (downscale == 1) {
+      region_flow.backward = flow;
+    } else {
+      region_flow.backward.create(mask.rows / 2, mask.cols / 2, CV_32FC2);
+      for (int y = 0; y < mask.rows / 2; ++y) {
+        for (int x = 0; x < mask.cols / 2; ++x)
+          region_flow.backward.at<cv::Vec2f>(y, x) = flow.at<cv::Vec2f>(2 * y + 1, 2 * x + 1) / 2;
+      }
+    }
+    const std::vector<MovingRegion> regions =
+        PlaceMovingRegions(camera, mask, cv::Mat(), options, region_flow);
+    ASSERT_EQ(regions.size(), 1u);
+    r = regions[0];
+    EXPECT_NEAR(r.view_in_base.dot(view), 1.0, 1e-3);
+    ASSERT_TRUE(r.across_velocity_mps.has_value());
+    ASSERT_TRUE(r.along_velocity_mps.has_value());
+    const Eigen::Vector2d across(-r.view_in_base.y(), r.view_in_base.x());
+    EXPECT_NEAR(*r.across_velocity_mps, velocity.dot(across), 0.05);
+    EXPECT_NEAR(*r.along_velocity_mps, velocity.dot(r.view_in_base), 0.1);
+    EXPECT_FALSE(r.clipped);
+  }
+  // A flow of another size is not used.
+  region_flow.backward = cv::Mat2f(100, 100, cv::Vec2f(0, 0));
+  EXPECT_FALSE(
+      PlaceMovingRegions(camera, mask, cv::Mat(), options, region_flow)[0].across_velocity_mps);
   // Without a flow, no velocity; a thing cut by the image's side is clipped.
   const std::vector<MovingRegion> still = PlaceMovingRegions(camera, mask, cv::Mat(), options);
   ASSERT_EQ(still.size(), 1u);
@@ -132,8 +149,7 @@ TEST(MovingObjects, ARegionsVelocityComesFromTheFlowOfItsPixels) {
   ASSERT_EQ(side.size(), 1u);
   EXPECT_TRUE(side[0].clipped);
 
-  // The tracker reports that velocity from its second frame (its first two regions), and the
-  // position's noise across the view is the smaller one.
+  // The tracker reports that velocity from its second frame (its first two regions).
   MovingObjectTracker tracker(options);
   std::vector<MovingObject> objects;
   for (int k = 0; k < 2; ++k) {
@@ -226,6 +242,10 @@ TEST(MovingObjects, ALostTrackCoastsThenIsDropped) {
   out = tracker.Update({region}, Pose2{}, SecondsToNs(11 * dt));
   ASSERT_EQ(out.size(), 1u);
   EXPECT_NE(out[0].id, id);
+  // That one was followed for 0.1 s only: it coasts no longer than that, though max_coast_s
+  // would allow 0.3 s (a flicker does not linger).
+  EXPECT_EQ(tracker.Update({}, Pose2{}, SecondsToNs(11.5 * dt)).size(), 1u);
+  EXPECT_TRUE(tracker.Update({}, Pose2{}, SecondsToNs(12.5 * dt)).empty());
 }
 
 // Where a tracked object stands (and a margin around it) the frame's local map knows nothing:

@@ -198,6 +198,9 @@ void SequenceDetector::Finish(Output* output) {
     output->result->height_seeds.clear();
     move(p.odom_from_base, &seeds_in_odom_);
   }
+  // Before the result is kept for the frames that carry it: their local maps then lack the
+  // moving things' footprints too.
+  TrackMovingObjects(*output);
   if (output->result->status == PairStatus::kOk) {
     FrameResult kept;  // what CarryResult reads
     kept.labels = output->result->labels;
@@ -209,7 +212,6 @@ void SequenceDetector::Finish(Output* output) {
     last_detected_.reset();
   }
   output->pending.reset();
-  TrackMovingObjects(*output);
 }
 
 void SequenceDetector::TrackMovingObjects(Output& output) {

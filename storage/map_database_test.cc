@@ -431,8 +431,8 @@ TEST(MapDatabase, MovingObjectsAreStoredWithTheirFramesAndReadInTheMapFrame) {
   ASSERT_TRUE(db->Info(&info).ok());
   EXPECT_EQ(info.moving_object_observations, 3);
   EXPECT_EQ(info.moving_objects, 2);
-  // An object of a frame that is not stored is refused, and so is one that is not finite; the
-  // transaction (with its frame) is not committed.
+  // An object of a frame that is not stored is refused and its transaction (with its frame) is
+  // not committed; one that is not finite is refused before anything is written.
   FrameRecord f3 = frames[0];
   f3.index = 3;
   EXPECT_FALSE(db->WriteFrames(run, {f3}, {{7, object(1, 0.0, 0.0, 0.0, false)}}).ok());

@@ -132,7 +132,8 @@ StorageStatus MapDatabase::WriteFrames(std::int64_t run_id, const std::vector<Fr
       return d.Error(StorageErrorKind::kInvalidArgument,
                      std::string(kContext) + ": moving object " + std::to_string(r.object.id) +
                          " of frame " + std::to_string(r.frame_index) +
-                         " has a position, velocity or radius that is not finite");
+                         " has a position, velocity or radius that is not finite, or a negative "
+                         "radius");
     }
   }
   return d.InTransaction(run_id, kContext, [&] {

@@ -111,7 +111,9 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   grid->add_option("--seen-from", grid_seen_from,
                    "simulated sequence folder: also score recall of the GT-occupied cells its "
-                   "camera saw a surface >= 3 cm high in (GT depth, every 2nd pixel)");
+                   "camera saw a surface >= 3 cm high in (GT depth, every 2nd pixel), the seen "
+                   "floor's recall as free and, with gt/movers.txt, the cells under movers read "
+                   "occupied");
   grid->add_option("--seen-range", grid_seen_range_m,
                    "with --seen-from: only surfaces within this ground distance of the robot, m")
       ->capture_default_str();
