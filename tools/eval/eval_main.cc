@@ -223,6 +223,11 @@ int main(int argc, char** argv) {
       ->add_option("--gate", track_options.gate_m,
                    "a prediction matches a mover within this distance, m")
       ->capture_default_str();
+  tracks
+      ->add_option("--min-speed", track_options.min_speed_mps,
+                   "movers are scored only while moving at least this fast, m/s (a mover "
+                   "standing still is a static obstacle)")
+      ->capture_default_str();
   tracks->add_flag("--json", json, "print JSON instead of a table");
   tracks->callback([&] {
     TrackEvalResult result;

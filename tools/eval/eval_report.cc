@@ -419,11 +419,13 @@ std::string TrajectoryReportJson(const TrajectoryEvalResult& r) {
 }
 
 std::string TrackReportTable(const TrackEvalResult& r) {
-  std::string out = "frames: " + std::to_string(r.frames) + ", with output " +
-                    std::to_string(r.frames_with_output) + ", missing " +
-                    std::to_string(r.frames_missing) + " (movers scored when in view within " +
-                    FormatBandEdge(r.max_range_m) + " m; gate " + FormatBandEdge(r.gate_m) +
-                    " m)\n";
+  std::string out =
+      "frames: " + std::to_string(r.frames) + ", with output " +
+      std::to_string(r.frames_with_output) + ", missing " + std::to_string(r.frames_missing) +
+      " (movers scored when in view within " + FormatBandEdge(r.max_range_m) + " m" +
+      (r.min_speed_mps > 0.0 ? " moving at least " + FormatBandEdge(r.min_speed_mps) + " m/s"
+                             : std::string()) +
+      "; gate " + FormatBandEdge(r.gate_m) + " m)\n";
   const std::vector<int> w{8, 8, 9, 10, 10, 12, 9, 8};
   out += Row({"mover", "visible", "detected", "pos.med_m", "pos.p95_m", "vel.med_mps", "id.cons",
               "main_id"},
@@ -455,6 +457,7 @@ std::string TrackReportJson(const TrackEvalResult& r) {
              .Add("frames_missing", r.frames_missing)
              .Add("max_range_m", r.max_range_m)
              .Add("gate_m", r.gate_m)
+             .Add("min_speed_mps", r.min_speed_mps)
              .Raw("movers", Array(movers))
              .Raw("overall", TrackMetricsJson(r.overall))
              .Add("false_objects", r.false_objects)

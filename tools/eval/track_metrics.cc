@@ -101,6 +101,11 @@ bool TrackEvalOptions::IsValid(std::string* error) const {
     *error = "TrackEvalOptions::gate_m = " + std::to_string(gate_m) + ": must be > 0";
     return false;
   }
+  if (!(min_speed_mps >= 0.0) || !std::isfinite(min_speed_mps)) {
+    *error =
+        "TrackEvalOptions::min_speed_mps = " + std::to_string(min_speed_mps) + ": must be >= 0";
+    return false;
+  }
   return true;
 }
 
@@ -196,6 +201,7 @@ TrackEvalResult EvaluateTracks(const std::vector<TrackFrame>& frames, int num_mo
   }
   TrackEvalResult result;
   result.max_range_m = options.max_range_m;
+  result.min_speed_mps = options.min_speed_mps;
   result.gate_m = options.gate_m;
   result.frames = static_cast<std::int64_t>(frames.size());
   std::vector<MoverTally> tallies(static_cast<std::size_t>(std::max(num_movers, 0)));
@@ -209,7 +215,8 @@ TrackEvalResult EvaluateTracks(const std::vector<TrackFrame>& frames, int num_mo
     const Eigen::Matrix2d rotation = frame.map_from_base.Rotation();
     std::vector<const GtMoverState*> visible, unscored;
     for (const GtMoverState& m : frame.movers) {
-      if (m.in_view && (m.position_m - base).norm() <= options.max_range_m) {
+      if (m.in_view && (m.position_m - base).norm() <= options.max_range_m &&
+          m.velocity_mps.norm() >= options.min_speed_mps) {
         visible.push_back(&m);
         ++tallies[m.mover].visible;
       } else {

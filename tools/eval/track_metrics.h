@@ -19,6 +19,10 @@ struct TrackEvalOptions {
   double max_range_m = 4.0;
   // A prediction matches a mover only within this distance of its footprint centre, metres, > 0.
   double gate_m = 0.5;
+  // A mover is scored only in frames in which it moves at least this fast over the ground, m/s
+  // (>= 0; 0: always). One standing still is a static obstacle, not a moving object, and
+  // predictions near it are not false objects.
+  double min_speed_mps = 0.0;
 
   bool IsValid(std::string* error) const;
 };
@@ -80,6 +84,7 @@ struct TrackMetrics {
 
 struct TrackEvalResult {
   double max_range_m = 0.0;
+  double min_speed_mps = 0.0;
   double gate_m = 0.0;
   std::int64_t frames = 0;              // ground-truth frames (lines of gt/trajectory.txt)
   std::int64_t frames_with_output = 0;  // ... with a predictions file

@@ -156,6 +156,22 @@ TEST(TrackMetrics, GreedyMatchingTakesTheNearestPairFirst) {
   EXPECT_EQ(r.movers[2].visible_frames, 0);
   EXPECT_EQ(r.false_objects, 1);
   EXPECT_EQ(r.false_objects_near_unscored_movers, 1);
+
+  // With a minimum speed, a mover standing still is not scored (a static obstacle then), and
+  // the prediction on it is near an unscored mover, not a plain false object.
+  frame.movers[0].velocity_mps = {0.0, 0.0};
+  frame.movers[1].velocity_mps = {0.6, 0.0};
+  TrackEvalOptions moving;
+  moving.min_speed_mps = 0.1;
+  const TrackEvalResult m = EvaluateTracks({frame}, 0, moving);
+  EXPECT_EQ(m.movers[0].visible_frames, 0);
+  EXPECT_EQ(m.movers[1].visible_frames, 1);
+  EXPECT_EQ(m.false_objects, 2);
+  EXPECT_EQ(m.false_objects_near_unscored_movers, 2);
+  moving.min_speed_mps = -1.0;
+  std::string error;
+  EXPECT_FALSE(moving.IsValid(&error));
+  EXPECT_NE(error.find("min_speed_mps"), std::string::npos) << error;
 }
 
 TEST_F(TrackMetricsFiles, BadInputNamesTheFileAndLine) {
