@@ -282,6 +282,8 @@ OptionTable::OptionTable(AppConfig* config) : config_(config) {
             "how fast an object's velocity may change, m/s^2 (> 0)");
   AddDouble("moving_objects", "max_range_m", &mo.max_range_m,
             "regions standing farther are not placed, m (> 0)");
+  AddDouble("moving_objects", "min_radius_m", &mo.min_radius_m,
+            "regions narrower than this radius on the floor are left out, m (>= 0)");
   AddDouble("moving_objects", "footprint_margin_m", &mo.footprint_margin_m,
             "a tracked object's footprint this much wider is unknown in its frame's local map, "
             "m (>= 0)");

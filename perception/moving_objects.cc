@@ -31,6 +31,8 @@ bool MovingObjectOptions::IsValid(std::string* error) const {
   if (!(accel_sigma_mps2 > 0) || !std::isfinite(accel_sigma_mps2))
     return fail("accel_sigma_mps2: must be > 0");
   if (!(max_range_m > 0) || !std::isfinite(max_range_m)) return fail("max_range_m: must be > 0");
+  if (!(min_radius_m >= 0) || !std::isfinite(min_radius_m))
+    return fail("min_radius_m: must be >= 0");
   if (!(footprint_margin_m >= 0) || !std::isfinite(footprint_margin_m))
     return fail("footprint_margin_m: must be >= 0");
   return true;
@@ -294,6 +296,10 @@ std::vector<MovingRegion> PlaceMovingRegions(const CameraModel& camera, const cv
       }
     }
   }
+  regions.erase(
+      std::remove_if(regions.begin(), regions.end(),
+                     [&](const MovingRegion& r) { return r.radius_m < options.min_radius_m; }),
+      regions.end());
   return regions;
 }
 

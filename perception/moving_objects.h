@@ -45,6 +45,9 @@ struct MovingObjectOptions {
   double accel_sigma_mps2 = 2.0;
   // Regions whose floor position lies farther than this are not placed, m (> 0).
   double max_range_m = 8.0;
+  // Regions narrower than this radius on the floor are left out, m (>= 0): people, pets and
+  // robots are wider; slivers of the flow's errors (at the image's border) are not.
+  double min_radius_m = 0.05;
   // A tracked object's footprint, this much wider, is unknown in its frame's local map (neither
   // obstacle nor floor reaches the map from where a moving thing is), m (>= 0): about its
   // position's error.

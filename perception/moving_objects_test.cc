@@ -60,6 +60,16 @@ TEST(MovingObjects, ARegionIsPlacedWhereItStandsOnTheFloor) {
     ASSERT_EQ(regions.size(), 1u);
     EXPECT_NEAR((regions[0].position_in_base - foot).norm(), 0.0, 0.04);
   }
+  // A sliver (4 pixels wide, about 1.5 cm on the floor at 1.5 m) is no thing that moves, unless
+  // min_radius_m allows it.
+  {
+    cv::Mat sliver(480, 640, CV_8U, cv::Scalar(0));
+    cv::rectangle(sliver, cv::Rect(320, 200, 4, 150), cv::Scalar(255), cv::FILLED);
+    EXPECT_TRUE(PlaceMovingRegions(camera, sliver, cv::Mat(), options).empty());
+    MovingObjectOptions any = options;
+    any.min_radius_m = 0.0;
+    EXPECT_EQ(PlaceMovingRegions(camera, sliver, cv::Mat(), any).size(), 1u);
+  }
   // A region whose lowest row lies above the horizon stands nowhere on the floor.
   cv::Mat sky(480, 640, CV_8U, cv::Scalar(0));
   cv::rectangle(sky, cv::Rect(300, 0, 40, 20), cv::Scalar(255), cv::FILLED);
@@ -144,7 +154,7 @@ TEST(MovingObjects, ARegionsVelocityComesFromTheFlowOfItsPixels) {
   ASSERT_EQ(still.size(), 1u);
   EXPECT_FALSE(still[0].across_velocity_mps.has_value());
   cv::Mat cut(480, 640, CV_8U, cv::Scalar(0));
-  cv::rectangle(cut, cv::Rect(600, 150, 40, 150), cv::Scalar(255), cv::FILLED);
+  cv::rectangle(cut, cv::Rect(560, 150, 80, 150), cv::Scalar(255), cv::FILLED);
   const std::vector<MovingRegion> side = PlaceMovingRegions(camera, cut, cv::Mat(), options);
   ASSERT_EQ(side.size(), 1u);
   EXPECT_TRUE(side[0].clipped);
@@ -297,6 +307,9 @@ TEST(MovingObjects, OptionsAreChecked) {
   bad.across_velocity_sigma_mps = 0;
   EXPECT_FALSE(bad.IsValid(&error));
   EXPECT_EQ(error, "moving_objects.across_velocity_sigma_mps: must be > 0");
+  bad = MovingObjectOptions{};
+  bad.min_radius_m = -0.1;
+  EXPECT_FALSE(bad.IsValid(&error));
   bad = MovingObjectOptions{};
   bad.footprint_margin_m = -0.1;
   EXPECT_FALSE(bad.IsValid(&error));
