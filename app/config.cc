@@ -267,6 +267,9 @@ OptionTable::OptionTable(AppConfig* config) : config_(config) {
   AddDouble("moving_objects", "max_coast_s", &mo.max_coast_s,
             "a track without a region for longer, or for longer than it has been followed, is "
             "dropped, s (> 0)");
+  AddDouble("moving_objects", "reidentify_s", &mo.reidentify_s,
+            "a lost track's id is taken up again by a region where it would be for this long, "
+            "s (>= 0)");
   AddDouble("moving_objects", "position_sigma_m", &mo.position_sigma_m,
             "noise of a region's floor position along the view, m, plus position_sigma_ratio x "
             "range (>= 0)");

@@ -31,6 +31,8 @@ bool MovingObjectOptions::IsValid(std::string* error) const {
   if (!(accel_sigma_mps2 > 0) || !std::isfinite(accel_sigma_mps2))
     return fail("accel_sigma_mps2: must be > 0");
   if (!(max_range_m > 0) || !std::isfinite(max_range_m)) return fail("max_range_m: must be > 0");
+  if (!(reidentify_s >= 0) || !std::isfinite(reidentify_s))
+    return fail("reidentify_s: must be >= 0");
   if (!(min_radius_m >= 0) || !std::isfinite(min_radius_m))
     return fail("min_radius_m: must be >= 0");
   if (!(footprint_margin_m >= 0) || !std::isfinite(footprint_margin_m))
@@ -384,7 +386,9 @@ std::vector<MovingObject> MovingObjectTracker::Update(const std::vector<MovingRe
   for (std::size_t r = 0; r < regions.size(); ++r) {
     for (std::size_t t = 0; t < tracks_.size(); ++t) {
       const double d = (in_odom[r] - tracks_[t].state.head<2>()).norm();
-      if (d <= options_.gate_m) pairs.emplace_back(d, r, t);
+      // A lost track takes a region only when no followed one does (ranked after all of them).
+      if (d <= options_.gate_m)
+        pairs.emplace_back(d + (tracks_[t].lost ? 2.0 * options_.gate_m : 0.0), r, t);
     }
   }
   std::sort(pairs.begin(), pairs.end());
@@ -393,6 +397,12 @@ std::vector<MovingObject> MovingObjectTracker::Update(const std::vector<MovingRe
     Track& track = tracks_[t];
     if (region_used[r] || track.updated_now) continue;
     region_used[r] = 1;
+    if (track.lost) {
+      // Found again: the same thing, the same id, reported again from its next region (one
+      // region can be a flicker, as for a new track).
+      track.lost = false;
+      track.updates = 0;
+    }
     const Eigen::Matrix2d s =
         track.covariance.topLeftCorner<2, 2>() + MeasurementNoise(regions[r], odom_from_base);
     const Eigen::Matrix<double, 4, 2> gain = track.covariance.leftCols<2>() * s.inverse();
@@ -422,7 +432,7 @@ std::vector<MovingObject> MovingObjectTracker::Update(const std::vector<MovingRe
     for (std::size_t b = a + 1; b < tracks_.size(); ++b) {
       Track& older = tracks_[a].id < tracks_[b].id ? tracks_[a] : tracks_[b];
       Track& newer = tracks_[a].id < tracks_[b].id ? tracks_[b] : tracks_[a];
-      if (newer.dropped || older.dropped) continue;
+      if (newer.dropped || older.dropped || newer.lost || older.lost) continue;
       if ((older.state.head<2>() - newer.state.head<2>()).norm() > options_.gate_m) continue;
       if (newer.updated_now && !older.updated_now) {
         older.state = newer.state;
@@ -436,13 +446,19 @@ std::vector<MovingObject> MovingObjectTracker::Update(const std::vector<MovingRe
       newer.dropped = true;
     }
   }
+  // Absence of evidence for longer than there was evidence ends a track's coasting too: a flicker
+  // does not coast for long. A track past its coasting is lost: no longer reported, but a region
+  // where it would be within reidentify_s takes up its id again.
+  const TimestampNs reidentify_ns = SecondsToNs(options_.reidentify_s);
+  for (Track& t : tracks_) {
+    const TimestampNs coast_ns = std::min(max_coast_ns, t.last_update_ns - t.first_update_ns);
+    if (stamp_ns - t.last_update_ns > coast_ns) t.lost = true;
+  }
   tracks_.erase(std::remove_if(tracks_.begin(), tracks_.end(),
                                [&](const Track& t) {
-                                 // Absence of evidence for longer than there was evidence
-                                 // ends a track too: a flicker does not coast for long.
-                                 const TimestampNs coast_ns =
-                                     std::min(max_coast_ns, t.last_update_ns - t.first_update_ns);
-                                 return t.dropped || stamp_ns - t.last_update_ns > coast_ns;
+                                 return t.dropped ||
+                                        (t.lost && (t.updates < options_.confirm_updates ||
+                                                    stamp_ns - t.last_update_ns > reidentify_ns));
                                }),
                 tracks_.end());
   for (std::size_t r = 0; r < regions.size(); ++r) {
@@ -473,7 +489,7 @@ std::vector<MovingObject> MovingObjectTracker::Update(const std::vector<MovingRe
   const Pose2 base_from_odom = odom_from_base.Inverse();
   const Eigen::Matrix2d rotation = base_from_odom.Rotation();
   for (const Track& t : tracks_) {
-    if (t.updates < options_.confirm_updates) continue;
+    if (t.lost || t.updates < options_.confirm_updates) continue;
     MovingObject o;
     o.id = t.id;
     o.position_in_base = base_from_odom * Eigen::Vector2d(t.state.head<2>());

@@ -29,6 +29,10 @@ struct MovingObjectOptions {
   // s (> 0); until then it is reported where it is predicted to be (a person briefly lost in
   // textureless flow or behind another is still there), flagged as coasting.
   double max_coast_s = 1.0;
+  // A track past its coasting is no longer reported, but for this long since its last region a
+  // region where it is predicted to be (within the gate, when no followed track takes it) gets
+  // its id again, s (>= 0): a person lost while walking along the view keeps its id.
+  double reidentify_s = 2.0;
   // Noise of the position measured from a region's lowest row along the view, m:
   // position_sigma_m plus position_sigma_ratio x range (>= 0, not both 0). The floor's scale per
   // image row falls with the square of the range.
@@ -130,6 +134,7 @@ class MovingObjectTracker {
     TimestampNs last_update_ns = 0;
     bool updated_now = false;
     bool dropped = false;  // merged into an older track
+    bool lost = false;     // past its coasting: not reported, kept for reidentify_s
   };
 
   // The covariance of a region's measured position in the odometry frame: position_sigma_ratio

@@ -225,37 +225,51 @@ TEST(MovingObjects, ATrackKeepsItsIdAndMeasuresVelocityOverTheGround) {
 // A track without regions coasts (reported, predicted) for max_coast_s, then is dropped; an object
 // seen again after that is a new one.
 TEST(MovingObjects, ALostTrackCoastsThenIsDropped) {
+  // A thing followed for 0.4 s, then lost for 0.5 s, then seen again where it would be.
+  const auto lost_and_found = [](const MovingObjectOptions& options, int* first_id,
+                                 std::vector<MovingObject>* found) {
+    MovingObjectTracker tracker(options);
+    const double dt = 0.1;
+    MovingRegion region;
+    region.range_m = 2.0;
+    region.radius_m = 0.2;
+    for (int k = 0; k < 5; ++k) {
+      region.position_in_base = Eigen::Vector2d(2.0, -0.5 + 0.5 * k * dt);
+      const auto out = tracker.Update({region}, Pose2{}, SecondsToNs(k * dt));
+      if (k > 0) {
+        ASSERT_EQ(out.size(), 1u);
+        *first_id = out[0].id;
+        EXPECT_FALSE(out[0].coasting);
+      }
+    }
+    auto out = tracker.Update({}, Pose2{}, SecondsToNs(5 * dt));
+    ASSERT_EQ(out.size(), 1u);
+    EXPECT_TRUE(out[0].coasting);
+    EXPECT_NEAR(out[0].position_in_base.y(), -0.5 + 0.5 * 5 * dt, 0.05);    // where it walked on
+    EXPECT_TRUE(tracker.Update({}, Pose2{}, SecondsToNs(9 * dt)).empty());  // past its coasting
+    region.position_in_base = Eigen::Vector2d(2.0, 0.0);
+    // Seen again: reported from its second region, as a new track would be.
+    EXPECT_TRUE(tracker.Update({region}, Pose2{}, SecondsToNs(10 * dt)).empty());
+    *found = tracker.Update({region}, Pose2{}, SecondsToNs(11 * dt));
+    ASSERT_EQ(found->size(), 1u);
+    // A track followed for 0.1 s only coasts no longer than that, though max_coast_s would allow
+    // 0.3 s (a flicker does not linger).
+    if ((*found)[0].id != *first_id) {
+      EXPECT_EQ(tracker.Update({}, Pose2{}, SecondsToNs(11.5 * dt)).size(), 1u);
+      EXPECT_TRUE(tracker.Update({}, Pose2{}, SecondsToNs(12.5 * dt)).empty());
+    }
+  };
   MovingObjectOptions options;
   options.max_coast_s = 0.3;
-  MovingObjectTracker tracker(options);
-  const double dt = 0.1;
-  MovingRegion region;
-  region.range_m = 2.0;
-  region.radius_m = 0.2;
   int id = 0;
-  for (int k = 0; k < 5; ++k) {
-    region.position_in_base = Eigen::Vector2d(2.0, -0.5 + 0.5 * k * dt);
-    const auto out = tracker.Update({region}, Pose2{}, SecondsToNs(k * dt));
-    if (k > 0) {
-      ASSERT_EQ(out.size(), 1u);
-      id = out[0].id;
-      EXPECT_FALSE(out[0].coasting);
-    }
-  }
-  auto out = tracker.Update({}, Pose2{}, SecondsToNs(5 * dt));
-  ASSERT_EQ(out.size(), 1u);
-  EXPECT_TRUE(out[0].coasting);
-  EXPECT_NEAR(out[0].position_in_base.y(), -0.5 + 0.5 * 5 * dt, 0.05);  // where it walked on to
-  EXPECT_TRUE(tracker.Update({}, Pose2{}, SecondsToNs(9 * dt)).empty());
-  region.position_in_base = Eigen::Vector2d(2.0, 0.0);
-  tracker.Update({region}, Pose2{}, SecondsToNs(10 * dt));
-  out = tracker.Update({region}, Pose2{}, SecondsToNs(11 * dt));
-  ASSERT_EQ(out.size(), 1u);
-  EXPECT_NE(out[0].id, id);
-  // That one was followed for 0.1 s only: it coasts no longer than that, though max_coast_s
-  // would allow 0.3 s (a flicker does not linger).
-  EXPECT_EQ(tracker.Update({}, Pose2{}, SecondsToNs(11.5 * dt)).size(), 1u);
-  EXPECT_TRUE(tracker.Update({}, Pose2{}, SecondsToNs(12.5 * dt)).empty());
+  std::vector<MovingObject> found;
+  lost_and_found(options, &id, &found);  // within reidentify_s: the same id
+  ASSERT_EQ(found.size(), 1u);
+  EXPECT_EQ(found[0].id, id);
+  options.reidentify_s = 0.0;
+  lost_and_found(options, &id, &found);  // without: a new one
+  ASSERT_EQ(found.size(), 1u);
+  EXPECT_NE(found[0].id, id);
 }
 
 // Where a tracked object stands (and a margin around it) the frame's local map knows nothing:
@@ -307,6 +321,9 @@ TEST(MovingObjects, OptionsAreChecked) {
   bad.across_velocity_sigma_mps = 0;
   EXPECT_FALSE(bad.IsValid(&error));
   EXPECT_EQ(error, "moving_objects.across_velocity_sigma_mps: must be > 0");
+  bad = MovingObjectOptions{};
+  bad.reidentify_s = -1.0;
+  EXPECT_FALSE(bad.IsValid(&error));
   bad = MovingObjectOptions{};
   bad.min_radius_m = -0.1;
   EXPECT_FALSE(bad.IsValid(&error));
