@@ -24,13 +24,6 @@
 namespace monoplane::app {
 namespace {
 
-// A tracked object the map and DDS can hold: a finite position, velocity and radius (a tracker's
-// defect must not end the run).
-bool Storable(const MovingObject& o) {
-  return o.position_in_base.allFinite() && o.velocity_in_base_mps.allFinite() &&
-         std::isfinite(o.radius_m) && o.radius_m >= 0.0;
-}
-
 using Clock = std::chrono::steady_clock;
 double MsSince(Clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
@@ -407,7 +400,8 @@ bool MapSink::Add(const InputFrame& frame, const SequenceDetector::Output& outpu
     // After the frame itself (a keyframe is written above): the next flush stores them.
     if (output.result) {
       for (const MovingObject& o : output.result->moving_objects) {
-        if (Storable(o)) m.pending_moving.push_back({frame.index, o});
+        // A tracker's defect must not end the run: what cannot be stored is left out.
+        if (IsValidMovingObject(o)) m.pending_moving.push_back({frame.index, o});
       }
     }
     if (update.loop_closed || update.map_rebuilt) {
@@ -425,7 +419,7 @@ bool MapSink::Add(const InputFrame& frame, const SequenceDetector::Output& outpu
       local_map = output.result->local_map;
       const Pose2& map_from_base = update.map_from_base;
       for (const MovingObject& o : output.result->moving_objects) {
-        if (!Storable(o)) continue;
+        if (!IsValidMovingObject(o)) continue;
         const Eigen::Vector2d p = map_from_base * o.position_in_base;
         const Eigen::Vector2d v = map_from_base.Rotation() * o.velocity_in_base_mps;
         moving.push_back({o.id, p.x(), p.y(), v.x(), v.y(), o.radius_m, o.coasting});

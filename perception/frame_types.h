@@ -93,6 +93,12 @@ struct MovingObject {
   bool coasting = false;  // no region for it in this frame: predicted
 };
 
+// Whether an object can be stored and published: finite position, velocity and radius, radius >= 0.
+inline bool IsValidMovingObject(const MovingObject& o) {
+  return o.position_in_base.allFinite() && o.velocity_in_base_mps.allFinite() &&
+         std::isfinite(o.radius_m) && o.radius_m >= 0.0;
+}
+
 struct FrameResult {
   PairStatus status = PairStatus::kBadImage;
   std::string message;  // human-readable reason when status != kOk

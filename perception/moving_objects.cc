@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <functional>
 #include <limits>
 #include <opencv2/imgproc.hpp>
 #include <tuple>
@@ -79,10 +78,10 @@ namespace {
 // smoothed with the background's), each seen from both cameras at the thing's distance (it stands
 // upright: its pixels lie about as far as its nearest edge on the floor, `range`); along the view
 // from its lowest `band` rows, each seen on the floor in both frames. Medians over the pixels.
-void MeasureVelocity(const CameraModel& camera, const MovingRegionFlow& flow,
-                     const std::function<bool(int, int)>& own,
-                     const std::function<bool(int, int)>& in_region, const cv::Rect& box, int band,
-                     double range, MovingRegion* r) {
+template <typename Own, typename InRegion>
+void MeasureVelocity(const CameraModel& camera, const MovingRegionFlow& flow, const Own& own,
+                     const InRegion& in_region, const cv::Rect& box, int band, double range,
+                     MovingRegion* r) {
   const int fs = std::max(1, flow.downscale);
   const Eigen::Vector2d centre = camera.CameraCentreInBase().head<2>();
   // The previous camera's centre in the current base frame.
@@ -204,15 +203,18 @@ std::vector<MovingRegion> PlaceMovingRegions(const CameraModel& camera, const cv
     top *= 2;
     right = std::min(2 * right, moving_mask.cols);
     bottom = std::min(2 * bottom + 1, moving_mask.rows - 1);
-    // The lowest pixel of the thing itself: one that does not match the floor's motion.
-    const auto counts = [&](int v, int u) {
-      return !use_matching || floor_matching.at<std::uint8_t>(v, u) == 0;
+    // Pixels of this thing, and of it itself: those that do not match the floor's motion.
+    const auto in_region = [&](int v, int u) {
+      const int c = component_at(v, u);
+      return c > 0 && root(c) == g;
+    };
+    const auto own = [&](int v, int u) {
+      return in_region(v, u) && (!use_matching || floor_matching.at<std::uint8_t>(v, u) == 0);
     };
     int lowest = -1;
     for (int v = bottom; v >= top && lowest < 0; --v) {
       for (int u = left; u < right; ++u) {
-        const int c = component_at(v, u);
-        if (c > 0 && root(c) == g && counts(v, u)) {
+        if (own(v, u)) {
           lowest = v;
           break;
         }
@@ -226,8 +228,7 @@ std::vector<MovingRegion> PlaceMovingRegions(const CameraModel& camera, const cv
     columns.clear();
     for (int v = std::max(top, bottom - band + 1); v <= bottom; ++v) {
       for (int u = left; u < right; ++u) {
-        const int c = component_at(v, u);
-        if (c > 0 && root(c) == g && counts(v, u)) columns.push_back(u);
+        if (own(v, u)) columns.push_back(u);
       }
     }
     if (columns.empty()) continue;
@@ -248,14 +249,6 @@ std::vector<MovingRegion> PlaceMovingRegions(const CameraModel& camera, const cv
     r.view_in_base = (*floor - centre) / std::max(range, 1e-9);
     r.clipped = left <= 1 || right >= moving_mask.cols - 1;
     if (use_flow) {
-      const auto own = [&](int row, int col) {
-        const int c = component_at(row, col);
-        return c > 0 && root(c) == g && counts(row, col);
-      };
-      const auto in_region = [&](int row, int col) {
-        const int c = component_at(row, col);
-        return c > 0 && root(c) == g;
-      };
       MeasureVelocity(camera, flow, own, in_region,
                       cv::Rect(left, top, right - left, bottom - top + 1), band, range, &r);
     }

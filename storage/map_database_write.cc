@@ -27,11 +27,6 @@ constexpr const char* kUpsertMovingObjectSql =
     "INSERT OR REPLACE INTO moving_objects (run_id, frame_index, object_id, x_m, y_m, vx_mps, "
     "vy_mps, radius_m, coasting) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)";
 
-bool Finite(const MovingObject& o) {
-  return o.position_in_base.allFinite() && o.velocity_in_base_mps.allFinite() &&
-         std::isfinite(o.radius_m) && o.radius_m >= 0.0;
-}
-
 }  // namespace
 
 StorageStatus MapDatabase::BeginRun(const CameraCalibration& calibration,
@@ -128,7 +123,7 @@ StorageStatus MapDatabase::WriteFrames(std::int64_t run_id, const std::vector<Fr
   constexpr const char* kContext = "writing frames";
   Impl& d = *impl_;
   for (const MovingObjectRecord& r : moving_objects) {
-    if (!Finite(r.object)) {
+    if (!IsValidMovingObject(r.object)) {
       return d.Error(StorageErrorKind::kInvalidArgument,
                      std::string(kContext) + ": moving object " + std::to_string(r.object.id) +
                          " of frame " + std::to_string(r.frame_index) +
