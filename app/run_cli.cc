@@ -10,13 +10,10 @@
 
 #include "app/commands.h"
 #include "app/config.h"
-#include "app/demo_scene.h"
 #include "app/run_pipeline.h"
 #include "storage/map_database.h"
 #include "storage/map_export.h"
-#include "tools/eval/label_metrics.h"
-#include "tools/sim/scene.h"
-#include "tools/sim/sequence.h"
+#include "tools/demo/demo.h"
 
 namespace monoplane::app {
 namespace {
@@ -63,14 +60,8 @@ int RunDemo(RunCli* cli) {
   const fs::path sequence = root / "sequence";
   std::printf("monoplane demo: rendering the built-in office scene into %s/ ...\n",
               sequence.string().c_str());
-  sim::Scene scene;
   std::string error;
-  if (!sim::ParseSceneYaml(kDemoSceneYaml, &scene, &error)) {
-    std::cerr << "monoplane run: built-in scene: " << error << "\n";
-    return kExitError;
-  }
-  sim::SequenceOptions options;
-  if (!sim::GenerateSequence(scene, sequence.string(), options, &error)) {
+  if (!demo::RenderDemoSequence(sequence.string(), &error)) {
     std::cerr << "monoplane run: " << error << "\n";
     return kExitBadInput;
   }
@@ -93,16 +84,15 @@ int RunDemo(RunCli* cli) {
   if (const int report_code = WriteMapReport(r.map_path, report, r.frames_out, 6);
       report_code != kExitOk)
     return report_code;
-  eval::LabelEvalResult labels;
-  if (!eval::EvaluateLabelSequence(r.frames_out, sequence.string(), eval::LabelEvalOptions{},
-                                   &labels, &error)) {
+  demo::DemoScores scores;
+  if (!demo::ScoreDemo(r.frames_out, sequence.string(), &scores, &error)) {
     std::cerr << "monoplane run: scoring: " << error << "\n";
     return kExitError;
   }
   std::printf(
       "\nScores against the simulator's ground truth (%d frames; monoplane-eval gives more):\n",
-      labels.frames_scored);
-  const auto& o = labels.overall;
+      scores.frames_scored);
+  const demo::DemoScores& o = scores;
   PrintPercent("obstacle recall (>= 5 cm tall)", o.obstacle_recall);
   PrintPercent("floor labelled obstacle", o.floor_false_obstacle_rate);
   PrintPercent("coverage (not unknown)", o.coverage);

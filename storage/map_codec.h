@@ -4,7 +4,7 @@
 #include <string>
 #include <vector>
 
-#include "perception/frame_types.h"
+#include "perception/geometry/frame_values.h"
 #include "perception/geometry/occupancy_grid.h"
 #include "perception/geometry/tiled_grid.h"
 #include "perception/geometry/timestamp.h"

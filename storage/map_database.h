@@ -9,8 +9,8 @@
 #include <utility>
 #include <vector>
 
-#include "perception/frame_types.h"
 #include "perception/geometry/camera_calibration.h"
+#include "perception/geometry/frame_values.h"
 #include "perception/geometry/occupancy_grid.h"
 #include "perception/geometry/pose2.h"
 #include "perception/geometry/tiled_grid.h"

@@ -13,8 +13,8 @@
 #include <random>
 #include <string>
 
-#include "perception/frame_types.h"
 #include "perception/geometry/camera_calibration.h"
+#include "perception/geometry/frame_values.h"
 #include "perception/geometry/occupancy_grid.h"
 #include "perception/geometry/tiled_grid.h"
 
