@@ -17,16 +17,18 @@ namespace monoplane::app {
 
 // What `monoplane run` writes besides the map.
 struct OutputOptions {
-  // Write panels/NNNNNN.jpg for every N-th frame with --frames-out (>= 1): the first frame with
-  // heights at or after each multiple of N.
+  // Write panels/NNNNNN.jpg for every N-th frame with --frames-out: the first frame with heights
+  // at or after each multiple of N.
   int panels_every = 1;
+  void Describe(OptionVisitor& v);  // keys, ranges and meanings (config.cc)
   bool IsValid(std::string* error) const;
 };
 
 // How `monoplane run` publishes over DDS with --publish.
 struct PublishOptions {
   interfaces::MapPublisher::Options publisher;
-  double map_period_s = 1.0;  // the global map goes out at most this often (stamps), s (>= 0)
+  double map_period_s = 1.0;        // the global map goes out at most this often (stamps), s
+  void Describe(OptionVisitor& v);  // the publisher's keys and map_period_s (config.cc)
   bool IsValid(std::string* error) const;
 };
 
@@ -35,6 +37,7 @@ struct PublishOptions {
 struct StartOptions {
   double x_m = 0.0, y_m = 0.0, yaw_rad = 0.0;
   Pose2 pose() const { return Pose2{x_m, y_m, yaw_rad}; }
+  void Describe(OptionVisitor& v);  // keys and meanings (config.cc)
 };
 
 // Every option of every module, settable from one YAML file (--config).
@@ -80,10 +83,6 @@ class OptionTable {
   bool Apply(const std::string& yaml_text, std::string* error);
   // The effective options as YAML with a comment per key.
   std::string Dump() const;
-  // A module's validation error (ValidateConfig) after Apply, reworded to name the key the user
-  // wrote and the value as written ("mapping.loop_min_score: 2: must be in [0, 1]") when one key
-  // alone makes the options invalid; otherwise `reason` as it is.
-  std::string NameTheKey(const std::string& reason);
 
  private:
   struct Entry {
@@ -109,12 +108,14 @@ class OptionTable {
                  const std::string& comment);
   void AddInt64(const std::string& section, const std::string& key, std::int64_t* target,
                 const std::string& comment);
-  void AddChoice(const std::string& section, const std::string& key, int* target,
+  void AddChoice(const std::string& section, const std::string& key,
+                 const std::function<int()>& get, const std::function<void(int)>& set,
                  const std::vector<std::string>& names, const std::string& comment);
+  // Enters the fields `describe` lists (an options struct's Describe) under `section`.
+  class Registrar;
+  void AddSection(const std::string& section, const std::function<void(OptionVisitor&)>& describe);
 
   std::vector<Entry> entries_;
-  std::vector<std::pair<std::size_t, std::string>> applied_;  // entry index, value as written
-  int aggregation_ = 0;
   AppConfig* config_;
 };
 

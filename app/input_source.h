@@ -6,6 +6,7 @@
 #include <string>
 
 #include "perception/geometry/camera_calibration.h"
+#include "perception/geometry/options.h"
 #include "perception/geometry/timestamp.h"
 
 namespace monoplane::app {
@@ -47,6 +48,7 @@ struct InputOptions {
   // rosbag2 recordings: the image topic to read; empty: the bag's only image topic. Given on the
   // command line (run --topic), not in config files.
   std::string topic;
+  void Describe(OptionVisitor& v);  // the config file's keys (config.cc): fps
 };
 
 // Opens PATH as whichever kind of input it is. nullptr and a one-line reason when it is none.

@@ -37,32 +37,29 @@ std::optional<CellRect> ChangedRegion(const OccupancyGrid& previous, const Occup
   return CellRect{min_col, min_row, max_col - min_col + 1, max_row - min_row + 1};
 }
 
+void MapPublisher::Options::Describe(OptionVisitor& v) {
+  using R = OptionRange;
+  v.Integer("domain_id", &domain_id, R::Closed(0, 232), "DDS domain id");
+  v.Text("topic_prefix", &topic_prefix,
+         "topics rt/<prefix>/map ...; empty: rt/map; letters, digits, '_' and '/'");
+  bool prefix_ok = true;
+  for (char c : topic_prefix)
+    prefix_ok = prefix_ok && (std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '/');
+  v.Rule(prefix_ok, "topic_prefix", "must have only letters, digits, '_' and '/'");
+  v.Text("map_frame", &map_frame, "frame id of the map");
+  v.Rule(!map_frame.empty(), "map_frame", "must not be empty");
+  v.Text("odom_frame", &odom_frame, "frame id of the odometry");
+  v.Rule(!odom_frame.empty(), "odom_frame", "must not be empty");
+  v.Text("base_frame", &base_frame, "frame id of the robot base");
+  v.Rule(!base_frame.empty(), "base_frame", "must not be empty");
+  v.Real("max_blocking_time_s", &max_blocking_time_s, R::Closed(0, 1),
+         "longest a write may wait for a reader, s");
+  v.Integer("local_map_history_depth", &local_map_history_depth, R::Closed(1, 100),
+            "keep-last depth of rt/monoplane/local_map");
+}
+
 bool MapPublisher::Options::IsValid(std::string* error) const {
-  auto fail = [&](const std::string& message) {
-    if (error) *error = "MapPublisher::Options::" + message;
-    return false;
-  };
-  if (domain_id < 0 || domain_id > 232) {
-    return fail("domain_id = " + std::to_string(domain_id) + ". Violated constraint: in [0, 232]");
-  }
-  if (map_frame.empty() || odom_frame.empty() || base_frame.empty()) {
-    return fail("map_frame/odom_frame/base_frame: must not be empty");
-  }
-  if (!(max_blocking_time_s >= 0.0 && max_blocking_time_s <= 1.0)) {
-    return fail("max_blocking_time_s = " + std::to_string(max_blocking_time_s) +
-                ". Violated constraint: in [0, 1]");
-  }
-  if (local_map_history_depth < 1 || local_map_history_depth > 100) {
-    return fail("local_map_history_depth = " + std::to_string(local_map_history_depth) +
-                ". Violated constraint: in [1, 100]");
-  }
-  for (char c : topic_prefix) {
-    if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '/')) {
-      return fail("topic_prefix = \"" + topic_prefix +
-                  "\". Violated constraint: only letters, digits, '_' and '/'");
-    }
-  }
-  return true;
+  return CheckOptions(*this, "dds", error);
 }
 
 namespace {

@@ -10,6 +10,7 @@
 #include "interfaces/dds_entities.h"
 #include "interfaces/ros_node.h"
 #include "perception/geometry/occupancy_grid.h"
+#include "perception/geometry/options.h"
 #include "perception/geometry/pose2.h"
 #include "perception/geometry/tiled_grid.h"
 #include "perception/geometry/timestamp.h"
@@ -92,7 +93,7 @@ struct PublishStats {
 class MapPublisher {
  public:
   struct Options {
-    int domain_id = 0;         // DDS domain id, [0, 232]
+    int domain_id = 0;         // DDS domain id
     std::string topic_prefix;  // "" -> rt/map; "robot1" -> rt/robot1/map
     std::string map_frame = "map";
     std::string odom_frame = "odom";
@@ -100,7 +101,7 @@ class MapPublisher {
     // Longest one write may wait for room in a reliable reader's backlog (Cyclone's reliability
     // max_blocking_time), seconds, [0, 1]. After it the sample is dropped and counted.
     double max_blocking_time_s = 0.005;
-    int local_map_history_depth = 1;  // keep-last depth of rt/monoplane/local_map, [1, 100]
+    int local_map_history_depth = 1;  // keep-last depth of rt/monoplane/local_map
     // Also publish rt/clock (rosgraph_msgs/Clock, reliable, volatile, keep-last 1; never
     // prefixed), the time of recorded input, for ROS 2 nodes with use_sim_time (tf2 then accepts
     // the stamps).
@@ -111,6 +112,8 @@ class MapPublisher {
     // its own named "monoplane" (ros_node.h).
     std::shared_ptr<RosNode> node;
 
+    // Every field's key, range and meaning (the checks, the config file and --dump use it).
+    void Describe(OptionVisitor& v);
     bool IsValid(std::string* error) const;
   };
 

@@ -55,7 +55,7 @@ TEST(MapPublisherTest, OptionsAreChecked) {
   EXPECT_TRUE(options.IsValid(&error)) << error;
   options.domain_id = 233;
   EXPECT_FALSE(options.IsValid(&error));
-  EXPECT_NE(error.find("domain_id = 233"), std::string::npos) << error;
+  EXPECT_EQ(error, "dds.domain_id: 233: must be in [0, 232]");
   options = {};
   options.max_blocking_time_s = -1.0;
   EXPECT_FALSE(options.IsValid(&error));

@@ -56,29 +56,30 @@ std::vector<Eigen::Vector2d> Select(const std::vector<Eigen::Vector2d>& points,
 
 }  // namespace
 
+void FloorMatchOptions::Describe(OptionVisitor& v) {
+  using R = OptionRange;
+  v.Real("gate_m", &gate_m, R::Above(0),
+         "floor features match within this of where the estimate puts them, m");
+  v.Integer("max_hamming", &max_hamming, R::Closed(0, 256),
+            "largest descriptor distance of a match, bits");
+  v.Real("ratio", &ratio, R::OpenClosed(0, 1), "best / second-best distance of a match");
+  v.Integer("ransac_iterations", &ransac_iterations, R::AtLeast(1), "RANSAC iterations");
+  v.Real("inlier_threshold_m", &inlier_threshold_m, R::Above(0),
+         "floor RANSAC inlier threshold, m");
+  v.Integer("min_inliers", &min_inliers, R::AtLeast(2), "floor-feature inliers a match needs");
+  v.Real("min_inlier_ratio", &min_inlier_ratio, R::Closed(0, 1), "inliers / matches needed");
+  v.Real("min_spread_m", &min_spread_m, R::AtLeast(0),
+         "RMS distance of the inliers from their centroid needed, m");
+  v.Real("max_second_ratio", &max_second_ratio, R::Closed(0, 1),
+         "second-best / best inliers allowed");
+  v.Real("separation_m", &separation_m, R::Above(0),
+         "a second best farther than this is another place, m");
+  v.Real("separation_rad", &separation_rad, R::Above(0), "... or than this in yaw, rad");
+  v.Integer("seed", &seed, R::Any(), "RANSAC random seed");
+}
+
 bool FloorMatchOptions::IsValid(std::string* error) const {
-  auto fail = [&](const std::string& key, double value, const std::string& constraint) {
-    if (error)
-      *error =
-          "FloorMatchOptions::" + key + " = " + std::to_string(value) + ": must be " + constraint;
-    return false;
-  };
-  if (!(gate_m > 0)) return fail("gate_m", gate_m, "> 0");
-  if (!(max_hamming >= 0 && max_hamming <= 256))
-    return fail("max_hamming", max_hamming, "in [0, 256]");
-  if (!(ratio > 0 && ratio <= 1)) return fail("ratio", ratio, "in (0, 1]");
-  if (ransac_iterations < 1) return fail("ransac_iterations", ransac_iterations, ">= 1");
-  if (!(inlier_threshold_m > 0)) return fail("inlier_threshold_m", inlier_threshold_m, "> 0");
-  if (min_inliers < 2) return fail("min_inliers", min_inliers, ">= 2");
-  if (!(min_inlier_ratio >= 0 && min_inlier_ratio <= 1))
-    return fail("min_inlier_ratio", min_inlier_ratio, "in [0, 1]");
-  if (!(min_spread_m >= 0)) return fail("min_spread_m", min_spread_m, ">= 0");
-  if (!(max_second_ratio >= 0 && max_second_ratio <= 1)) {
-    return fail("max_second_ratio", max_second_ratio, "in [0, 1]");
-  }
-  if (!(separation_m > 0)) return fail("separation_m", separation_m, "> 0");
-  if (!(separation_rad > 0)) return fail("separation_rad", separation_rad, "> 0");
-  return true;
+  return CheckOptions(*this, "floor_match", error);
 }
 
 Pose2 FitSe2LeastSquares(const std::vector<Eigen::Vector2d>& source,

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "perception/floor_features.h"
+#include "perception/geometry/options.h"
 #include "perception/geometry/pose2.h"
 
 namespace monoplane {
@@ -20,21 +21,23 @@ namespace monoplane {
 // (a repeating floor pattern).
 struct FloorMatchOptions {
   // With a prior motion (guided matching): a source feature is matched only with target features
-  // within this of where the prior puts it, metres (> 0). Keep it under half the period of a
+  // within this of where the prior puts it, metres. Keep it under half the period of a
   // repeating floor pattern and over the expected drift.
   double gate_m = 0.6;
   int max_hamming = 64;               // largest descriptor distance of a match, bits in [0, 256]
-  double ratio = 0.8;                 // best / second-best distance of a match, in (0, 1]
+  double ratio = 0.8;                 // best / second-best distance of a match
   int ransac_iterations = 400;        // >= 1
   double inlier_threshold_m = 0.025;  // > 0
   int min_inliers = 15;               // >= 2
-  double min_inlier_ratio = 0.3;      // inliers / matches, in [0, 1]
-  double min_spread_m = 0.15;         // RMS distance of the inliers from their centroid, >= 0
-  double max_second_ratio = 0.5;      // second / best inliers, in [0, 1]
+  double min_inlier_ratio = 0.3;      // inliers / matches
+  double min_spread_m = 0.15;         // RMS distance of the inliers from their centroid
+  double max_second_ratio = 0.5;      // second / best inliers
   double separation_m = 0.10;         // "well separated": farther than this ...  > 0
-  double separation_rad = 0.05;       // ... or than this in yaw, > 0
+  double separation_rad = 0.05;       // ... or than this in yaw
   std::uint32_t seed = 1;             // RANSAC's random sampling (deterministic)
 
+  // Every field's key, range and meaning (the checks, the config file and --dump use it).
+  void Describe(OptionVisitor& v);
   bool IsValid(std::string* error) const;
 };
 

@@ -6,16 +6,16 @@
 
 namespace monoplane {
 
+void LogOddsOptions::Describe(OptionVisitor& v) {
+  using R = OptionRange;
+  v.Real("hit", &hit, R::Above(0), "log-odds added for an occupied observation");
+  v.Real("miss", &miss, R::Below(0), "log-odds added for a free observation");
+  v.Real("min", &min, R::Below(0), "log-odds clamp below");
+  v.Real("max", &max, R::Above(0), "log-odds clamp above");
+}
+
 bool LogOddsOptions::IsValid(std::string* error) const {
-  auto fail = [&](const std::string& m) {
-    if (error) *error = m;
-    return false;
-  };
-  if (!(hit > 0)) return fail("LogOddsOptions::hit = " + std::to_string(hit) + ": must be > 0");
-  if (!(miss < 0)) return fail("LogOddsOptions::miss = " + std::to_string(miss) + ": must be < 0");
-  if (!(min < 0)) return fail("LogOddsOptions::min = " + std::to_string(min) + ": must be < 0");
-  if (!(max > 0)) return fail("LogOddsOptions::max = " + std::to_string(max) + ": must be > 0");
-  return true;
+  return CheckOptions(*this, "log_odds", error);
 }
 
 void FuseLocalMap(const OccupancyGrid& local_map,

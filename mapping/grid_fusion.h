@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "perception/geometry/occupancy_grid.h"
+#include "perception/geometry/options.h"
 #include "perception/geometry/pose2.h"
 #include "perception/geometry/tiled_grid.h"
 #include "perception/geometry/timestamp.h"
@@ -23,6 +24,8 @@ struct LogOddsOptions {
   float min = -2.0f;   // clamp, < 0 (p = 0.12): a free cell can become occupied within 3 hits
   float max = 3.5f;    // clamp, > 0 (p = 0.97)
 
+  // Every field's key, range and meaning (the checks, the config file and --dump use it).
+  void Describe(OptionVisitor& v);
   bool IsValid(std::string* error) const;
 };
 

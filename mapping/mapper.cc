@@ -39,88 +39,135 @@ std::pair<Eigen::Vector2d, Eigen::Vector2d> LocalMapBounds(const OccupancyGrid& 
 
 using namespace mapper_internal;  // NOLINT(google-build-using-namespace): Mapper's own helpers
 
-bool Mapper::Options::IsValid(std::string* error) const {
-  auto fail = [&](const std::string& key, double value, const std::string& constraint) {
-    if (error)
-      *error =
-          "Mapper::Options::" + key + " = " + std::to_string(value) + ": must be " + constraint;
-    return false;
-  };
-  if (!(keyframe_distance_m > 0)) return fail("keyframe_distance_m", keyframe_distance_m, "> 0");
-  if (!(keyframe_rotation_rad > 0))
-    return fail("keyframe_rotation_rad", keyframe_rotation_rad, "> 0");
-  if (!(footprint_radius_m >= 0)) return fail("footprint_radius_m", footprint_radius_m, ">= 0");
-  if (keyframe_free_min_frames < 0 || keyframe_free_min_frames > 1000) {
-    return fail("keyframe_free_min_frames", keyframe_free_min_frames, "in [0, 1000]");
-  }
-  if (!(keyframe_min_shared_tracks >= 0 && keyframe_min_shared_tracks <= 1)) {
-    return fail("keyframe_min_shared_tracks", keyframe_min_shared_tracks, "in [0, 1]");
-  }
-  if (!(keyframe_min_distance_m >= 0))
-    return fail("keyframe_min_distance_m", keyframe_min_distance_m, ">= 0");
-  if (!(odom_sigma_per_m > 0)) return fail("odom_sigma_per_m", odom_sigma_per_m, "> 0");
-  if (!(odom_sigma_min_m > 0)) return fail("odom_sigma_min_m", odom_sigma_min_m, "> 0");
-  if (!(odom_yaw_sigma_per_rad > 0))
-    return fail("odom_yaw_sigma_per_rad", odom_yaw_sigma_per_rad, "> 0");
-  if (!(odom_yaw_sigma_per_m >= 0))
-    return fail("odom_yaw_sigma_per_m", odom_yaw_sigma_per_m, ">= 0");
-  if (!(odom_yaw_sigma_min_rad > 0))
-    return fail("odom_yaw_sigma_min_rad", odom_yaw_sigma_min_rad, "> 0");
-  if (good_motion_min_inliers < 0)
-    return fail("good_motion_min_inliers", good_motion_min_inliers, ">= 0");
-  if (!(good_motion_max_rms_px > 0))
-    return fail("good_motion_max_rms_px", good_motion_max_rms_px, "> 0");
-  if (!(poor_motion_sigma_factor >= 1))
-    return fail("poor_motion_sigma_factor", poor_motion_sigma_factor, ">= 1");
-  if (!(fallback_motion_sigma_factor >= 1)) {
-    return fail("fallback_motion_sigma_factor", fallback_motion_sigma_factor, ">= 1");
-  }
-  if (window_size < 2) return fail("window_size", window_size, ">= 2");
-  if (!(loop_min_travel_m >= 0)) return fail("loop_min_travel_m", loop_min_travel_m, ">= 0");
-  if (!(loop_candidate_radius_m > 0))
-    return fail("loop_candidate_radius_m", loop_candidate_radius_m, "> 0");
-  if (loop_max_candidates < 1) return fail("loop_max_candidates", loop_max_candidates, ">= 1");
-  if (loop_min_interval_keyframes < 0) {
-    return fail("loop_min_interval_keyframes", loop_min_interval_keyframes, ">= 0");
-  }
-  if (!(loop_sigma_xy_m > 0)) return fail("loop_sigma_xy_m", loop_sigma_xy_m, "> 0");
-  if (!(loop_sigma_yaw_rad > 0)) return fail("loop_sigma_yaw_rad", loop_sigma_yaw_rad, "> 0");
-  if (!(floor_loop_max_correction_m > 0)) {
-    return fail("floor_loop_max_correction_m", floor_loop_max_correction_m, "> 0");
-  }
-  if (!(floor_loop_max_correction_rad > 0)) {
-    return fail("floor_loop_max_correction_rad", floor_loop_max_correction_rad, "> 0");
-  }
-  if (!(floor_loop_sigma_xy_m > 0))
-    return fail("floor_loop_sigma_xy_m", floor_loop_sigma_xy_m, "> 0");
-  if (!(floor_loop_sigma_yaw_rad > 0))
-    return fail("floor_loop_sigma_yaw_rad", floor_loop_sigma_yaw_rad, "> 0");
-  if (!(rebuild_min_change_m >= 0))
-    return fail("rebuild_min_change_m", rebuild_min_change_m, ">= 0");
-  if (!(rebuild_min_change_rad >= 0))
-    return fail("rebuild_min_change_rad", rebuild_min_change_rad, ">= 0");
-  if (!(cull_distance_m > 0)) return fail("cull_distance_m", cull_distance_m, "> 0");
-  if (!(cull_rotation_rad > 0)) return fail("cull_rotation_rad", cull_rotation_rad, "> 0");
-  if (!(cull_max_error_m > 0)) return fail("cull_max_error_m", cull_max_error_m, "> 0");
-  if (!(cull_max_error_rad > 0)) return fail("cull_max_error_rad", cull_max_error_rad, "> 0");
-  if (cull_max_candidates < 1) return fail("cull_max_candidates", cull_max_candidates, ">= 1");
-  if (!(cull_min_travel_m >= 0)) return fail("cull_min_travel_m", cull_min_travel_m, ">= 0");
+void Mapper::Options::Describe(OptionVisitor& v) {
+  using R = OptionRange;
+  v.Real("keyframe_distance_m", &keyframe_distance_m, R::Above(0),
+         "travel that makes a keyframe, m");
+  v.Real("keyframe_rotation_rad", &keyframe_rotation_rad, R::Above(0),
+         "rotation that makes a keyframe, rad");
+  v.Real("keyframe_min_shared_tracks", &keyframe_min_shared_tracks, R::Closed(0, 1),
+         "early keyframe below this share of tracks");
+  v.Real("keyframe_min_distance_m", &keyframe_min_distance_m, R::AtLeast(0),
+         "early keyframes need at least this travel, m");
+  v.Flag("turn_pair_keyframes", &turn_pair_keyframes,
+         "frames detected with a turning pair may become keyframes");
+  v.Real("odom_sigma_per_m", &odom_sigma_per_m, R::Above(0),
+         "odometry translation noise per metre");
+  v.Real("odom_sigma_min_m", &odom_sigma_min_m, R::Above(0),
+         "odometry translation noise per step at least, m");
+  v.Real("odom_yaw_sigma_per_rad", &odom_yaw_sigma_per_rad, R::Above(0),
+         "odometry yaw noise per radian");
+  v.Real("odom_yaw_sigma_per_m", &odom_yaw_sigma_per_m, R::AtLeast(0),
+         "odometry yaw noise per metre, rad/m");
+  v.Real("odom_yaw_sigma_min_rad", &odom_yaw_sigma_min_rad, R::Above(0),
+         "odometry yaw noise per step at least, rad");
+  v.Integer("good_motion_min_inliers", &good_motion_min_inliers, R::AtLeast(0),
+            "a step is good with this many floor inliers...");
+  v.Real("good_motion_max_rms_px", &good_motion_max_rms_px, R::Above(0),
+         "...and at most this residual, px");
+  v.Real("poor_motion_sigma_factor", &poor_motion_sigma_factor, R::AtLeast(1),
+         "noise multiplier of the other fitted steps (poor)");
+  v.Real("fallback_motion_sigma_factor", &fallback_motion_sigma_factor, R::AtLeast(1),
+         "noise multiplier of steps without a fit");
+  v.Integer("window_size", &window_size, R::AtLeast(2), "keyframes per sliding-window adjustment");
+  RenamedOptions window_keys(&v,
+                             {{"max_iterations", "window_max_iterations"},
+                              {"refine_camera", "refine_camera"},
+                              {"pixel_sigma_px", "pixel_sigma_px"}},
+                             "sliding window: ");
+  window.Describe(window_keys);
+  v.Flag("loop_closure", &loop_closure, "match keyframes against older ones near them");
+  v.Real("loop_min_travel_m", &loop_min_travel_m, R::AtLeast(0),
+         "path length before a place may close a loop, m");
+  v.Real("loop_candidate_radius_m", &loop_candidate_radius_m, R::Above(0),
+         "loop candidates within this of the estimate, m");
+  v.Integer("loop_max_candidates", &loop_max_candidates, R::AtLeast(1),
+            "nearest candidates fused into the loop's target");
+  v.Integer("loop_min_interval_keyframes", &loop_min_interval_keyframes, R::AtLeast(0),
+            "keyframes between accepted loop closures");
+  v.Real("loop_sigma_xy_m", &loop_sigma_xy_m, R::Above(0), "loop constraint noise, m");
+  v.Real("loop_sigma_yaw_rad", &loop_sigma_yaw_rad, R::Above(0), "loop constraint noise, rad");
+  RenamedOptions loop_keys(&v,
+                           {{"min_score", "loop_min_score"},
+                            {"max_second_ratio", "loop_max_second_ratio"},
+                            {"linear_window_m", "loop_linear_window_m"},
+                            {"angular_window_rad", "loop_angular_window_rad"}},
+                           "loop closure: ");
+  loop_match.Describe(loop_keys);
+  v.Flag("floor_loop_closure", &floor_loop_closure,
+         "close loops on floor features first (scan matching when none is confident)");
+  RenamedOptions floor_keys(&v,
+                            {{"min_inliers", "floor_min_inliers"},
+                             {"inlier_threshold_m", "floor_inlier_threshold_m"},
+                             {"gate_m", "floor_gate_m"}},
+                            "floor loop closure: ");
+  floor_match.Describe(floor_keys);
+  v.Real("floor_loop_max_correction_m", &floor_loop_max_correction_m, R::Above(0),
+         "floor loop closure: largest correction trusted, m");
+  v.Real("floor_loop_max_correction_rad", &floor_loop_max_correction_rad, R::Above(0),
+         "floor loop closure: largest correction trusted, rad");
+  v.Real("floor_loop_sigma_xy_m", &floor_loop_sigma_xy_m, R::Above(0),
+         "floor loop constraint noise, m");
+  v.Real("floor_loop_sigma_yaw_rad", &floor_loop_sigma_yaw_rad, R::Above(0),
+         "floor loop constraint noise, rad");
+  v.Flag("cull_redundant_keyframes", &cull_redundant_keyframes,
+         "merge a keyframe into an older one of the same place (map grows with area, not time)");
+  v.Real("cull_distance_m", &cull_distance_m, R::Above(0), "same place: keyframes within this, m");
+  v.Real("cull_rotation_rad", &cull_rotation_rad, R::Above(0),
+         "same place: headings within this, rad");
+  v.Real("cull_max_error_m", &cull_max_error_m, R::Above(0),
+         "same place: floor match within this of the estimate, m");
+  v.Real("cull_max_error_rad", &cull_max_error_rad, R::Above(0),
+         "same place: floor match within this of the estimate, rad");
+  v.Real("cull_min_travel_m", &cull_min_travel_m, R::AtLeast(0),
+         "merge only into keyframes at least this much path back, m");
+  v.Integer("cull_max_candidates", &cull_max_candidates, R::AtLeast(1),
+            "nearest older keyframes whose floor is matched");
+  v.Real("rebuild_min_change_m", &rebuild_min_change_m, R::AtLeast(0),
+         "rebuild the maps when a correction moves a keyframe more than this, m");
+  v.Real("rebuild_min_change_rad", &rebuild_min_change_rad, R::AtLeast(0),
+         "...or turns it more than this, rad");
   // Finer than 5 mm the grid's tiles (and a rebuild) grow beyond any memory a map can use.
-  if (!(grid_resolution_m >= 0.005 && grid_resolution_m <= 1.0))
-    return fail("grid_resolution_m", grid_resolution_m, "in [0.005, 1]");
+  v.Real("grid_resolution_m", &grid_resolution_m, R::Closed(0.005, 1),
+         "global grid cell side, m (a saved map keeps its own)");
+  v.Real("footprint_radius_m", &footprint_radius_m, R::AtLeast(0).Note("0 = off"),
+         "the robot's footprint: cells it drove over are free, m");
+  v.Integer("keyframe_free_min_frames", &keyframe_free_min_frames,
+            R::Closed(0, 1000).Note("0 = off"),
+            "a keyframe's unknown cell is free when this many frames since the last keyframe saw "
+            "it free and none an obstacle next to it");
+  RenamedOptions log_odds_keys(&v,
+                               {{"hit", "log_odds_hit"},
+                                {"miss", "log_odds_miss"},
+                                {"min", "log_odds_min"},
+                                {"max", "log_odds_max"}},
+                               "");
+  log_odds.Describe(log_odds_keys);
+  v.Flag("build_octree", &build_octree, "build the 3-D OctoMap");
+  RenamedOptions octree_keys(
+      &v, {{"resolution_m", "octree_resolution_m"}, {"max_range_m", "octree_max_range_m"}}, "");
+  octree.Describe(octree_keys);
+  RenamedOptions localization_keys(&v,
+                                   {{"linear_window_m", "localization_window_m"},
+                                    {"angular_window_rad", "localization_window_rad"}},
+                                   "extending a map: ");
+  localization_match.Describe(localization_keys);
+}
+
+bool Mapper::Options::IsValid(std::string* error) const {
+  std::string local;
+  std::string* out = error ? error : &local;
+  if (!CheckOptions(*this, "mapping", out)) return false;
+  // The nested options' fields that the keys above leave out.
   std::string sub;
-  auto nested = [&](bool ok, const std::string& key) {
-    if (!ok && error) *error = "Mapper::Options::" + key + ": " + sub;
+  const auto nested = [&](bool ok) {
+    if (!ok) *out = "mapping: " + sub;
     return ok;
   };
-  if (!nested(window.IsValid(&sub), "window")) return false;
-  if (!nested(loop_match.IsValid(&sub), "loop_match")) return false;
-  if (!nested(floor_match.IsValid(&sub), "floor_match")) return false;
-  if (!nested(pose_graph.IsValid(&sub), "pose_graph")) return false;
-  if (!nested(log_odds.IsValid(&sub), "log_odds")) return false;
-  if (!nested(octree.IsValid(&sub), "octree")) return false;
-  if (!nested(localization_match.IsValid(&sub), "localization_match")) return false;
-  return true;
+  return nested(window.IsValid(&sub)) && nested(loop_match.IsValid(&sub)) &&
+         nested(floor_match.IsValid(&sub)) && nested(pose_graph.IsValid(&sub)) &&
+         nested(log_odds.IsValid(&sub)) && nested(octree.IsValid(&sub)) &&
+         nested(localization_match.IsValid(&sub));
 }
 
 Mapper::Mapper(const Options& options, const CameraCalibration& calibration)

@@ -14,6 +14,7 @@
 #include "mapping/types.h"
 #include "perception/geometry/camera_calibration.h"
 #include "perception/geometry/camera_model.h"
+#include "perception/geometry/options.h"
 #include "perception/geometry/tiled_grid.h"
 
 namespace monoplane {
@@ -27,8 +28,8 @@ class Mapper {
  public:
   struct Options {
     // Keyframe selection (odometry since the last keyframe).
-    double keyframe_distance_m = 0.30;    // travelled distance that makes a keyframe, > 0
-    double keyframe_rotation_rad = 0.17;  // rotation that makes a keyframe, > 0
+    double keyframe_distance_m = 0.30;    // travelled distance that makes a keyframe
+    double keyframe_rotation_rad = 0.17;  // rotation that makes a keyframe
     // Tracking quality: when fewer than this fraction of the last keyframe's tracks are still seen
     // (and the robot moved keyframe_min_distance_m), a keyframe is made early. In [0, 1].
     double keyframe_min_shared_tracks = 0.5;
@@ -39,28 +40,28 @@ class Mapper {
     bool turn_pair_keyframes = false;
 
     // Odometry factor noise per frame step, summed (as variances) between keyframes.
-    double odom_sigma_per_m = 0.05;         // translation sigma per metre travelled, > 0
-    double odom_sigma_min_m = 0.002;        // per step, > 0
-    double odom_yaw_sigma_per_rad = 0.05;   // yaw sigma per radian turned, > 0
-    double odom_yaw_sigma_per_m = 0.02;     // yaw sigma per metre travelled, >= 0
-    double odom_yaw_sigma_min_rad = 0.002;  // per step, > 0
+    double odom_sigma_per_m = 0.05;         // translation sigma per metre travelled
+    double odom_sigma_min_m = 0.002;        // per step
+    double odom_yaw_sigma_per_rad = 0.05;   // yaw sigma per radian turned
+    double odom_yaw_sigma_per_m = 0.02;     // yaw sigma per metre travelled
+    double odom_yaw_sigma_min_rad = 0.002;  // per step
     // Ground-motion quality: a kOk step with fewer inliers or a larger residual is "poor".
     int good_motion_min_inliers = 20;            // >= 0
     double good_motion_max_rms_px = 2.0;         // > 0
-    double poor_motion_sigma_factor = 3.0;       // sigma multiplier for poor steps, >= 1
-    double fallback_motion_sigma_factor = 10.0;  // for kFallback / kFailed steps, >= 1
+    double poor_motion_sigma_factor = 3.0;       // sigma multiplier for poor steps
+    double fallback_motion_sigma_factor = 10.0;  // for kFallback / kFailed steps
 
     // Sliding window.
-    int window_size = 10;  // keyframes per adjustment (the oldest is fixed), >= 2
+    int window_size = 10;  // keyframes per adjustment (the oldest is fixed)
     WindowOptions window;
 
     // Loop closure: match a new keyframe's local map against older keyframes near it.
     bool loop_closure = true;
-    double loop_min_travel_m = 5.0;        // path length between candidate and current, >= 0
-    double loop_candidate_radius_m = 5.0;  // candidates within this of the current estimate, > 0
-    int loop_max_candidates = 40;          // nearest candidates fused into the target, >= 1
-    int loop_min_interval_keyframes = 3;   // keyframes made between accepted closures, >= 0
-    double loop_sigma_xy_m = 0.05;         // loop constraint noise, > 0
+    double loop_min_travel_m = 5.0;        // path length between candidate and current
+    double loop_candidate_radius_m = 5.0;  // candidates within this of the current estimate
+    int loop_max_candidates = 40;          // nearest candidates fused into the target
+    int loop_min_interval_keyframes = 3;   // keyframes made between accepted closures
+    double loop_sigma_xy_m = 0.05;         // loop constraint noise
     double loop_sigma_yaw_rad = 0.02;      // > 0
     ScanMatchOptions loop_match;
     // Appearance-based loop closure on the floor features of the same candidates, tried first;
@@ -71,7 +72,7 @@ class Mapper {
     // the candidate (a larger correction is taken for a false match).
     double floor_loop_max_correction_m = 1.0;     // > 0
     double floor_loop_max_correction_rad = 0.35;  // > 0
-    double floor_loop_sigma_xy_m = 0.02;          // floor loop constraint noise, > 0
+    double floor_loop_sigma_xy_m = 0.02;          // floor loop constraint noise
     double floor_loop_sigma_yaw_rad = 0.01;       // > 0
     PoseGraphOptions pose_graph;
     // Keyframe culling, so that the map grows with the explored area and not with the time spent
@@ -91,31 +92,31 @@ class Mapper {
     // least half of it, so that a revisit along the same path always finds one.
     double cull_distance_m = 0.15;     // > 0
     double cull_rotation_rad = 0.10;   // > 0
-    double cull_max_error_m = 0.10;    // floor match against the estimates, > 0
+    double cull_max_error_m = 0.10;    // floor match against the estimates
     double cull_max_error_rad = 0.05;  // > 0
     // Only into a keyframe of an earlier visit: at least this much path before the merged one.
     // Merging the keyframes of one pass into each other would replace the window's accurate
-    // odometry between them by floor matches, edge after edge. >= 0
+    // odometry between them by floor matches, edge after edge.
     double cull_min_travel_m = 1.0;
-    int cull_max_candidates = 3;  // nearest older keyframes whose floor is matched, >= 1
+    int cull_max_candidates = 3;  // nearest older keyframes whose floor is matched
     // Rebuild the grid and the OctoMap when a correction moves any keyframe by more than this.
     double rebuild_min_change_m = 0.02;    // >= 0
     double rebuild_min_change_rad = 0.01;  // >= 0
 
     // Maps.
-    double grid_resolution_m = 0.05;  // global grid cell side, > 0
+    double grid_resolution_m = 0.05;  // global grid cell side
     // The robot's footprint, a disc around base_link: the cells it drove over are free (one miss
     // per frame of this run at the frame's corrected pose, swept again after a correction), as a
     // costmap clears its footprint; cells that read occupied are left as they are. The floor right
     // under and around the robot is out of the camera's view, and the detector's floor rule leaves
-    // much of the floor it drove over unknown. m, >= 0; 0 = off.
+    // much of the floor it drove over unknown. m, 0 = off.
     double footprint_radius_m = 0.15;
     // A keyframe's local map also holds the floor that the detected frames since the previous
     // keyframe saw: a cell the keyframe left unknown becomes free when at least this many of
     // those frames saw it free and none of them (nor the keyframe) saw an obstacle within a cell
     // of it. Only keyframes' local maps reach the grid, and a grid cell needs three free
     // observations, so without this most of the floor seen between keyframes is lost. Turning
-    // pairs do not vote. >= 0; 0 = off.
+    // pairs do not vote. 0 = off.
     int keyframe_free_min_frames = 4;
     LogOddsOptions log_odds;
     bool build_octree = true;
@@ -124,6 +125,8 @@ class Mapper {
     // Localisation of a new run in a saved map: a wider search around the initial guess.
     ScanMatchOptions localization_match = WideMatch();
 
+    // Every field's key, range and meaning (the checks, the config file and --dump use it).
+    void Describe(OptionVisitor& v);
     bool IsValid(std::string* error) const;
 
     static ScanMatchOptions WideMatch() {

@@ -635,16 +635,21 @@ TEST(Mapper, OptionsNameTheKey) {
   EXPECT_TRUE(o.IsValid(&error)) << error;
   o.window_size = 1;
   EXPECT_FALSE(o.IsValid(&error));
-  EXPECT_NE(error.find("window_size"), std::string::npos);
+  EXPECT_EQ(error, "mapping.window_size: 1: must be >= 2");
+  // A nested struct's field under the key the config file gives it...
   o = Mapper::Options();
   o.loop_match.min_score = 2.0;
   EXPECT_FALSE(o.IsValid(&error));
-  EXPECT_NE(error.find("loop_match"), std::string::npos);
-  EXPECT_NE(error.find("min_score"), std::string::npos);
+  EXPECT_EQ(error, "mapping.loop_min_score: 2: must be in [0, 1]");
+  // ...and one the config file does not set, by its struct's own name.
+  o = Mapper::Options();
+  o.window.huber_sigmas = 0;
+  EXPECT_FALSE(o.IsValid(&error));
+  EXPECT_EQ(error, "mapping: window.huber_sigmas: 0: must be > 0");
   o = Mapper::Options();
   o.grid_resolution_m = 0.00001;  // passed validation once, then the run hung
   EXPECT_FALSE(o.IsValid(&error));
-  EXPECT_NE(error.find("grid_resolution_m"), std::string::npos) << error;
+  EXPECT_EQ(error, "mapping.grid_resolution_m: 1e-05: must be in [0.005, 1]");
 }
 
 }  // namespace

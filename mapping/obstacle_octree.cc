@@ -8,26 +8,20 @@
 
 namespace monoplane {
 
-bool ObstacleOctree::Options::IsValid(std::string* error) const {
-  auto fail = [&](const std::string& m) {
-    if (error) *error = "ObstacleOctree::Options::" + m;
-    return false;
-  };
+void ObstacleOctree::Options::Describe(OptionVisitor& v) {
+  using R = OptionRange;
   // OctoMap's 16-level keys span +-2^15 voxels: at 1 cm that is +-328 m; finer ones also make a
   // run's tree grow without bound.
-  if (!(resolution_m >= 0.01 && resolution_m <= 1.0))
-    return fail("resolution_m = " + std::to_string(resolution_m) + ": must be in [0.01, 1]");
-  if (!(max_range_m > 0))
-    return fail("max_range_m = " + std::to_string(max_range_m) + ": must be > 0");
-  if (!(prob_hit > 0.5 && prob_hit < 1)) {
-    return fail("prob_hit = " + std::to_string(prob_hit) + ": must be in (0.5, 1)");
-  }
-  if (!(prob_miss > 0 && prob_miss < 0.5)) {
-    return fail("prob_miss = " + std::to_string(prob_miss) + ": must be in (0, 0.5)");
-  }
-  if (free_ray_stride < 1)
-    return fail("free_ray_stride = " + std::to_string(free_ray_stride) + ": must be >= 1");
-  return true;
+  v.Real("resolution_m", &resolution_m, R::Closed(0.01, 1), "OctoMap voxel side, m");
+  v.Real("max_range_m", &max_range_m, R::Above(0), "longest ray inserted into the OctoMap, m");
+  v.Real("prob_hit", &prob_hit, R::Open(0.5, 1), "OctoMap's hit probability");
+  v.Real("prob_miss", &prob_miss, R::Open(0, 0.5), "OctoMap's miss probability");
+  v.Integer("free_ray_stride", &free_ray_stride, R::AtLeast(1),
+            "free space carved along every N-th occupied voxel column");
+}
+
+bool ObstacleOctree::Options::IsValid(std::string* error) const {
+  return CheckOptions(*this, "octree", error);
 }
 
 struct ObstacleOctree::Impl {
@@ -39,7 +33,8 @@ struct ObstacleOctree::Impl {
   }
 };
 
-ObstacleOctree::ObstacleOctree(const Options& options) : impl_(std::make_unique<Impl>(options)) {}
+ObstacleOctree::ObstacleOctree(const Options& options)
+    : impl_(std::make_unique<Impl>(ValidOrDie(options, "ObstacleOctree"))) {}
 ObstacleOctree::~ObstacleOctree() = default;
 ObstacleOctree::ObstacleOctree(ObstacleOctree&&) noexcept = default;
 ObstacleOctree& ObstacleOctree::operator=(ObstacleOctree&&) noexcept = default;

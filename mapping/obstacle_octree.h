@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "perception/geometry/options.h"
 #include "perception/geometry/pose2.h"
 
 namespace monoplane {
@@ -22,15 +23,17 @@ std::string OctomapBinaryHeader(const std::string& tree_type, std::size_t num_no
 class ObstacleOctree {
  public:
   struct Options {
-    double resolution_m = 0.05;  // voxel side, > 0
-    double max_range_m = 8.0;    // rays longer than this are not inserted, > 0
-    double prob_hit = 0.7;       // OctoMap sensor model, in (0.5, 1)
+    double resolution_m = 0.05;  // voxel side
+    double max_range_m = 8.0;    // rays longer than this are not inserted
+    double prob_hit = 0.7;       // OctoMap sensor model
     double prob_miss = 0.4;      // in (0, 0.5)
     // Free space is carved along one ray per occupied voxel column (to its highest point; rays to
     // the points below it cross nearly the same voxels), for every free_ray_stride-th column.
     // Every point is inserted as a hit. >= 1
     int free_ray_stride = 3;
 
+    // Every field's key, range and meaning (the checks, the config file and --dump use it).
+    void Describe(OptionVisitor& v);
     bool IsValid(std::string* error) const;
   };
 

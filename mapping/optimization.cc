@@ -43,37 +43,37 @@ OptimizationSummary ToSummary(const ceres::Solver::Summary& s) {
 
 }  // namespace
 
+void PoseGraphOptions::Describe(OptionVisitor& v) {
+  using R = OptionRange;
+  v.Integer("max_iterations", &max_iterations, R::AtLeast(1), "Ceres iterations");
+  v.Real("huber_scale", &huber_scale, R::Above(0), "Huber loss scale of the constraints, sigmas");
+}
+
 bool PoseGraphOptions::IsValid(std::string* error) const {
-  if (max_iterations < 1) {
-    if (error)
-      *error =
-          "PoseGraphOptions::max_iterations = " + std::to_string(max_iterations) + ": must be >= 1";
-    return false;
-  }
-  if (!(huber_scale > 0)) {
-    if (error)
-      *error = "PoseGraphOptions::huber_scale = " + std::to_string(huber_scale) + ": must be > 0";
-    return false;
-  }
-  return true;
+  return CheckOptions(*this, "pose_graph", error);
+}
+
+void WindowOptions::Describe(OptionVisitor& v) {
+  using R = OptionRange;
+  v.Real("pixel_sigma_px", &pixel_sigma_px, R::Above(0), "feature noise, px");
+  v.Real("huber_sigmas", &huber_sigmas, R::Above(0), "Huber loss on reprojection, sigmas");
+  v.Integer("min_observations", &min_observations, R::AtLeast(2),
+            "keyframes that must see a track");
+  v.Integer("max_iterations", &max_iterations, R::AtLeast(1), "Ceres iterations per adjustment");
+  v.Real("function_tolerance", &function_tolerance, R::Above(0),
+         "relative cost change that stops Ceres");
+  v.Real("max_point_height_m", &max_point_height_m, R::Above(0),
+         "off-floor landmarks above this are dropped, m");
+  v.Real("max_landmark_range_m", &max_landmark_range_m, R::Above(0),
+         "landmarks farther from their first view are dropped, m");
+  v.Flag("refine_camera", &refine_camera, "refine camera height, pitch and roll in the window");
+  v.Real("camera_prior_sigma_rad", &camera_prior_sigma_rad, R::Above(0),
+         "pitch and roll prior, rad");
+  v.Real("camera_prior_sigma_m", &camera_prior_sigma_m, R::Above(0), "height prior, m");
 }
 
 bool WindowOptions::IsValid(std::string* error) const {
-  auto fail = [&](const std::string& key, double value, const std::string& constraint) {
-    if (error)
-      *error = "WindowOptions::" + key + " = " + std::to_string(value) + ": must be " + constraint;
-    return false;
-  };
-  if (!(pixel_sigma_px > 0)) return fail("pixel_sigma_px", pixel_sigma_px, "> 0");
-  if (!(huber_sigmas > 0)) return fail("huber_sigmas", huber_sigmas, "> 0");
-  if (min_observations < 2) return fail("min_observations", min_observations, ">= 2");
-  if (max_iterations < 1) return fail("max_iterations", max_iterations, ">= 1");
-  if (!(max_point_height_m > 0)) return fail("max_point_height_m", max_point_height_m, "> 0");
-  if (!(max_landmark_range_m > 0)) return fail("max_landmark_range_m", max_landmark_range_m, "> 0");
-  if (!(camera_prior_sigma_rad > 0))
-    return fail("camera_prior_sigma_rad", camera_prior_sigma_rad, "> 0");
-  if (!(camera_prior_sigma_m > 0)) return fail("camera_prior_sigma_m", camera_prior_sigma_m, "> 0");
-  return true;
+  return CheckOptions(*this, "window", error);
 }
 
 OptimizationSummary OptimizePoseGraph(const std::vector<PoseGraphEdge>& edges,

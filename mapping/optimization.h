@@ -5,6 +5,7 @@
 
 #include "perception/frame_types.h"
 #include "perception/geometry/camera_calibration.h"
+#include "perception/geometry/options.h"
 #include "perception/geometry/pose2.h"
 
 namespace monoplane {
@@ -20,12 +21,14 @@ struct PoseGraphEdge {
 };
 
 struct PoseGraphOptions {
-  int max_iterations = 50;  // Ceres iterations, >= 1
-  // Huber scale in sigmas for robust edges, > 0. Huber (convex) rather than Cauchy: a correct loop
+  int max_iterations = 50;  // Ceres iterations
+  // Huber scale in sigmas for robust edges. Huber (convex) rather than Cauchy: a correct loop
   // closure after long drift starts many sigmas off, and a redescending loss would let the
   // odometry win and leave the loop open.
   double huber_scale = 3.0;
 
+  // Every field's key, range and meaning (the checks, the config file and --dump use it).
+  void Describe(OptionVisitor& v);
   bool IsValid(std::string* error) const;
 };
 
@@ -49,20 +52,22 @@ OptimizationSummary OptimizePoseGraph(const std::vector<PoseGraphEdge>& edges,
 // poses (floor: back-projection onto the floor; others: triangulation between the first and the
 // last observation) and are not kept between calls.
 struct WindowOptions {
-  double pixel_sigma_px = 1.0;  // feature noise, > 0
-  double huber_sigmas = 2.0;    // Huber loss on reprojection, in sigmas, > 0
-  int min_observations = 2;     // keyframes that must see a track, >= 2
+  double pixel_sigma_px = 1.0;  // feature noise
+  double huber_sigmas = 2.0;    // Huber loss on reprojection, in sigmas
+  int min_observations = 2;     // keyframes that must see a track
   // >= 1. The window slides by one keyframe, so each pose is adjusted again at each of the next
   // keyframes: a few iterations each suffice.
   int max_iterations = 5;
-  double function_tolerance = 1e-4;    // relative cost change that stops Ceres, > 0
-  double max_point_height_m = 3.0;     // off-floor landmarks above this are dropped, > 0
-  double max_landmark_range_m = 10.0;  // landmarks farther from the first view are dropped, > 0
+  double function_tolerance = 1e-4;    // relative cost change that stops Ceres
+  double max_point_height_m = 3.0;     // off-floor landmarks above this are dropped
+  double max_landmark_range_m = 10.0;  // landmarks farther from the first view are dropped
   // Online refinement of the camera's pitch, roll and height, with a prior from the calibration.
   bool refine_camera = false;
-  double camera_prior_sigma_rad = 0.0175;  // pitch and roll prior, > 0
-  double camera_prior_sigma_m = 0.02;      // height prior, > 0
+  double camera_prior_sigma_rad = 0.0175;  // pitch and roll prior
+  double camera_prior_sigma_m = 0.02;      // height prior
 
+  // Every field's key, range and meaning (the checks, the config file and --dump use it).
+  void Describe(OptionVisitor& v);
   bool IsValid(std::string* error) const;
 };
 

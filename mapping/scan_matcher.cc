@@ -6,27 +6,26 @@
 
 namespace monoplane {
 
+void ScanMatchOptions::Describe(OptionVisitor& v) {
+  using R = OptionRange;
+  v.Real("linear_window_m", &linear_window_m, R::AtLeast(0), "search window in x and y, +- m");
+  v.Real("angular_window_rad", &angular_window_rad, R::AtLeast(0), "search window in yaw, +- rad");
+  v.Real("angular_step_rad", &angular_step_rad, R::Above(0), "yaw step of the search, rad");
+  v.Real("smoothing_sigma_m", &smoothing_sigma_m, R::AtLeast(0), "blur of the target, m");
+  v.Integer("max_points", &max_points, R::AtLeast(1), "occupied scan points used");
+  v.Integer("min_points", &min_points, R::AtLeast(1), "fewer occupied points: no match attempted");
+  v.Real("min_overlap", &min_overlap, R::OpenClosed(0, 1),
+         "share of the scan's points over known target cells");
+  v.Real("min_score", &min_score, R::Closed(0, 1), "scan-match score a match needs");
+  v.Real("max_second_ratio", &max_second_ratio, R::OpenClosed(0, 1),
+         "second-best / best score allowed");
+  v.Real("separation_m", &separation_m, R::Above(0),
+         "a second best farther than this in x or y is another place, m");
+  v.Real("separation_rad", &separation_rad, R::Above(0), "... or than this in yaw, rad");
+}
+
 bool ScanMatchOptions::IsValid(std::string* error) const {
-  auto fail = [&](const std::string& key, double value, const std::string& constraint) {
-    if (error)
-      *error =
-          "ScanMatchOptions::" + key + " = " + std::to_string(value) + ": must be " + constraint;
-    return false;
-  };
-  if (!(linear_window_m >= 0)) return fail("linear_window_m", linear_window_m, ">= 0");
-  if (!(angular_window_rad >= 0)) return fail("angular_window_rad", angular_window_rad, ">= 0");
-  if (!(angular_step_rad > 0)) return fail("angular_step_rad", angular_step_rad, "> 0");
-  if (!(smoothing_sigma_m >= 0)) return fail("smoothing_sigma_m", smoothing_sigma_m, ">= 0");
-  if (max_points < 1) return fail("max_points", max_points, ">= 1");
-  if (min_points < 1) return fail("min_points", min_points, ">= 1");
-  if (!(min_overlap > 0 && min_overlap <= 1)) return fail("min_overlap", min_overlap, "in (0, 1]");
-  if (!(min_score >= 0 && min_score <= 1)) return fail("min_score", min_score, "in [0, 1]");
-  if (!(max_second_ratio > 0 && max_second_ratio <= 1)) {
-    return fail("max_second_ratio", max_second_ratio, "in (0, 1]");
-  }
-  if (!(separation_m > 0)) return fail("separation_m", separation_m, "> 0");
-  if (!(separation_rad > 0)) return fail("separation_rad", separation_rad, "> 0");
-  return true;
+  return CheckOptions(*this, "scan_match", error);
 }
 
 MatchTarget MakeMatchTarget(const TiledGrid& grid, const Eigen::Vector2d& region_lo,

@@ -6,6 +6,7 @@
 
 #include "mapping/grid_fusion.h"
 #include "perception/geometry/occupancy_grid.h"
+#include "perception/geometry/options.h"
 #include "perception/geometry/pose2.h"
 #include "perception/geometry/tiled_grid.h"
 
@@ -41,17 +42,19 @@ std::vector<Eigen::Vector2d> OccupiedPoints(const OccupancyGrid& local_map, int 
 struct ScanMatchOptions {
   double linear_window_m = 1.5;      // search +- this in x and y, >= 0; keep it over a repeating
                                      // structure's period (doors) so that aliases show as peaks
-  double angular_window_rad = 0.20;  // search +- this in yaw, >= 0
+  double angular_window_rad = 0.20;  // search +- this in yaw
   double angular_step_rad = 0.0175;  // > 0 (1 degree)
-  double smoothing_sigma_m = 0.05;   // target blur, >= 0
-  int max_points = 400;              // occupied scan points used, >= 1
-  int min_points = 30;               // fewer occupied points: no match attempted, >= 1
-  double min_overlap = 0.8;          // see above, in (0, 1]
-  double min_score = 0.8;            // accept only scores >= this, in [0, 1]
-  double max_second_ratio = 0.75;    // accept only second / best <= this, in (0, 1]
+  double smoothing_sigma_m = 0.05;   // target blur
+  int max_points = 400;              // occupied scan points used
+  int min_points = 30;               // fewer occupied points: no match attempted
+  double min_overlap = 0.8;          // see above
+  double min_score = 0.8;            // accept only scores >= this
+  double max_second_ratio = 0.75;    // accept only second / best <= this
   double separation_m = 0.5;         // "well separated": farther than this in x, y ...  > 0
-  double separation_rad = 0.1;       // ... or than this in yaw, > 0
+  double separation_rad = 0.1;       // ... or than this in yaw
 
+  // Every field's key, range and meaning (the checks, the config file and --dump use it).
+  void Describe(OptionVisitor& v);
   bool IsValid(std::string* error) const;
 };
 

@@ -2,100 +2,120 @@
 
 namespace monoplane {
 
+void ClassificationOptions::Describe(OptionVisitor& v) {
+  using R = OptionRange;
+  v.Integer("sample_stride", &sample_stride, R::AtLeast(1),
+            "sample spacing on the search level, px");
+  v.Real("obstacle_min_height_m", &obstacle_min_height_m, R::Above(0),
+         "obstacle at or above this height, m");
+  v.Real("drop_off_min_depth_m", &drop_off_min_depth_m, R::Above(0),
+         "drop-off at or below minus this, m");
+  v.Real("disparity_sigma_px", &disparity_sigma_px, R::Above(0),
+         "smallest zero-disparity error assumed, px");
+  v.Real("min_disparity_sigmas", &min_disparity_sigmas, R::AtLeast(0),
+         "significance of an obstacle, sigmas");
+  v.Real("floor_max_height_sigmas", &floor_max_height_sigmas, R::AtLeast(0),
+         "floor needs |height| + this many sigmas below obstacle_min_height_m");
+  v.Real("min_texture", &min_texture, R::Above(0), "texture along the epipolar line, grey^2/px^2");
+  v.Real("max_residual", &max_residual, R::Above(0), "largest alignment residual, grey levels");
+  v.Flag("check_floor_hypothesis", &check_floor_hypothesis,
+         "an obstacle needs the floor hypothesis to misfit it (min_floor_misfit)");
+  v.Real("min_floor_misfit", &min_floor_misfit, R::AtLeast(0),
+         "an obstacle needs the floor to misfit its 3x3 neighbourhood by this, grey levels");
+  v.Real("moving_min_perpendicular_px", &moving_min_perpendicular_px, R::AtLeast(0).Note("0 = off"),
+         "off-epipolar motion that means moving, px");
+  v.Real("moving_track_min_px", &moving_track_min_px, R::Above(0),
+         "a tracked corner this far off its epipolar line moves, px");
+  v.Real("moving_track_radius_px", &moving_track_radius_px, R::AtLeast(0).Note("0 = off"),
+         "around two such corners, what is not floor is moving, px");
+  v.Real("max_range_m", &max_range_m, R::Above(0), "farther points are unknown, m");
+  v.Real("max_footprint_sigma_ratio", &max_footprint_sigma_ratio, R::AtLeast(0),
+         "obstacle points enter the top view when placed within 0.05 m + this x range");
+  v.Real("min_surface_angle_deg", &min_surface_angle_deg, R::ClosedOpen(0, 90),
+         "top view: obstacle points on a surface seen at >= this angle to the ray, deg");
+  v.Integer("min_surface_neighbours", &min_surface_neighbours, R::Closed(0, 8),
+            "top view: neighbours an obstacle point needs on its surface");
+  v.Integer("floor_edge_samples", &floor_edge_samples, R::AtLeast(0).Note("0 = off"),
+            "top view: non-floor samples above the floor's last one that keep its cell not free");
+  v.Integer("edge_floor_unknown_samples", &edge_floor_unknown_samples,
+            R::AtLeast(0).Note("0 = off"),
+            "floor samples this close to an obstacle in their column are unknown");
+  v.Integer("column_min_samples", &column_min_samples,
+            R::AtLeast(0).Note("0 = off: each at its own footprint"),
+            "top view: obstacle samples are placed on the surface their image column shows when it "
+            "has this many");
+  v.Real("column_max_sigmas", &column_max_sigmas, R::AtLeast(0),
+         "top view: ... and they lie within this many sigmas of it");
+  v.Integer("free_margin_cells", &free_margin_cells, R::AtLeast(0),
+            "top view: cells this near an obstacle point are not free, cells");
+  v.Flag("free_between_floor_samples", &free_between_floor_samples,
+         "top view: the floor between two consecutive free floor samples of an image column is "
+         "free too");
+  v.Choice(
+      "aggregation", [this] { return static_cast<int>(aggregation); },
+      [this](int i) { aggregation = static_cast<Aggregation>(i); }, {"none", "median", "segments"},
+      "how samples are combined: none, median (neighbours) or segments (superpixels)");
+  v.Integer("median_radius", &median_radius, R::AtLeast(1), "median neighbourhood radius, samples");
+  v.Real("segment_size_px", &segment_size_px, R::Closed(4, 128), "superpixel side, px");
+  v.Integer("segment_iterations", &segment_iterations, R::AtLeast(1), "SLIC iterations");
+  v.Integer("segment_level", &segment_level, R::Closed(0, 1),
+            "superpixels at 1/2^level of the search resolution");
+  v.Integer("segment_min_samples", &segment_min_samples, R::AtLeast(1),
+            "measured samples a segment needs");
+  v.Real("segment_fill_fraction", &segment_fill_fraction, R::Closed(0, 1),
+         "an obstacle segment measured on this fraction labels its textureless rest");
+  v.Integer("fill_max_gap_samples", &fill_max_gap_samples, R::Closed(0, 1000),
+            "unmeasured samples bounded in their image column are filled up to this gap");
+  v.Real("fill_max_floor_gap_m", &fill_max_floor_gap_m, R::Closed(0, 10),
+         "longest floor gap filled as floor, m");
+}
+
 bool ClassificationOptions::IsValid(std::string* error) const {
-  auto fail = [&](const std::string& what) {
-    *error = "classification." + what;
-    return false;
-  };
-  if (sample_stride < 1) return fail("sample_stride: must be >= 1");
-  if (!(max_footprint_sigma_ratio >= 0)) return fail("max_footprint_sigma_ratio: must be >= 0");
-  if (!(obstacle_min_height_m > 0)) return fail("obstacle_min_height_m: must be > 0");
-  if (!(floor_max_height_sigmas >= 0)) return fail("floor_max_height_sigmas: must be >= 0");
-  if (!(drop_off_min_depth_m > 0)) return fail("drop_off_min_depth_m: must be > 0");
-  if (!(disparity_sigma_px > 0)) return fail("disparity_sigma_px: must be > 0");
-  if (!(min_disparity_sigmas >= 0)) return fail("min_disparity_sigmas: must be >= 0");
-  if (!(min_texture > 0)) return fail("min_texture: must be > 0");
-  if (!(max_residual > 0)) return fail("max_residual: must be > 0");
-  if (!(min_floor_misfit >= 0)) return fail("min_floor_misfit: must be >= 0");
-  if (!(moving_min_perpendicular_px >= 0)) return fail("moving_min_perpendicular_px: must be >= 0");
-  if (!(min_surface_angle_deg >= 0 && min_surface_angle_deg < 90)) {
-    return fail("min_surface_angle_deg: must be in [0, 90)");
-  }
-  if (min_surface_neighbours < 0 || min_surface_neighbours > 8) {
-    return fail("min_surface_neighbours: must be in [0, 8]");
-  }
-  if (floor_edge_samples < 0) return fail("floor_edge_samples: must be >= 0");
-  if (edge_floor_unknown_samples < 0) return fail("edge_floor_unknown_samples: must be >= 0");
-  if (fill_max_gap_samples < 0 || fill_max_gap_samples > 1000)
-    return fail("fill_max_gap_samples: must be in [0, 1000]");
-  if (!(fill_max_floor_gap_m >= 0 && fill_max_floor_gap_m <= 10))
-    return fail("fill_max_floor_gap_m: must be in [0, 10]");
-  if (column_min_samples < 0) return fail("column_min_samples: must be >= 0");
-  if (free_margin_cells < 0) return fail("free_margin_cells: must be >= 0");
-  if (!(column_max_sigmas >= 0)) return fail("column_max_sigmas: must be >= 0");
-  if (!(moving_track_min_px > 0)) return fail("moving_track_min_px: must be > 0");
-  if (!(moving_track_radius_px >= 0)) return fail("moving_track_radius_px: must be >= 0");
-  if (!(max_range_m > 0)) return fail("max_range_m: must be > 0");
-  if (median_radius < 1) return fail("median_radius: must be >= 1");
-  if (!(segment_size_px >= 4 && segment_size_px <= 128))
-    return fail("segment_size_px: must be in [4, 128]");
-  if (segment_iterations < 1) return fail("segment_iterations: must be >= 1");
-  if (segment_level < 0 || segment_level > 1) return fail("segment_level: must be 0 or 1");
-  if (segment_min_samples < 1) return fail("segment_min_samples: must be >= 1");
-  if (!(segment_fill_fraction >= 0 && segment_fill_fraction <= 1)) {
-    return fail("segment_fill_fraction: must be in [0, 1]");
-  }
-  return true;
+  return CheckOptions(*this, "classification", error);
+}
+
+void LocalMapOptions::Describe(OptionVisitor& v) {
+  using R = OptionRange;
+  v.Real("resolution_m", &resolution_m, R::Above(0).Note("at most 4000 cells along a side"),
+         "cell side, m");
+  v.Real("min_x_m", &min_x_m, R::Any(), "extent behind the base origin, m");
+  v.Real("max_x_m", &max_x_m, R::Any().Note("> min_x_m"), "extent ahead, m");
+  v.Real("min_y_m", &min_y_m, R::Any(), "extent to the right, m");
+  v.Real("max_y_m", &max_y_m, R::Any().Note("> min_y_m"), "extent to the left, m");
+  v.Rule(max_x_m > min_x_m, "max_x_m", "must be > min_x_m");
+  v.Rule(max_y_m > min_y_m, "max_y_m", "must be > min_y_m");
+  v.Rule(
+      (max_x_m - min_x_m) / resolution_m <= 4000 && (max_y_m - min_y_m) / resolution_m <= 4000,
+      "resolution_m",
+      "gives more than 4000 cells along a side of the extent; coarser cells or a smaller extent");
 }
 
 bool LocalMapOptions::IsValid(std::string* error) const {
-  if (!(resolution_m > 0)) {
-    *error = "local_map.resolution_m: must be > 0";
-    return false;
-  }
-  if (!(min_x_m < max_x_m) || !(min_y_m < max_y_m)) {
-    *error = "local_map.min_x_m/max_x_m/min_y_m/max_y_m: need min < max";
-    return false;
-  }
-  if (!((max_x_m - min_x_m) / resolution_m <= 4000 && (max_y_m - min_y_m) / resolution_m <= 4000)) {
-    *error = "local_map.resolution_m: " + std::to_string(resolution_m) +
-             " gives more than 4000 cells along a side of the extent; coarser cells or a smaller "
-             "extent";
-    return false;
-  }
-  return true;
+  return CheckOptions(*this, "local_map", error);
+}
+
+void PairSelectionOptions::Describe(OptionVisitor& v) {
+  using R = OptionRange;
+  v.Real("min_baseline_m", &min_baseline_m, R::Above(0),
+         "camera travel between the frames of a pair, m");
+  v.Integer("max_history", &max_history, R::AtLeast(2), "frames kept to choose a reference from");
+  v.Flag("hold_reference", &hold_reference,
+         "a robot that stops after driving keeps its last reference far enough away");
+  v.Real("max_rotation_rad", &max_rotation_rad, R::Above(0),
+         "largest yaw between the frames of a pair, rad");
+  v.Real("far_min_baseline_m", &far_min_baseline_m, R::AtLeast(0).Note("0 = off"),
+         "far pair: also matched against a frame this far back, each sample keeping the more "
+         "precise pair, m");
+  v.Real("turn_min_baseline_m", &turn_min_baseline_m, R::Above(0),
+         "turning: narrower pairs allowed down to this camera travel, m");
+  v.Real("turn_max_rotation_rad", &turn_max_rotation_rad, R::AtLeast(0).Note("0 = off"),
+         "turning: largest yaw of such a pair, rad");
+  v.Integer("detect_every", &detect_every, R::AtLeast(1),
+            "dense detection on every N-th frame, others tracked only");
 }
 
 bool PairSelectionOptions::IsValid(std::string* error) const {
-  if (!(min_baseline_m > 0)) {
-    *error = "pair_selection.min_baseline_m: must be > 0";
-    return false;
-  }
-  if (!(far_min_baseline_m >= 0)) {
-    *error = "pair_selection.far_min_baseline_m: must be >= 0";
-    return false;
-  }
-  if (!(turn_min_baseline_m > 0)) {
-    *error = "pair_selection.turn_min_baseline_m: must be > 0";
-    return false;
-  }
-  if (!(turn_max_rotation_rad >= 0)) {
-    *error = "pair_selection.turn_max_rotation_rad: must be >= 0";
-    return false;
-  }
-  if (!(max_rotation_rad > 0)) {
-    *error = "pair_selection.max_rotation_rad: must be > 0";
-    return false;
-  }
-  if (detect_every < 1) {
-    *error = "pair_selection.detect_every: must be >= 1";
-    return false;
-  }
-  if (max_history < 2) {
-    *error = "pair_selection.max_history: must be >= 2";
-    return false;
-  }
-  return true;
+  return CheckOptions(*this, "pair_selection", error);
 }
 
 bool DetectorOptions::IsValid(std::string* error) const {

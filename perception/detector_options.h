@@ -4,6 +4,7 @@
 
 #include "perception/direct_alignment.h"
 #include "perception/floor_features.h"
+#include "perception/geometry/options.h"
 #include "perception/ground_motion.h"
 #include "perception/height_filter.h"
 #include "perception/motion_evidence.h"
@@ -14,50 +15,50 @@ namespace monoplane {
 
 // How samples become floor, obstacle, drop-off, moving or unknown (the paper's steps 4-5).
 struct ClassificationOptions {
-  // Sample spacing on the finest search level, pixels (>= 1). Labels are per sample, upsampled.
+  // Sample spacing on the finest search level, pixels. Labels are per sample, upsampled.
   int sample_stride = 2;
-  // Heights (metres, > 0): at or above obstacle_min_height_m an obstacle, at or below
+  // Heights (metres): at or above obstacle_min_height_m an obstacle, at or below
   // -drop_off_min_depth_m a drop-off.
   double obstacle_min_height_m = 0.03;
   double drop_off_min_depth_m = 0.03;
-  // Smallest error assumed for a zero disparity, input pixels (> 0); each sample's own error
+  // Smallest error assumed for a zero disparity, input pixels; each sample's own error
   // (ZeroDisparityField::sigma_px) is used when larger. A point is only called floor when its
   // error keeps its height within the thresholds above; otherwise unknown.
   double disparity_sigma_px = 0.05;
-  // An obstacle or drop-off needs a zero disparity of at least this many sigmas (>= 0).
+  // An obstacle or drop-off needs a zero disparity of at least this many sigmas.
   double min_disparity_sigmas = 3.0;
-  // Floor needs |height| + this many height sigmas below obstacle_min_height_m (>= 0): a point that
+  // Floor needs |height| + this many height sigmas below obstacle_min_height_m: a point that
   // could be an obstacle within its error is unknown, not floor.
   double floor_max_height_sigmas = 3.0;
   // An obstacle or drop-off needs the floor hypothesis (zero disparity) to misfit the sample's own
   // 3x3 neighbourhood by at least this many grey levels (mean |difference|) more than its zero
-  // disparity does (>= 0). Otherwise the neighbourhood cannot tell them apart (the matching window
+  // disparity does. Otherwise the neighbourhood cannot tell them apart (the matching window
   // carried an obstacle's parallax onto the floor next to it, or there is no texture): unknown.
   bool check_floor_hypothesis = true;
   double min_floor_misfit = 0.0;
   // Minimum texture along the epipolar line (mean squared gradient, grey levels^2 per pixel^2, >
   // 0); below it a pixel is unknown, never floor.
   double min_texture = 1.0;
-  // Maximum mean |difference| after alignment, grey levels (> 0); above it unknown (or moving).
+  // Maximum mean |difference| after alignment, grey levels; above it unknown (or moving).
   double max_residual = 12.0;
   // Dense test: an offset perpendicular to the epipolar line of at least this many input pixels
-  // (and min_disparity_sigmas) marks motion of its own (>= 0; 0 = off). Off by default: on tiled
+  // (and min_disparity_sigmas) marks motion of its own (0 = off). Off by default: on tiled
   // and grained floors the aperture problem makes it call parts of the floor moving, and things
   // that move move farther than the dense search follows; the tracked-corner test below finds them.
   double moving_min_perpendicular_px = 0.0;
   // Tracked corners: a corner shared by the pair that lies farther than this from its epipolar
-  // line under the fitted motion cannot be a static point (input pixels, > 0). Where two such
+  // line under the fitted motion cannot be a static point (input pixels). Where two such
   // corners lie within moving_track_radius_px of each other, the samples within that radius that
   // are not floor are labelled moving (>= 0; 0 turns the track test off). Off by default: the
   // dense motion evidence (DetectorOptions::motion_evidence) finds moving things per pixel, and a
   // disc around a corner also takes the static obstacles next to a moving one.
   double moving_track_min_px = 4.0;
   double moving_track_radius_px = 0.0;
-  // Points farther than this from the robot (metres, > 0) are unknown: not reliable.
+  // Points farther than this from the robot (metres) are unknown: not reliable.
   double max_range_m = 6.0;
   // An obstacle or drop-off point goes into the top view (local map, obstacle points) only when
   // its footprint is known to within 0.05 m + this fraction of its range (one sigma of the zero
-  // disparity moves it along its ray; >= 0). Far, tall points whose rays graze their height are
+  // disparity moves it along its ray). Far, tall points whose rays graze their height are
   // labelled in the image but not placed, rather than smeared far beyond where they are.
   double max_footprint_sigma_ratio = 0.03;
   // ... and when it lies on a surface: at least min_surface_neighbours of its 8 neighbouring
@@ -65,7 +66,7 @@ struct ClassificationOptions {
   // min_surface_angle_deg or more to the viewing ray would give. A sample whose matching window
   // straddles a depth edge measures a mix of the two depths ("veil" points, as a lidar's mixed
   // returns); without this they smear an obstacle's edge along its rays in the top view.
-  // Angle in degrees, [0, 90), 0 = off; neighbours in [0, 8].
+  // Angle in degrees, 0 = off.
   double min_surface_angle_deg = 10.0;
   int min_surface_neighbours = 3;
   // Where the floor ends in an image column (the samples above it are not floor), the floor
@@ -73,18 +74,18 @@ struct ClassificationOptions {
   // climbs onto the lowest pixels of what stands there (a wall seen at a grazing angle, a box
   // without texture), detected or not, and their cells hold its base. Below floor_edge_samples
   // samples that are not floor, those cells are not free in the local map; below fewer (a seam, a
-  // textureless spot in the floor) they just give no free vote. 0 = off, >= 0.
+  // textureless spot in the floor) they just give no free vote. 0 = off.
   int floor_edge_samples = 3;
   // Labels: a floor sample within this many samples of an obstacle sample in its image column (the
   // obstacle's base below it, its top edge above it) is unknown: its matching window straddles the
   // edge, and next to an obstacle the floor label reaches onto its lowest pixels. More samples
-  // label fewer obstacle pixels floor and cover less of the floor. >= 0, 0 = off.
+  // label fewer obstacle pixels floor and cover less of the floor. 0 = off.
   int edge_floor_unknown_samples = 1;
   // Labels: unmeasured samples between two labelled ones in an image column are filled where the
   // two bound what lies between (one vertical surface, an obstacle standing on the floor, or
   // floor on both sides of a gap too short to hide an obstacle): FillColumnGaps in the .cc says
-  // which rule fills what. Gaps of up to fill_max_gap_samples samples (>= 0, 0 = off); a floor
-  // gap at most fill_max_floor_gap_m long on the floor (metres, >= 0: a hole in it could not be
+  // which rule fills what. Gaps of up to fill_max_gap_samples samples (0 = off); a floor
+  // gap at most fill_max_floor_gap_m long on the floor (metres: a hole in it could not be
   // seen, so it is kept short).
   int fill_max_gap_samples = 24;
   double fill_max_floor_gap_m = 0.10;
@@ -105,7 +106,7 @@ struct ClassificationOptions {
   // Top view: cells within this many cells (a square) of a placed obstacle point or of a floor
   // edge (floor_edge_samples) are not free in the local map: a wall's points sit a few cm behind
   // its base cell, which the floor samples just in front of it would otherwise vote free, and a
-  // textureless wall has no points at all. >= 0; 0 = off.
+  // textureless wall has no points at all. 0 = off.
   int free_margin_cells = 1;
   // Top view, free space by rays: between two consecutive floor samples of an image column that
   // both vote free, the floor under the ray between them is free too (anything standing there
@@ -117,65 +118,71 @@ struct ClassificationOptions {
   // neighbours, or with the median height of their superpixel (SLICO; the paper's segments).
   enum class Aggregation { kNone, kMedian, kSegments };
   Aggregation aggregation = Aggregation::kSegments;
-  int median_radius = 1;          // samples, for kMedian (>= 1)
-  double segment_size_px = 16.0;  // superpixel side, input pixels, for kSegments (>= 4)
-  int segment_iterations = 2;     // SLIC iterations (>= 1)
+  int median_radius = 1;          // samples, for kMedian
+  double segment_size_px = 16.0;  // superpixel side, input pixels, for kSegments
+  int segment_iterations = 2;     // SLIC iterations
   // Superpixels computed at 1 / 2^segment_level of the search resolution (0 or 1): 1 is about four
   // times cheaper, with segments of the same size in input pixels.
   int segment_level = 1;
-  int segment_min_samples = 3;  // measured samples a segment needs to be labelled (>= 1)
+  int segment_min_samples = 3;  // measured samples a segment needs to be labelled
   // A segment labelled obstacle whose measured samples are at least this fraction of its samples
-  // labels its unmeasured (textureless) samples obstacle too, for kSegments; in [0, 1], 1 = never.
+  // labels its unmeasured (textureless) samples obstacle too, for kSegments; 1 = never.
   double segment_fill_fraction = 0.25;
 
+  // Every field's key, range and meaning (the checks, the config file and --dump use it).
+  void Describe(OptionVisitor& v);
   bool IsValid(std::string* error) const;
 };
 
 // The robot-frame top view (the paper's step 6).
 struct LocalMapOptions {
-  double resolution_m = 0.05;  // cell side (> 0)
+  double resolution_m = 0.05;  // cell side
   double min_x_m = -1.0;       // extent in the base frame of the current frame (min < max)
   double max_x_m = 7.0;
   double min_y_m = -4.0;
   double max_y_m = 4.0;
 
+  // Every field's key, range and meaning (the checks, the config file and --dump use it).
+  void Describe(OptionVisitor& v);
   bool IsValid(std::string* error) const;
 };
 
 // Reference frame selection (the paper's step 1): keep a reference until the camera has moved
 // enough for parallax.
 struct PairSelectionOptions {
-  double min_baseline_m = 0.10;  // camera centre travel between the pair (> 0)
-  int max_history = 20;          // frames kept to choose a reference from (>= 2)
+  double min_baseline_m = 0.10;  // camera centre travel between the pair
+  int max_history = 20;          // frames kept to choose a reference from
   // When the robot stops (or creeps) after driving, the last frame far enough away for a pair
   // stays in the history while it is within 2 * min_baseline_m (the frames after it go instead),
   // so that a robot waiting keeps seeing what it saw while driving instead of going blind once
   // max_history frames have passed. Standing still before any driving still gives no pair
   // (unknown).
   bool hold_reference = true;
-  // Largest yaw between the pair (rad, > 0). Turning pairs have little baseline for much image
+  // Largest yaw between the pair (rad). Turning pairs have little baseline for much image
   // motion and match badly; when no frame within this yaw has the baseline, the frame is
   // "no parallax" (unknown), as when standing still.
   double max_rotation_rad = 0.12;
   // Turning on the spot still moves the camera (it sits ahead of the axle, mount x): when no
-  // reference qualifies above, the newest frame within turn_max_rotation_rad (rad, >= 0) whose
-  // camera centre lies at least turn_min_baseline_m away (m, > 0) is used: a narrow-baseline pair
+  // reference qualifies above, the newest frame within turn_max_rotation_rad (rad) whose
+  // camera centre lies at least turn_min_baseline_m away (m) is used: a narrow-baseline pair
   // that sees near obstacles (FrameResult::turn_pair tells). turn_max_rotation_rad 0 = off.
   double turn_min_baseline_m = 0.04;
   double turn_max_rotation_rad = 0.5;
-  // Dense detection on every N-th usable frame (>= 1); the others are only tracked for odometry
+  // Dense detection on every N-th usable frame; the others are only tracked for odometry
   // and carry the last detected frame's result. 2 halves the cost with obstacle updates at half
   // the camera rate. A frame farther from the last detected one than a carried result may go
   // (2 * min_baseline_m, max_rotation_rad) is detected whatever N says.
   int detect_every = 2;
   // Far pair: a detected frame is also matched against the newest frame at least
-  // far_min_baseline_m back (m, >= 0; 0 = off; within max_rotation_rad and max_history), and each
+  // far_min_baseline_m back (m, 0 = off; within max_rotation_rad and max_history), and each
   // sample keeps the pair that measures its height more precisely, when the two agree. One pair's
   // parallax of a 3 cm height falls with the square of the distance (about 0.25 px at 2.3 m over
   // 0.1 m for a camera 0.4 m up): the far floor needs a longer baseline to be told from a low
   // obstacle, while the near floor needs a short one (it was below the far frame's view).
   double far_min_baseline_m = 0.30;
 
+  // Every field's key, range and meaning (the checks, the config file and --dump use it).
+  void Describe(OptionVisitor& v);
   bool IsValid(std::string* error) const;
 };
 

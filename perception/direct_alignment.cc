@@ -36,23 +36,30 @@ double Huber(double r, double k) {
 
 }  // namespace
 
+void DirectAlignmentOptions::Describe(OptionVisitor& v) {
+  using R = OptionRange;
+  v.Flag("enabled", &enabled, "refine each pair's floor motion on the floor strip's texture");
+  v.Flag("refine_steps", &refine_steps, "also refine every frame-to-frame odometry step");
+  v.Integer("level", &level, R::Closed(0, 1), "0: full resolution, 1: half (faster)");
+  v.Integer("sample_stride_px", &sample_stride_px, R::AtLeast(1), "sample spacing, px");
+  v.Real("min_gradient", &min_gradient, R::Above(0), "samples need this gradient, grey levels/px");
+  v.Integer("max_iterations", &max_iterations, R::AtLeast(1), "Gauss-Newton iterations");
+  v.Integer("min_samples", &min_samples, R::AtLeast(10), "fewer textured samples: no refinement");
+  v.Integer("max_samples", &max_samples, R::AtLeast(0).Note("0 = all; else >= min_samples"),
+            "at most this many samples, an even subset");
+  v.Rule(max_samples == 0 || max_samples >= min_samples, "max_samples",
+         "must be 0 or >= min_samples");
+  v.Real("max_correction_m", &max_correction_m, R::Above(0),
+         "larger corrections are not trusted, m");
+  v.Real("max_correction_rad", &max_correction_rad, R::Above(0),
+         "larger corrections are not trusted, rad");
+  v.Flag("estimate_pitch", &estimate_pitch,
+         "also estimate the camera's pitch change between the frames (vehicles on suspension)");
+  v.Real("max_pitch_rad", &max_pitch_rad, R::Above(0), "larger pitch changes are not trusted, rad");
+}
+
 bool DirectAlignmentOptions::IsValid(std::string* error) const {
-  auto fail = [&](const std::string& what) {
-    *error = "direct_alignment." + what;
-    return false;
-  };
-  if (sample_stride_px < 1) return fail("sample_stride_px: must be >= 1");
-  if (!(min_gradient > 0)) return fail("min_gradient: must be > 0");
-  if (max_iterations < 1) return fail("max_iterations: must be >= 1");
-  if (level < 0 || level > 1) return fail("level: must be 0 or 1");
-  if (min_samples < 10) return fail("min_samples: must be >= 10");
-  if (max_samples != 0 && max_samples < min_samples) {
-    return fail("max_samples: must be 0 or >= min_samples");
-  }
-  if (!(max_correction_m > 0)) return fail("max_correction_m: must be > 0");
-  if (!(max_correction_rad > 0)) return fail("max_correction_rad: must be > 0");
-  if (!(max_pitch_rad > 0)) return fail("max_pitch_rad: must be > 0");
-  return true;
+  return CheckOptions(*this, "direct_alignment", error);
 }
 
 Eigen::Matrix3d PitchHomography(const CameraModel& camera, double pitch_rad) {

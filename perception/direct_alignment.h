@@ -4,6 +4,7 @@
 #include <string>
 
 #include "perception/geometry/camera_model.h"
+#include "perception/geometry/options.h"
 
 namespace monoplane {
 
@@ -19,22 +20,24 @@ struct DirectAlignmentOptions {
   // a few milliseconds on the tracking thread, much less drift than the corners alone give.
   bool refine_steps = true;
   int level = 0;              // 0: full resolution, 1: half (faster, less accurate)
-  int sample_stride_px = 3;   // sample spacing in image 2, input pixels (>= 1)
-  double min_gradient = 6.0;  // samples need this gradient magnitude, grey levels/px (> 0)
-  int max_iterations = 10;    // Gauss-Newton iterations (>= 1)
-  int min_samples = 200;      // fewer textured samples: no refinement (>= 10)
+  int sample_stride_px = 3;   // sample spacing in image 2, input pixels
+  double min_gradient = 6.0;  // samples need this gradient magnitude, grey levels/px
+  int max_iterations = 10;    // Gauss-Newton iterations
+  int min_samples = 200;      // fewer textured samples: no refinement
   // At most this many samples (>= min_samples; 0 = all): a textured floor gives ten thousand or
   // more; an even subset of them is as accurate and costs a fraction, a weakly textured floor
   // keeps every sample it has.
   int max_samples = 1500;
-  double max_correction_m = 0.03;    // larger corrections are not trusted (> 0)
-  double max_correction_rad = 0.02;  // (> 0)
+  double max_correction_m = 0.03;  // larger corrections are not trusted
+  double max_correction_rad = 0.02;
   // Also estimate the pitch of camera 2 relative to camera 1: a car pitches on its suspension by
   // a few tenths of a degree between frames, which shifts the whole image by pixels and makes the
   // near road look below the far one. A robot on an indoor floor does not: off by default.
   bool estimate_pitch = false;
-  double max_pitch_rad = 0.01;  // larger relative pitches are not trusted (> 0)
+  double max_pitch_rad = 0.01;  // larger relative pitches are not trusted
 
+  // Every field's key, range and meaning (the checks, the config file and --dump use it).
+  void Describe(OptionVisitor& v);
   bool IsValid(std::string* error) const;
 };
 

@@ -26,28 +26,27 @@ cv::Matx33d ToCv(const Eigen::Matrix3d& m) {
 
 }  // namespace
 
+void FloorFeatureOptions::Describe(OptionVisitor& v) {
+  using R = OptionRange;
+  v.Flag("enabled", &enabled, "floor descriptors on every detected frame, for loop closure");
+  v.Real("resolution_m", &resolution_m, R::Above(0), "top-view cell side, m");
+  v.Real("min_x_m", &min_x_m, R::Any(), "top view: nearest x, m");
+  v.Real("max_x_m", &max_x_m, R::Any().Note("> min_x_m"), "top view: farthest x, m");
+  v.Rule(max_x_m > min_x_m, "max_x_m", "must be > min_x_m");
+  v.Real("half_width_m", &half_width_m, R::Above(0), "top view: half width, m");
+  v.Rule((max_x_m - min_x_m) / resolution_m <= 4000 && 2 * half_width_m / resolution_m <= 4000,
+         "resolution_m", "must be coarse enough for a top view of at most 4000 x 4000 cells");
+  v.Integer("max_features", &max_features, R::Closed(1, 100000), "floor keypoints per frame");
+  v.Integer("fast_threshold", &fast_threshold, R::AtLeast(1), "ORB's FAST threshold, grey levels");
+  v.Integer("num_levels", &num_levels, R::AtLeast(1), "ORB pyramid levels");
+  v.Real("scale_factor", &scale_factor, R::Above(1), "ORB scale between levels");
+  v.Integer("patch_size_px", &patch_size_px, R::AtLeast(7), "ORB's descriptor patch, top-view px");
+  v.Real("blur_sigma_px", &blur_sigma_px, R::AtLeast(0).Note("0 = none"),
+         "blur of the top view before detection, top-view px");
+}
+
 bool FloorFeatureOptions::IsValid(std::string* error) const {
-  auto fail = [&](const std::string& key, double value, const std::string& constraint) {
-    if (error)
-      *error =
-          "FloorFeatureOptions::" + key + " = " + std::to_string(value) + ": must be " + constraint;
-    return false;
-  };
-  if (!(resolution_m > 0)) return fail("resolution_m", resolution_m, "> 0");
-  if (!(max_x_m > min_x_m)) return fail("max_x_m", max_x_m, "> min_x_m");
-  if (!(half_width_m > 0)) return fail("half_width_m", half_width_m, "> 0");
-  if (!((max_x_m - min_x_m) / resolution_m <= 4000 && 2 * half_width_m / resolution_m <= 4000)) {
-    return fail("resolution_m", resolution_m,
-                "coarse enough for a top view of at most 4000 x 4000 cells");
-  }
-  if (max_features < 1 || max_features > 100000)
-    return fail("max_features", max_features, "in [1, 100000]");
-  if (fast_threshold < 1) return fail("fast_threshold", fast_threshold, ">= 1");
-  if (num_levels < 1) return fail("num_levels", num_levels, ">= 1");
-  if (!(scale_factor > 1)) return fail("scale_factor", scale_factor, "> 1");
-  if (patch_size_px < 7) return fail("patch_size_px", patch_size_px, ">= 7");
-  if (!(blur_sigma_px >= 0)) return fail("blur_sigma_px", blur_sigma_px, ">= 0");
-  return true;
+  return CheckOptions(*this, "floor_features", error);
 }
 
 Eigen::Matrix3d FloorFromTopView(const FloorFeatureOptions& o) {

@@ -7,6 +7,7 @@
 
 #include "perception/frame_types.h"
 #include "perception/geometry/camera_model.h"
+#include "perception/geometry/options.h"
 
 namespace monoplane {
 
@@ -17,19 +18,21 @@ namespace monoplane {
 // follows exactly from its top-view pixel.
 struct FloorFeatureOptions {
   bool enabled = true;
-  double resolution_m = 0.01;  // top-view cell side, metres (> 0)
-  // The floor region described, base frame of the frame, metres (min < max, half_width > 0).
+  double resolution_m = 0.01;  // top-view cell side, metres
+  // The floor region described, base frame of the frame, metres.
   double min_x_m = 0.45;
   double max_x_m = 3.0;
   double half_width_m = 1.8;
-  int max_features = 1000;    // keypoints kept per frame (>= 1)
-  int fast_threshold = 8;     // ORB's FAST threshold, grey levels (>= 1)
+  int max_features = 1000;    // keypoints kept per frame
+  int fast_threshold = 8;     // ORB's FAST threshold, grey levels
   int num_levels = 1;         // ORB pyramid levels (>= 1); the top view has a fixed scale
-  double scale_factor = 1.2;  // between levels (> 1)
-  int patch_size_px = 19;  // ORB's descriptor patch (and keypoint border), top-view pixels (>= 7)
-  // Gaussian blur of the top view before detection, top-view pixels (>= 0; 0 = none).
+  double scale_factor = 1.2;  // between levels
+  int patch_size_px = 19;     // ORB's descriptor patch (and keypoint border), top-view pixels
+  // Gaussian blur of the top view before detection, top-view pixels (0 = none).
   double blur_sigma_px = 1.0;
 
+  // Every field's key, range and meaning (the checks, the config file and --dump use it).
+  void Describe(OptionVisitor& v);
   bool IsValid(std::string* error) const;
 };
 

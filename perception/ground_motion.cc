@@ -59,39 +59,46 @@ const char* ToString(GroundMotion::Status status) {
   return "?";
 }
 
+void GroundMotionOptions::Describe(OptionVisitor& v) {
+  using R = OptionRange;
+  v.Real("strip_min_x_m", &strip_min_x_m, R::AtLeast(0),
+         "floor strip for the motion fit: nearest x, m");
+  v.Real("strip_max_x_m", &strip_max_x_m, R::Any().Note("> strip_min_x_m"),
+         "floor strip: farthest x, m");
+  v.Rule(strip_max_x_m > strip_min_x_m, "strip_max_x_m", "must be > strip_min_x_m");
+  v.Real("strip_half_width_m", &strip_half_width_m, R::Above(0), "floor strip: half width, m");
+  v.Integer("max_corners", &max_corners, R::Above(0), "Shi-Tomasi corners per frame");
+  v.Real("corner_quality", &corner_quality, R::Open(0, 1), "corner quality relative to the best");
+  v.Real("corner_min_distance_px", &corner_min_distance_px, R::AtLeast(0), "corner spacing, px");
+  v.Integer("lk_window_px", &lk_window_px, R::AtLeast(5).Odd(), "Lucas-Kanade window side, px");
+  v.Integer("lk_levels", &lk_levels, R::Closed(0, 6), "Lucas-Kanade pyramid levels");
+  v.Integer("lk_max_iterations", &lk_max_iterations, R::AtLeast(1),
+            "Lucas-Kanade iterations per level");
+  v.Real("lk_min_step_px", &lk_min_step_px, R::Above(0), "Lucas-Kanade stops below this step, px");
+  v.Real("forward_backward_max_px", &forward_backward_max_px, R::Above(0),
+         "forward-backward tracking check, px");
+  v.Integer("ransac_iterations", &ransac_iterations, R::Closed(1, 100000), "RANSAC iterations");
+  v.Real("inlier_threshold_px", &inlier_threshold_px, R::Above(0),
+         "RANSAC inlier threshold in image 2, px");
+  v.Real("below_floor_weight", &below_floor_weight, R::AtLeast(0),
+         "score a motion loses per strip point it puts below the floor, inliers");
+  v.Real("below_floor_px", &below_floor_px, R::Above(0),
+         "how far below the floor counts, px along the epipolar line");
+  v.Real("below_floor_max_share", &below_floor_max_share, R::OpenClosed(0, 1),
+         "...up to this share of the floor's predicted flow (a mistrack beyond)");
+  v.Real("max_acceleration_mps2", &max_acceleration_mps2, R::AtLeast(0).Note("0 = off"),
+         "steps changing the velocity faster than this are outliers, m/s^2");
+  v.Real("velocity_noise_mps", &velocity_noise_mps, R::AtLeast(0),
+         "plus this allowance for the estimates' noise, m/s");
+  v.Integer("max_rejected_steps", &max_rejected_steps, R::AtLeast(0),
+            "at most this many steps rejected in a row");
+  v.Integer("min_inliers", &min_inliers, R::AtLeast(2), "inliers needed to trust the fit");
+  v.Real("min_inlier_ratio", &min_inlier_ratio, R::OpenClosed(0, 1), "inlier share needed");
+  v.Integer("seed", &seed, R::Any(), "RANSAC random seed");
+}
+
 bool GroundMotionOptions::IsValid(std::string* error) const {
-  auto fail = [&](const std::string& what) {
-    *error = "ground_motion." + what;
-    return false;
-  };
-  if (!(strip_min_x_m >= 0 && strip_max_x_m > strip_min_x_m)) {
-    return fail("strip_min_x_m/strip_max_x_m: need 0 <= min < max");
-  }
-  if (!(strip_half_width_m > 0)) return fail("strip_half_width_m: must be > 0");
-  if (max_corners <= 0) return fail("max_corners: must be > 0");
-  if (!(corner_quality > 0 && corner_quality < 1)) return fail("corner_quality: must be in (0, 1)");
-  if (!(corner_min_distance_px >= 0)) return fail("corner_min_distance_px: must be >= 0");
-  if (lk_window_px < 5 || lk_window_px % 2 == 0) return fail("lk_window_px: must be odd and >= 5");
-  if (lk_levels < 0 || lk_levels > 6) return fail("lk_levels: must be in [0, 6]");
-  if (lk_max_iterations < 1) return fail("lk_max_iterations: must be >= 1");
-  if (!(lk_min_step_px > 0)) return fail("lk_min_step_px: must be > 0");
-  if (!(forward_backward_max_px > 0)) return fail("forward_backward_max_px: must be > 0");
-  if (ransac_iterations <= 0 || ransac_iterations > 100000) {
-    return fail("ransac_iterations: must be in [1, 100000]");
-  }
-  if (!(inlier_threshold_px > 0)) return fail("inlier_threshold_px: must be > 0");
-  if (!(below_floor_weight >= 0)) return fail("below_floor_weight: must be >= 0");
-  if (!(below_floor_px > 0)) return fail("below_floor_px: must be > 0");
-  if (!(below_floor_max_share > 0 && below_floor_max_share <= 1))
-    return fail("below_floor_max_share: must be in (0, 1]");
-  if (!(max_acceleration_mps2 >= 0)) return fail("max_acceleration_mps2: must be >= 0");
-  if (!(velocity_noise_mps >= 0)) return fail("velocity_noise_mps: must be >= 0");
-  if (max_rejected_steps < 0) return fail("max_rejected_steps: must be >= 0");
-  if (min_inliers < 2) return fail("min_inliers: must be >= 2");
-  if (!(min_inlier_ratio > 0 && min_inlier_ratio <= 1)) {
-    return fail("min_inlier_ratio: must be in (0, 1]");
-  }
-  return true;
+  return CheckOptions(*this, "ground_motion", error);
 }
 
 bool IsDrivableStep(const Pose2& step, double dt_s, const Pose2& previous_step,

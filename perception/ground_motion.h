@@ -7,6 +7,7 @@
 
 #include "perception/frame_types.h"
 #include "perception/geometry/camera_model.h"
+#include "perception/geometry/options.h"
 
 namespace monoplane {
 
@@ -14,27 +15,27 @@ namespace monoplane {
 // planar motion to the ones on the floor in a strip in front of the robot.
 struct GroundMotionOptions {
   // The floor strip, base frame of the first image (metres): x in [strip_min_x_m, strip_max_x_m],
-  // |y| <= strip_half_width_m. Range: 0 <= min < max; half width > 0.
+  // |y| <= strip_half_width_m.
   double strip_min_x_m = 0.2;
   double strip_max_x_m = 4.0;
   double strip_half_width_m = 1.5;
-  // Shi-Tomasi corners: at most this many (> 0), quality relative to the best (0, 1), spacing px.
+  // Shi-Tomasi corners: at most this many, quality relative to the best, spacing px.
   int max_corners = 250;
   double corner_quality = 0.005;
   double corner_min_distance_px = 8.0;
-  // Pyramidal Lucas-Kanade: window side (odd, >= 5) and pyramid levels (>= 0). A larger window
+  // Pyramidal Lucas-Kanade: window side and pyramid levels. A larger window
   // tracks weak texture more reliably at more CPU; more levels follow larger image motion (a fast
   // camera, a low frame rate).
   int lk_window_px = 17;
   int lk_levels = 3;
-  // Lucas-Kanade stops per level after lk_max_iterations (>= 1) or once a step is below
-  // lk_min_step_px (> 0). The direct alignment refines the fitted motion on the floor's texture
+  // Lucas-Kanade stops per level after lk_max_iterations or once a step is below
+  // lk_min_step_px. The direct alignment refines the fitted motion on the floor's texture
   // afterwards, so the corners need not converge further than the fit's inlier threshold needs.
   int lk_max_iterations = 20;
   double lk_min_step_px = 0.02;
-  // A track is kept when tracking back lands within this many pixels of its start (> 0).
+  // A track is kept when tracking back lands within this many pixels of its start.
   double forward_backward_max_px = 0.5;
-  // RANSAC over 2-point planar motions: iterations (> 0) and inlier threshold in image 2 (px, > 0).
+  // RANSAC over 2-point planar motions: iterations and inlier threshold in image 2 (px).
   int ransac_iterations = 200;
   double inlier_threshold_px = 1.0;
   // The floor is the lowest surface in view: a motion hypothesis loses below_floor_weight inliers'
@@ -42,28 +43,30 @@ struct GroundMotionOptions {
   // the epipolar line, input pixels). Without it, on a floor with little texture the corners on an
   // obstacle outvote the few on the floor, and the fitted "floor" lies at their height, which puts
   // the real floor below the floor and obstacles lower than they are. The margin keeps tracking
-  // noise and the unevenness of real roads from counting (weight >= 0, 0 = off; margin > 0).
+  // noise and the unevenness of real roads from counting (weight 0 = off).
   double below_floor_weight = 2.0;
   double below_floor_px = 3.0;
   // ...and at most below_floor_max_share of the floor flow the hypothesis predicts for it: a point
   // that moved less than half as far as the floor would have is a mistrack or something moving
   // along with the camera (a car ahead of a car), not the floor under a hypothesis fitted to the
   // tops of obstacles (for a top at height z the floor appears a share z / camera height below,
-  // under a half for obstacles lower than half the camera). (0, 1]; 1 counts every point.
+  // under a half for obstacles lower than half the camera). 1 counts every point.
   double below_floor_max_share = 0.5;
   // Frame-to-frame steps (SequenceDetector): a fitted step whose velocity differs from the last
   // step's by more than max_acceleration_mps2 * dt + velocity_noise_mps cannot have been driven (a
   // car at 13 m/s does not reverse within 0.1 s); it is an outlier fit (a moving thing, repeated
   // texture) and the last step is kept instead, at most max_rejected_steps times in a row
-  // (acceleration > 0, 0 = off; noise >= 0; rejections >= 0).
+  // (acceleration 0 = off).
   double max_acceleration_mps2 = 10.0;
   double velocity_noise_mps = 0.1;
   int max_rejected_steps = 3;
-  // The fit is trusted with at least this many inliers (>= 2) and this inlier share (0, 1].
+  // The fit is trusted with at least this many inliers and this inlier share.
   int min_inliers = 12;
   double min_inlier_ratio = 0.25;
   unsigned seed = 1;  // RANSAC sampling; fixed for repeatable results
 
+  // Every field's key, range and meaning (the checks, the config file and --dump use it).
+  void Describe(OptionVisitor& v);
   bool IsValid(std::string* error) const;
 };
 

@@ -5,54 +5,40 @@
 
 namespace monoplane {
 
+void HeightFilterOptions::Describe(OptionVisitor& v) {
+  using R = OptionRange;
+  v.Flag("enabled", &enabled,
+         "fuse each point's height over the detected frames (false: each pair on its own)");
+  v.Real("outlier_min_height_m", &outlier_min_height_m, R::Any().Note("< outlier_max_height_m"),
+         "lowest height an outlier measurement takes, m");
+  v.Real("outlier_max_height_m", &outlier_max_height_m, R::Any(),
+         "highest height an outlier measurement takes, m");
+  v.Rule(outlier_min_height_m < outlier_max_height_m, "outlier_min_height_m",
+         "must be < outlier_max_height_m");
+  v.Real("prior_inliers", &prior_inliers, R::Above(0), "Beta prior of a new estimate's inliers");
+  v.Real("prior_outliers", &prior_outliers, R::Above(0), "Beta prior of a new estimate's outliers");
+  v.Real("gate_sigmas", &gate_sigmas, R::Above(0),
+         "a measurement this many sigmas off an estimate starts its own");
+  v.Real("min_sigma_px", &min_sigma_px, R::Closed(0, 10),
+         "smallest error of one measurement, px of zero disparity");
+  v.Real("min_sigma_m", &min_sigma_m, R::ClosedOpen(0, 1),
+         "smallest sigma a fused height is judged with, m");
+  v.Real("min_inlier_ratio", &min_inlier_ratio, R::Open(0, 1),
+         "estimates with a lower inlier ratio give no label");
+  v.Real("max_carry_sigma_m", &max_carry_sigma_m, R::Above(0),
+         "estimates less certain than this are not carried to the next frame, m");
+  v.Integer("max_unmeasured_detections", &max_unmeasured_detections, R::Closed(0, 1000),
+            "detected frames an estimate is kept without a new measurement");
+  v.Integer("min_measurements_to_carry", &min_measurements_to_carry, R::Closed(1, 1000),
+            "measurements an estimate needs to label a sample this pair did not measure");
+  v.Integer("floor_min_measurements", &floor_min_measurements, R::Closed(0, 1000).Note("0 = off"),
+            "measurements a fused estimate needs to call a sample floor");
+  v.Real("shared_sigma_px", &shared_sigma_px, R::Closed(0, 10),
+         "error all pairs of a point share, px of zero disparity");
+}
+
 bool HeightFilterOptions::IsValid(std::string* error) const {
-  if (!(std::isfinite(outlier_min_height_m) && std::isfinite(outlier_max_height_m) &&
-        outlier_min_height_m < outlier_max_height_m)) {
-    *error = "height_filter.outlier_min_height_m / outlier_max_height_m: need min < max, finite";
-    return false;
-  }
-  if (!(prior_inliers > 0 && prior_outliers > 0 && std::isfinite(prior_inliers) &&
-        std::isfinite(prior_outliers))) {
-    *error = "height_filter.prior_inliers / prior_outliers: need > 0";
-    return false;
-  }
-  if (!(gate_sigmas > 0 && std::isfinite(gate_sigmas))) {
-    *error = "height_filter.gate_sigmas: need > 0";
-    return false;
-  }
-  if (!(min_sigma_px >= 0 && min_sigma_px <= 10)) {
-    *error = "height_filter.min_sigma_px: need 0 <= value <= 10";
-    return false;
-  }
-  if (!(min_sigma_m >= 0 && min_sigma_m < 1)) {
-    *error = "height_filter.min_sigma_m: need 0 <= value < 1";
-    return false;
-  }
-  if (!(min_inlier_ratio > 0 && min_inlier_ratio < 1)) {
-    *error = "height_filter.min_inlier_ratio: need 0 < value < 1";
-    return false;
-  }
-  if (!(max_carry_sigma_m > 0 && std::isfinite(max_carry_sigma_m))) {
-    *error = "height_filter.max_carry_sigma_m: need > 0";
-    return false;
-  }
-  if (max_unmeasured_detections < 0 || max_unmeasured_detections > 1000) {
-    *error = "height_filter.max_unmeasured_detections: need 0..1000";
-    return false;
-  }
-  if (min_measurements_to_carry < 1 || min_measurements_to_carry > 1000) {
-    *error = "height_filter.min_measurements_to_carry: need 1..1000";
-    return false;
-  }
-  if (floor_min_measurements < 0 || floor_min_measurements > 1000) {
-    *error = "height_filter.floor_min_measurements: need 0..1000";
-    return false;
-  }
-  if (!(shared_sigma_px >= 0 && shared_sigma_px <= 10)) {
-    *error = "height_filter.shared_sigma_px: need 0 <= value <= 10";
-    return false;
-  }
-  return true;
+  return CheckOptions(*this, "height_filter", error);
 }
 
 HeightSeed NewHeightSeed(double height_m, double sigma_m, const HeightFilterOptions& options) {

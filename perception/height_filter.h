@@ -4,6 +4,8 @@
 #include <string>
 #include <vector>
 
+#include "perception/geometry/options.h"
+
 namespace monoplane {
 
 // Evidence over many frames: each sample of the search grid carries a recursive estimate of its
@@ -20,41 +22,43 @@ struct HeightFilterOptions {
   // Heights an outlier measurement can take, metres (min < max): the uniform part of the model.
   double outlier_min_height_m = -1.0;
   double outlier_max_height_m = 2.0;
-  // Beta prior of a new estimate's inlier ratio (a, b > 0): a / (a + b) is its starting ratio and
+  // Beta prior of a new estimate's inlier ratio: a / (a + b) is its starting ratio and
   // a + b how many measurements it takes to move it.
   double prior_inliers = 10.0;
   double prior_outliers = 10.0;
   // A measurement more than this many sigmas (of the estimate and the measurement together) off
-  // an earlier estimate is of another point: it starts an estimate of its own (> 0).
+  // an earlier estimate is of another point: it starts an estimate of its own.
   double gate_sigmas = 3.0;
-  // Smallest error of one measurement in zero disparity, input pixels (>= 0): what all pairs of a
+  // Smallest error of one measurement in zero disparity, input pixels: what all pairs of a
   // point share (their motion's and the calibration's error), which fusing does not average away.
   double min_sigma_px = 0.3;
-  // Smallest standard deviation a fused height is judged with, metres (>= 0): the measurements of
+  // Smallest standard deviation a fused height is judged with, metres: the measurements of
   // one point share errors (calibration, the floor's fit) that fusion does not average away.
   double min_sigma_m = 0.005;
-  // An estimate whose inlier ratio falls below this is given up (in (0, 1)): a new measurement
+  // An estimate whose inlier ratio falls below this is given up: a new measurement
   // starts a new one; without one it labels nothing.
   double min_inlier_ratio = 0.4;
   // An estimate is carried to the next detected frame only when its standard deviation is below
-  // this (metres, > 0): one whose height is not known cannot be placed in the next view.
+  // this (metres): one whose height is not known cannot be placed in the next view.
   double max_carry_sigma_m = 0.05;
-  // Frames an estimate may go without a new measurement before it is dropped (>= 0). While it is
+  // Frames an estimate may go without a new measurement before it is dropped. While it is
   // not measured again it only keeps what was seen; a changed scene gets no say until measured.
   int max_unmeasured_detections = 8;
-  // Measurements an estimate needs before it labels a sample that this pair did not measure
-  // (>= 1): one pair's outlier is not kept alive.
+  // Measurements an estimate needs before it labels a sample that this pair did not measure: one
+  // pair's outlier is not kept alive.
   int min_measurements_to_carry = 2;
   // Floor from the fused estimate: a sample this pair measured is floor when its estimate, fused
-  // from at least floor_min_measurements measurements (>= 1; 0 = off: floor only as one pair
+  // from at least floor_min_measurements measurements (0 = off: floor only as one pair
   // sees it), says so with the fused standard deviation plus shared_sigma_px of zero disparity
-  // (input pixels, >= 0: the error the pairs of a point share, the calibration's, which fusing
+  // (input pixels: the error the pairs of a point share, the calibration's, which fusing
   // does not average away). One pair cannot tell far floor from a low obstacle (its parallax is
   // a fraction of a pixel); many pairs, with their independent motion and matching errors, can.
   // Obstacles are not made this way: fusion never creates significance (FuseHeights).
   int floor_min_measurements = 4;
   double shared_sigma_px = 0.1;
 
+  // Every field's key, range and meaning (the checks, the config file and --dump use it).
+  void Describe(OptionVisitor& v);
   bool IsValid(std::string* error) const;
 };
 

@@ -13,26 +13,26 @@ constexpr double kNearestM = 0.2;  // nothing static is nearer the camera than t
 
 }  // namespace
 
+void MotionEvidenceOptions::Describe(OptionVisitor& v) {
+  using R = OptionRange;
+  v.Flag("enabled", &enabled, "dense optical flow against the static world finds things that move");
+  v.Integer("downscale", &downscale, R::Closed(1, 4).Note("1, 2 or 4"),
+            "the flow runs on the image shrunk by this factor");
+  v.Rule(downscale != 3, "downscale", "must be 1, 2 or 4");
+  v.Real("min_offset_px", &min_offset_px, R::Above(0),
+         "flow this far from the static world's epipolar line moves on its own, px");
+  v.Real("max_flow_error_px", &max_flow_error_px, R::Above(0),
+         "forward-backward flow disagreement above which a pixel is not trusted, px");
+  v.Real("min_region_fraction", &min_region_fraction, R::Closed(0, 1),
+         "smallest moving region, fraction of the image area");
+  v.Real("min_texture", &min_texture, R::AtLeast(0),
+         "texture a pixel needs to count as evidence, grey levels^2 per px^2");
+  v.Real("min_textured_fraction", &min_textured_fraction, R::Closed(0, 1),
+         "share of a moving region's pixels that must be textured");
+}
+
 bool MotionEvidenceOptions::IsValid(std::string* error) const {
-  const auto fail = [&](const std::string& m) {
-    if (error) *error = m;
-    return false;
-  };
-  if (downscale != 1 && downscale != 2 && downscale != 4)
-    return fail("downscale = " + std::to_string(downscale) + ": must be 1, 2 or 4");
-  if (!(min_offset_px > 0) || !std::isfinite(min_offset_px))
-    return fail("min_offset_px = " + std::to_string(min_offset_px) + ": must be > 0");
-  if (!(max_flow_error_px > 0) || !std::isfinite(max_flow_error_px))
-    return fail("max_flow_error_px = " + std::to_string(max_flow_error_px) + ": must be > 0");
-  if (!(min_texture >= 0) || !std::isfinite(min_texture))
-    return fail("min_texture = " + std::to_string(min_texture) + ": must be >= 0");
-  if (!(min_textured_fraction >= 0 && min_textured_fraction <= 1))
-    return fail("min_textured_fraction = " + std::to_string(min_textured_fraction) +
-                ": must be in [0, 1]");
-  if (!(min_region_fraction >= 0 && min_region_fraction <= 1))
-    return fail("min_region_fraction = " + std::to_string(min_region_fraction) +
-                ": must be in [0, 1]");
-  return true;
+  return CheckOptions(*this, "motion_evidence", error);
 }
 
 MotionEvidence::MotionEvidence(const CameraModel& camera, const MotionEvidenceOptions& options)

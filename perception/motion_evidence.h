@@ -4,6 +4,7 @@
 #include <string>
 
 #include "perception/geometry/camera_model.h"
+#include "perception/geometry/options.h"
 #include "perception/geometry/pose2.h"
 
 namespace cv {
@@ -25,19 +26,21 @@ struct MotionEvidenceOptions {
   // The flow runs on the image shrunk by this factor (1, 2 or 4): cost against detail.
   int downscale = 2;
   // Distance from the static world's epipolar line (or rotation-predicted point), input pixels,
-  // at or above which a pixel moves on its own (> 0).
+  // at or above which a pixel moves on its own.
   double min_offset_px = 4.0;
   // Forward-backward disagreement of the flow, input pixels, above which a pixel's flow is not
-  // trusted (occlusions, textureless patches) (> 0).
+  // trusted (occlusions, textureless patches).
   double max_flow_error_px = 3.0;
-  // Smallest moving region, as a fraction of the image's area (>= 0).
+  // Smallest moving region, as a fraction of the image's area.
   double min_region_fraction = 0.002;
   // A region needs at least this fraction of its pixels textured: a mean squared gradient of at
-  // least min_texture grey levels^2 per input pixel^2 over 5 x 5 pixels of the flow's image
-  // ([0, 1]; >= 0). Flow over a textureless floor is what the smoothing made of it.
+  // least min_texture grey levels^2 per input pixel^2 over 5 x 5 pixels of the flow's image.
+  // Flow over a textureless floor is what the smoothing made of it.
   double min_texture = 1.0;
   double min_textured_fraction = 0.3;
 
+  // Every field's key, range and meaning (the checks, the config file and --dump use it).
+  void Describe(OptionVisitor& v);
   bool IsValid(std::string* error) const;
 };
 

@@ -8,35 +8,40 @@
 
 namespace monoplane {
 
+void MovingObjectOptions::Describe(OptionVisitor& v) {
+  using R = OptionRange;
+  v.Flag("enabled", &enabled, "the moving regions placed on the floor and tracked as objects");
+  v.Real("gate_m", &gate_m, R::Above(0),
+         "a region within this of a track's prediction is that object, m");
+  v.Integer("confirm_updates", &confirm_updates, R::Closed(1, 1000),
+            "frames of evidence before a track is reported");
+  v.Real("max_coast_s", &max_coast_s, R::Above(0),
+         "a track without a region for longer, or for longer than it has been followed, is "
+         "dropped, s");
+  v.Real("reidentify_s", &reidentify_s, R::AtLeast(0),
+         "a lost track's id is taken up again by a region where it would be for this long, s");
+  v.Real("position_sigma_m", &position_sigma_m, R::AtLeast(0),
+         "noise of a region's floor position along the view, m, plus position_sigma_ratio x range");
+  v.Real("position_sigma_ratio", &position_sigma_ratio, R::AtLeast(0), "... per metre of range");
+  v.Rule(position_sigma_m + position_sigma_ratio > 0, "position_sigma_m",
+         "it and position_sigma_ratio must not both be 0");
+  v.Real("bearing_sigma_rad", &bearing_sigma_rad, R::AtLeast(0),
+         "noise of the direction a region is seen in, rad: across the view the position's noise is "
+         "position_sigma_m plus this x range");
+  v.Real("across_velocity_sigma_mps", &across_velocity_sigma_mps, R::Above(0),
+         "noise of a region's velocity across the view measured from its pixels' flow, m/s; along "
+         "the view (from its lowest pixels) twice this");
+  v.Real("accel_sigma_mps2", &accel_sigma_mps2, R::Above(0),
+         "how fast an object's velocity may change, m/s^2");
+  v.Real("max_range_m", &max_range_m, R::Above(0), "regions standing farther are not placed, m");
+  v.Real("min_radius_m", &min_radius_m, R::AtLeast(0),
+         "regions narrower than this radius on the floor are left out, m");
+  v.Real("footprint_margin_m", &footprint_margin_m, R::AtLeast(0),
+         "a tracked object's footprint this much wider is unknown in its frame's local map, m");
+}
+
 bool MovingObjectOptions::IsValid(std::string* error) const {
-  const auto fail = [&](const std::string& what) {
-    *error = "moving_objects." + what;
-    return false;
-  };
-  if (!(gate_m > 0) || !std::isfinite(gate_m)) return fail("gate_m: must be > 0");
-  if (confirm_updates < 1 || confirm_updates > 1000)
-    return fail("confirm_updates: must be in [1, 1000]");
-  if (!(max_coast_s > 0) || !std::isfinite(max_coast_s)) return fail("max_coast_s: must be > 0");
-  if (!(position_sigma_m >= 0) || !std::isfinite(position_sigma_m))
-    return fail("position_sigma_m: must be >= 0");
-  if (!(position_sigma_ratio >= 0) || !std::isfinite(position_sigma_ratio))
-    return fail("position_sigma_ratio: must be >= 0");
-  if (!(position_sigma_m + position_sigma_ratio > 0))
-    return fail("position_sigma_m: it and position_sigma_ratio must not both be 0");
-  if (!(bearing_sigma_rad >= 0) || !std::isfinite(bearing_sigma_rad))
-    return fail("bearing_sigma_rad: must be >= 0");
-  if (!(across_velocity_sigma_mps > 0) || !std::isfinite(across_velocity_sigma_mps))
-    return fail("across_velocity_sigma_mps: must be > 0");
-  if (!(accel_sigma_mps2 > 0) || !std::isfinite(accel_sigma_mps2))
-    return fail("accel_sigma_mps2: must be > 0");
-  if (!(max_range_m > 0) || !std::isfinite(max_range_m)) return fail("max_range_m: must be > 0");
-  if (!(reidentify_s >= 0) || !std::isfinite(reidentify_s))
-    return fail("reidentify_s: must be >= 0");
-  if (!(min_radius_m >= 0) || !std::isfinite(min_radius_m))
-    return fail("min_radius_m: must be >= 0");
-  if (!(footprint_margin_m >= 0) || !std::isfinite(footprint_margin_m))
-    return fail("footprint_margin_m: must be >= 0");
-  return true;
+  return CheckOptions(*this, "moving_objects", error);
 }
 
 cv::Mat FloorMatchingPixels(const CameraModel& camera, const cv::Mat& previous,

@@ -9,6 +9,7 @@
 #include "perception/frame_types.h"
 #include "perception/geometry/camera_model.h"
 #include "perception/geometry/occupancy_grid.h"
+#include "perception/geometry/options.h"
 #include "perception/geometry/pose2.h"
 #include "perception/geometry/timestamp.h"
 
@@ -21,42 +22,44 @@ namespace monoplane {
 struct MovingObjectOptions {
   bool enabled = true;
   // A region and a track are the same object when the region stands within this of where the
-  // track predicts it, m (> 0).
+  // track predicts it, m.
   double gate_m = 0.8;
-  // Frames of evidence a track needs before it is reported (>= 1): one region can be a flicker.
+  // Frames of evidence a track needs before it is reported: one region can be a flicker.
   int confirm_updates = 2;
   // A track without a region for longer than this, or than it has been followed, is dropped,
-  // s (> 0); until then it is reported where it is predicted to be (a person briefly lost in
+  // s; until then it is reported where it is predicted to be (a person briefly lost in
   // textureless flow or behind another is still there), flagged as coasting.
   double max_coast_s = 1.0;
   // A track past its coasting is no longer reported, but for this long since its last region a
   // region where it is predicted to be (within the gate, when no followed track takes it) gets
-  // its id again, s (>= 0): a person lost while walking along the view keeps its id.
+  // its id again, s: a person lost while walking along the view keeps its id.
   double reidentify_s = 2.0;
   // Noise of the position measured from a region's lowest row along the view, m:
-  // position_sigma_m plus position_sigma_ratio x range (>= 0, not both 0). The floor's scale per
+  // position_sigma_m plus position_sigma_ratio x range (not both 0). The floor's scale per
   // image row falls with the square of the range.
   double position_sigma_m = 0.05;
   double position_sigma_ratio = 0.05;
-  // Noise of the direction in which a region is seen, rad (>= 0): across the view the position's
+  // Noise of the direction in which a region is seen, rad: across the view the position's
   // noise is position_sigma_m plus this x range, far less than along it at a distance. A region
   // cut by the image's side is centred on what is visible: across the view it adds its diameter.
   double bearing_sigma_rad = 0.02;
-  // Noise of a region's velocity across the view measured from its pixels' flow, m/s (> 0). Along
+  // Noise of a region's velocity across the view measured from its pixels' flow, m/s. Along
   // the view, measured from the few pixels where it meets the floor (feet swing), twice this.
   double across_velocity_sigma_mps = 0.15;
-  // How fast an object's velocity may change, m/s^2 (> 0): people and robots accelerate at 1-3.
+  // How fast an object's velocity may change, m/s^2: people and robots accelerate at 1-3.
   double accel_sigma_mps2 = 2.0;
-  // Regions whose floor position lies farther than this are not placed, m (> 0).
+  // Regions whose floor position lies farther than this are not placed, m.
   double max_range_m = 8.0;
-  // Regions narrower than this radius on the floor are left out, m (>= 0): people, pets and
+  // Regions narrower than this radius on the floor are left out, m: people, pets and
   // robots are wider; slivers of the flow's errors (at the image's border) are not.
   double min_radius_m = 0.05;
   // A tracked object's footprint, this much wider, is unknown in its frame's local map (neither
-  // obstacle nor floor reaches the map from where a moving thing is), m (>= 0): about its
+  // obstacle nor floor reaches the map from where a moving thing is), m: about its
   // position's error.
   double footprint_margin_m = 0.15;
 
+  // Every field's key, range and meaning (the checks, the config file and --dump use it).
+  void Describe(OptionVisitor& v);
   bool IsValid(std::string* error) const;
 };
 
@@ -116,7 +119,8 @@ void ForgetMovingFootprints(const std::vector<MovingObject>& objects,
 // stamp and odometry pose.
 class MovingObjectTracker {
  public:
-  explicit MovingObjectTracker(const MovingObjectOptions& options) : options_(options) {}
+  explicit MovingObjectTracker(const MovingObjectOptions& options)
+      : options_(ValidOrDie(options, "MovingObjectTracker")) {}
 
   // One frame: its regions (base frame), its pose in the odometry frame and its stamp (not older
   // than the last one's). Returns the confirmed tracks in this frame's base frame.

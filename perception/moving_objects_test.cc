@@ -305,7 +305,7 @@ TEST(MovingObjects, OptionsAreChecked) {
   MovingObjectOptions bad;
   bad.gate_m = 0;
   EXPECT_FALSE(bad.IsValid(&error));
-  EXPECT_EQ(error, "moving_objects.gate_m: must be > 0");
+  EXPECT_EQ(error, "moving_objects.gate_m: 0: must be > 0");
   bad = MovingObjectOptions{};
   bad.confirm_updates = 0;
   EXPECT_FALSE(bad.IsValid(&error));
@@ -316,11 +316,11 @@ TEST(MovingObjects, OptionsAreChecked) {
   bad = MovingObjectOptions{};
   bad.bearing_sigma_rad = -0.1;
   EXPECT_FALSE(bad.IsValid(&error));
-  EXPECT_EQ(error, "moving_objects.bearing_sigma_rad: must be >= 0");
+  EXPECT_EQ(error, "moving_objects.bearing_sigma_rad: -0.1: must be >= 0");
   bad = MovingObjectOptions{};
   bad.across_velocity_sigma_mps = 0;
   EXPECT_FALSE(bad.IsValid(&error));
-  EXPECT_EQ(error, "moving_objects.across_velocity_sigma_mps: must be > 0");
+  EXPECT_EQ(error, "moving_objects.across_velocity_sigma_mps: 0: must be > 0");
   bad = MovingObjectOptions{};
   bad.reidentify_s = -1.0;
   EXPECT_FALSE(bad.IsValid(&error));

@@ -56,8 +56,8 @@ const char* ToString(PairStatus status) {
 
 ObstacleDetector::ObstacleDetector(const CameraCalibration& calibration,
                                    const DetectorOptions& options)
-    : camera_(calibration),
-      options_(options),
+    : camera_(ValidOrDie(calibration, "ObstacleDetector")),
+      options_(ValidOrDie(options, "ObstacleDetector")),
       strip_mask_(FloorStripMask(camera_, options.ground_motion)),
       floor_features_(camera_, options.floor_features) {
   const CameraIntrinsics& in = calibration.intrinsics;

@@ -97,20 +97,19 @@ ZeroDisparityField FarnebackField(const cv::Mat& image1, const cv::Mat& image2,
 
 }  // namespace
 
+void ZeroDisparityOptions::Describe(OptionVisitor& v) {
+  using R = OptionRange;
+  v.Integer("finest_level", &finest_level, R::Closed(0, 3), "finest pyramid level searched");
+  v.Integer("num_levels", &num_levels, R::Closed(1, 6), "pyramid levels, coarse to fine");
+  v.Integer("iterations_per_level", &iterations_per_level, R::Closed(1, 10),
+            "Gauss-Newton steps per level");
+  v.Integer("window_px", &window_px, R::AtLeast(3).Odd(), "aggregation window side, px");
+  v.Real("max_step_px", &max_step_px, R::Above(0), "largest step per iteration, px");
+  v.Real("damping", &damping, R::AtLeast(0), "step damping, grey^2/px^2");
+}
+
 bool ZeroDisparityOptions::IsValid(std::string* error) const {
-  auto fail = [&](const std::string& what) {
-    *error = "zero_disparity." + what;
-    return false;
-  };
-  if (finest_level < 0 || finest_level > 3) return fail("finest_level: must be in [0, 3]");
-  if (num_levels < 1 || num_levels > 6) return fail("num_levels: must be in [1, 6]");
-  if (iterations_per_level < 1 || iterations_per_level > 10) {
-    return fail("iterations_per_level: must be in [1, 10]");
-  }
-  if (window_px < 3 || window_px % 2 == 0) return fail("window_px: must be odd and >= 3");
-  if (!(max_step_px > 0)) return fail("max_step_px: must be > 0");
-  if (!(damping >= 0)) return fail("damping: must be >= 0");
-  return true;
+  return CheckOptions(*this, "zero_disparity", error);
 }
 
 Eigen::Vector3d EpipoleInImage2(const CameraModel& camera, const Pose2& base2_from_base1) {

@@ -4,6 +4,7 @@
 #include <string>
 
 #include "perception/geometry/camera_model.h"
+#include "perception/geometry/options.h"
 
 namespace monoplane {
 
@@ -14,20 +15,22 @@ struct ZeroDisparityOptions {
   // compares with, OpenCV's dense Farneback optical flow projected onto the epipolar direction.
   enum class Method { kEpipolar, kFarneback };
   Method method = Method::kEpipolar;
-  // Finest pyramid level the search runs at (0 = input resolution, 1 = half, ...), in [0, 3].
+  // Finest pyramid level the search runs at (0 = input resolution, 1 = half, ...).
   int finest_level = 1;
-  // Number of pyramid levels searched coarse to fine, from the finest upward, in [1, 6].
+  // Number of pyramid levels searched coarse to fine, from the finest upward.
   int num_levels = 4;
-  // Gauss-Newton iterations per level along the epipolar line, in [1, 10].
+  // Gauss-Newton iterations per level along the epipolar line.
   int iterations_per_level = 3;
-  // Side of the square aggregation window at each level, pixels (odd, >= 3).
+  // Side of the square aggregation window at each level, pixels.
   int window_px = 7;
-  // Largest step per iteration, pixels at that level (> 0): keeps the search from jumping.
+  // Largest step per iteration, pixels at that level: keeps the search from jumping.
   double max_step_px = 1.0;
   // Damping of each step (grey levels^2 per pixel^2, >= 0): where texture is weak the estimate
   // stays where it is instead of drifting.
   double damping = 4.0;
 
+  // Every field's key, range and meaning (the checks, the config file and --dump use it).
+  void Describe(OptionVisitor& v);
   bool IsValid(std::string* error) const;
 };
 

@@ -59,23 +59,18 @@ const char* RunStatusName(RunStatus status) {
   return "unknown";
 }
 
+void MapDatabase::Options::Describe(OptionVisitor& v) {
+  using R = OptionRange;
+  v.Flag("synchronous_full", &synchronous_full, "fsync every commit (survives power loss; slower)");
+  v.Integer("busy_timeout_ms", &busy_timeout_ms, R::AtLeast(0),
+            "wait for another writer's lock, ms");
+  v.Integer("compression_level", &compression_level, R::Closed(0, 9), "zlib level of stored tiles");
+  v.Integer("max_page_count", &max_page_count, R::AtLeast(0).Note("0 = none"),
+            "cap on the map file size in pages");
+}
+
 bool MapDatabase::Options::IsValid(std::string* error) const {
-  if (busy_timeout_ms < 0) {
-    *error = "MapDatabase::Options::busy_timeout_ms = " + std::to_string(busy_timeout_ms) +
-             ". Violated constraint: >= 0";
-    return false;
-  }
-  if (max_page_count < 0) {
-    *error = "MapDatabase::Options::max_page_count = " + std::to_string(max_page_count) +
-             ". Violated constraint: >= 0";
-    return false;
-  }
-  if (compression_level < 0 || compression_level > 9) {
-    *error = "MapDatabase::Options::compression_level = " + std::to_string(compression_level) +
-             ". Violated constraint: 0..9";
-    return false;
-  }
-  return true;
+  return CheckOptions(*this, "storage", error);
 }
 
 namespace {

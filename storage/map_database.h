@@ -12,6 +12,7 @@
 #include "perception/geometry/camera_calibration.h"
 #include "perception/geometry/frame_values.h"
 #include "perception/geometry/occupancy_grid.h"
+#include "perception/geometry/options.h"
 #include "perception/geometry/pose2.h"
 #include "perception/geometry/tiled_grid.h"
 #include "perception/geometry/timestamp.h"
@@ -132,12 +133,14 @@ struct MapInfo {
 class MapDatabase {
  public:
   struct Options {
-    int busy_timeout_ms = 5000;       // wait for another writer's lock, ms, >= 0
+    int busy_timeout_ms = 5000;       // wait for another writer's lock, ms
     bool synchronous_full = false;    // fsync every commit (survives power loss); false: survives
                                       // process crashes, and is much faster
     std::int64_t max_page_count = 0;  // cap on the file size in pages (tests, quotas); 0 = none
-    int compression_level = 1;        // zlib level of the tile blobs and local-map PNGs, 0..9
+    int compression_level = 1;        // zlib level of the tile blobs and local-map PNGs
 
+    // Every field's key, range and meaning (the checks, the config file and --dump use it).
+    void Describe(OptionVisitor& v);
     bool IsValid(std::string* error) const;
   };
 

@@ -887,7 +887,7 @@ TEST(MapDatabase, OptionsAreValidated) {
   EXPECT_TRUE(options.IsValid(&error));
   options.compression_level = 12;
   EXPECT_FALSE(options.IsValid(&error));
-  EXPECT_EQ(error, "MapDatabase::Options::compression_level = 12. Violated constraint: 0..9");
+  EXPECT_EQ(error, "storage.compression_level: 12: must be in [0, 9]");
   std::unique_ptr<MapDatabase> db;
   EXPECT_EQ(MapDatabase::Open(":memory:", OpenMode::kCreate, &db, options).kind(),
             StorageErrorKind::kInvalidArgument);
