@@ -99,8 +99,8 @@ std::optional<CameraIntrinsics> ReadCameraInfo(const std::string& folder, const 
   const bool no_distortion =
       std::all_of(info.d.begin(), info.d.end(), [](double d) { return d == 0.0; });
   if (!no_distortion && info.distortion_model != "plumb_bob") {
-    *origin = folder + ": " + topic + ": distortion model \"" + info.distortion_model +
-              "\" (only plumb_bob is read)";
+    *origin = folder + ": " + topic + ": distortion model " +
+              QuotedForMessage(info.distortion_model) + " (only plumb_bob is read)";
     return std::nullopt;
   }
   if (info.d.size() > 5 &&
@@ -142,8 +142,8 @@ class Rosbag2Source : public InputSource {
       return false;
     }
     if (pending_ && !unknown_encoding_.empty()) {
-      *error = folder_ + ": " + topic_name() + ": encoding \"" + unknown_encoding_ +
-               "\" is not read (mono8, bgr8, rgb8, bgra8, rgba8, mono16, yuv422, yuv422_yuy2)";
+      *error = folder_ + ": " + topic_name() + ": encoding " + QuotedForMessage(unknown_encoding_) +
+               " is not read (mono8, bgr8, rgb8, bgra8, rgba8, mono16, yuv422, yuv422_yuy2)";
       return false;
     }
     return true;
@@ -251,7 +251,7 @@ bool IsReadableEncoding(const std::string& encoding) {
 bool ImageFromMessage(const interfaces::ImageMessage& m, cv::Mat* image, std::string* error) {
   const Encoding* e = FindEncoding(Lower(m.encoding));
   if (e == nullptr) {
-    *error = "encoding \"" + m.encoding + "\" is not read";
+    *error = "encoding " + QuotedForMessage(m.encoding) + " is not read";
     return false;
   }
   const std::uint64_t row_bytes = std::uint64_t{m.width} * e->bytes_per_px;
@@ -302,7 +302,7 @@ bool ImageFromCompressedMessage(const interfaces::CompressedImageMessage& m, cv:
   if ((format.find("jpeg") == std::string::npos && format.find("jpg") == std::string::npos &&
        format.find("png") == std::string::npos) ||
       format.find("compresseddepth") != std::string::npos) {
-    *error = "compressed format \"" + m.format + "\" is not read (jpeg or png)";
+    *error = "compressed format " + QuotedForMessage(m.format) + " is not read (jpeg or png)";
     return false;
   }
   try {

@@ -75,7 +75,7 @@ bool DecompressChunk(const std::string& compression, const std::uint8_t* data, s
     return false;
   }
   if (!compression.empty() && compression != "zstd" && compression != "lz4") {
-    *error = "unknown chunk compression \"" + compression + "\"";
+    *error = "unknown chunk compression " + QuotedForMessage(compression);
     return false;
   }
   // A stated size the compressed bytes cannot hold is refused before memory is taken for it:
@@ -84,8 +84,9 @@ bool DecompressChunk(const std::string& compression, const std::uint8_t* data, s
                              : compression == "zstd" ? std::uint64_t{size} * 65536
                                                      : std::uint64_t{size} * 256 + 65536;
   if (uncompressed_size > most || (compression.empty() && uncompressed_size != size)) {
-    *error = std::to_string(size) + " bytes of chunk (compression \"" + compression +
-             "\") cannot hold the " + std::to_string(uncompressed_size) + " bytes it states";
+    *error = std::to_string(size) + " bytes of chunk (compression " +
+             QuotedForMessage(compression) + ") cannot hold the " +
+             std::to_string(uncompressed_size) + " bytes it states";
     return false;
   }
   if (compression == "zstd") {
@@ -537,6 +538,23 @@ bool Rosbag2Reader::Next(BagMessage* message, std::string* error) {
     return true;
   }
   return false;
+}
+
+std::string QuotedForMessage(const std::string& text) {
+  constexpr std::size_t kMaxShown = 64;
+  std::string out = "\"";
+  for (std::size_t i = 0; i < text.size() && i < kMaxShown; ++i) {
+    const unsigned char c = static_cast<unsigned char>(text[i]);
+    if (c >= 0x20 && c < 0x7f && c != '"' && c != '\\') {
+      out += static_cast<char>(c);
+    } else {
+      char hex[5];
+      std::snprintf(hex, sizeof(hex), "\\x%02x", c);
+      out += hex;
+    }
+  }
+  if (text.size() > kMaxShown) out += "...";
+  return out + "\"";
 }
 
 }  // namespace monoplane::app

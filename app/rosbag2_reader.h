@@ -59,4 +59,8 @@ class Rosbag2Reader {
   std::unique_ptr<Impl> impl_;
 };
 
+// A string read from a recording, quoted for a one-line message: bytes outside printable ASCII as
+// \xNN, cut after 64 characters ("...").
+std::string QuotedForMessage(const std::string& text);
+
 }  // namespace monoplane::app

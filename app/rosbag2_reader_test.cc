@@ -159,6 +159,14 @@ std::string OpenError(const fs::path& bag) {
   return error;
 }
 
+// Strings from a recording go into messages quoted on one line (a fuzzed bag's chunk compression
+// held a newline and the rest of the file).
+TEST(Rosbag2Reader, StringsFromTheFileAreQuotedOnOneLine) {
+  EXPECT_EQ(QuotedForMessage("zstd"), "\"zstd\"");
+  EXPECT_EQ(QuotedForMessage(std::string("a\nb\0\"\\", 6)), "\"a\\x0ab\\x00\\x22\\x5c\"");
+  EXPECT_EQ(QuotedForMessage(std::string(100, 'x')), "\"" + std::string(64, 'x') + "...\"");
+}
+
 TEST(Rosbag2Reader, TruncatedMcapIsAnErrorNamingTheFile) {
   const fs::path bag = CopyBag("talker_mcap", "truncated_mcap");
   for (const double keep : {0.5, 0.9, 0.999}) {

@@ -62,14 +62,6 @@ std::string UserDataValue(const dds_builtintopic_endpoint_t* endpoint, std::stri
   return value;
 }
 
-bool ValidDomain(int domain_id, const char* owner, std::string* error) {
-  if (domain_id >= 0 && domain_id <= 232) return true;
-  if (error)
-    *error = std::string(owner) + "::Options::domain_id = " + std::to_string(domain_id) +
-             ". Violated constraint: in [0, 232]";
-  return false;
-}
-
 std::int64_t RemainingNs(Clock::time_point deadline) {
   const auto remaining = deadline - Clock::now();
   return std::max<std::int64_t>(
@@ -265,16 +257,15 @@ std::string MapQueryReplyTopic(const std::string& prefix) {
   return "rr" + MapQueryServiceName(prefix) + "Reply";
 }
 
+void MapQueryServer::Options::Describe(OptionVisitor& v) {
+  v.Integer("domain_id", &domain_id, OptionRange::Closed(0, 232), "DDS domain id");
+  v.Text("topic_prefix", &topic_prefix, "as the publisher's topic_prefix");
+  v.Real("max_blocking_time_s", &max_blocking_time_s, OptionRange::Closed(0, 1),
+         "longest a reply write may wait, s");
+}
+
 bool MapQueryServer::Options::IsValid(std::string* error) const {
-  if (!ValidDomain(domain_id, "MapQueryServer", error)) return false;
-  if (!(max_blocking_time_s >= 0.0 && max_blocking_time_s <= 1.0)) {
-    if (error)
-      *error =
-          "MapQueryServer::Options::max_blocking_time_s = " + std::to_string(max_blocking_time_s) +
-          ". Violated constraint: in [0, 1]";
-    return false;
-  }
-  return true;
+  return CheckOptions(*this, "query_server", error);
 }
 
 struct MapQueryServer::Impl {
@@ -401,8 +392,13 @@ std::vector<EndpointInfo> MapQueryServer::Endpoints() const {
   return {ReadEndpointInfo(impl_->reader), ReadEndpointInfo(impl_->writer)};
 }
 
+void MapQueryClient::Options::Describe(OptionVisitor& v) {
+  v.Integer("domain_id", &domain_id, OptionRange::Closed(0, 232), "DDS domain id");
+  v.Text("topic_prefix", &topic_prefix, "as the publisher's topic_prefix");
+}
+
 bool MapQueryClient::Options::IsValid(std::string* error) const {
-  return ValidDomain(domain_id, "MapQueryClient", error);
+  return CheckOptions(*this, "query_client", error);
 }
 
 struct MapQueryClient::Impl {

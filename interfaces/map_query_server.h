@@ -11,6 +11,7 @@
 #include "interfaces/dds_entities.h"
 #include "interfaces/ros_node.h"
 #include "perception/geometry/occupancy_grid.h"
+#include "perception/geometry/options.h"
 #include "perception/geometry/timestamp.h"
 
 namespace monoplane::interfaces {
@@ -93,6 +94,8 @@ class MapQueryServer {
     // The ROS 2 node whose participant carries the endpoints (on domain_id); nullptr: a node of
     // its own named "monoplane" (ros_node.h).
     std::shared_ptr<RosNode> node;
+    // Every field's key, range and meaning (CheckOptions uses it).
+    void Describe(OptionVisitor& v);
     bool IsValid(std::string* error) const;
   };
 
@@ -125,6 +128,8 @@ class MapQueryClient {
     std::string topic_prefix;
     // As MapQueryServer::Options::node; nullptr: a node named "monoplane_query_client".
     std::shared_ptr<RosNode> node;
+    // Every field's key, range and meaning (CheckOptions uses it).
+    void Describe(OptionVisitor& v);
     bool IsValid(std::string* error) const;
   };
   static std::unique_ptr<MapQueryClient> Create(const Options& options, std::string* error);

@@ -190,20 +190,15 @@ std::string Summarize(const ReceivedMessage& m) {
   return s;
 }
 
+void MapSubscriber::Options::Describe(OptionVisitor& v) {
+  v.Integer("domain_id", &domain_id, OptionRange::Closed(0, 232), "DDS domain id");
+  v.Text("topic_prefix", &topic_prefix, "as the publisher's topic_prefix");
+  v.Integer("history_depth", &history_depth, OptionRange::Closed(1, 10000),
+            "samples queued before the oldest is dropped");
+}
+
 bool MapSubscriber::Options::IsValid(std::string* error) const {
-  if (domain_id < 0 || domain_id > 232) {
-    if (error)
-      *error = "MapSubscriber::Options::domain_id = " + std::to_string(domain_id) +
-               ". Violated constraint: in [0, 232]";
-    return false;
-  }
-  if (history_depth < 1 || history_depth > 10000) {
-    if (error)
-      *error = "MapSubscriber::Options::history_depth = " + std::to_string(history_depth) +
-               ". Violated constraint: in [1, 10000]";
-    return false;
-  }
-  return true;
+  return CheckOptions(*this, "subscriber", error);
 }
 
 struct MapSubscriber::Impl {

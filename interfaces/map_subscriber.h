@@ -11,6 +11,7 @@
 #include "interfaces/map_publisher.h"
 #include "interfaces/ros_node.h"
 #include "perception/geometry/occupancy_grid.h"
+#include "perception/geometry/options.h"
 #include "perception/geometry/pose2.h"
 #include "perception/geometry/timestamp.h"
 
@@ -76,6 +77,8 @@ class MapSubscriber {
     // The ROS 2 node whose participant carries the reader (on domain_id); nullptr: a node of its
     // own named "monoplane_subscriber" (ros_node.h).
     std::shared_ptr<RosNode> node;
+    // Every field's key, range and meaning (CheckOptions uses it).
+    void Describe(OptionVisitor& v);
     bool IsValid(std::string* error) const;
   };
 

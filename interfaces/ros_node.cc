@@ -52,28 +52,20 @@ rmw_dds_common_msg_dds__Gid_ ToIdl(const RosGid& gid) {
 
 }  // namespace
 
+void RosNode::Options::Describe(OptionVisitor& v) {
+  v.Integer("domain_id", &domain_id, OptionRange::Closed(0, 232), "DDS domain id");
+  v.Text("name", &name, "ROS 2 node name");
+  v.Rule(ValidToken(name) && name.size() <= kMaxNameLength, "name",
+         "must be letters, digits and '_', not starting with a digit, at most 256 characters");
+  v.Text("node_namespace", &node_namespace, "absolute: \"/\" or \"/a/b\"");
+  v.Rule(ValidAbsolutePath(node_namespace) && node_namespace.size() <= kMaxNameLength,
+         "node_namespace", "must be \"/\" or \"/a/b\" of name tokens, at most 256 characters");
+  v.Text("enclave", &enclave, "the participant's USER_DATA \"enclave=<enclave>;\"");
+  v.Rule(ValidAbsolutePath(enclave), "enclave", "must be \"/\" or \"/a/b\"");
+}
+
 bool RosNode::Options::IsValid(std::string* error) const {
-  auto fail = [&](const std::string& message) {
-    if (error) *error = "RosNode::Options::" + message;
-    return false;
-  };
-  if (domain_id < 0 || domain_id > 232) {
-    return fail("domain_id = " + std::to_string(domain_id) + ". Violated constraint: in [0, 232]");
-  }
-  if (!ValidToken(name) || name.size() > kMaxNameLength) {
-    return fail("name = \"" + name +
-                "\". Violated constraint: letters, digits and '_', not starting with a digit, "
-                "at most 256 characters");
-  }
-  if (!ValidAbsolutePath(node_namespace) || node_namespace.size() > kMaxNameLength) {
-    return fail("node_namespace = \"" + node_namespace +
-                "\". Violated constraint: \"/\" or \"/a/b\" of name tokens, at most 256 "
-                "characters");
-  }
-  if (!ValidAbsolutePath(enclave)) {
-    return fail("enclave = \"" + enclave + "\". Violated constraint: \"/\" or \"/a/b\"");
-  }
-  return true;
+  return CheckOptions(*this, "ros_node", error);
 }
 
 struct RosNode::Impl {

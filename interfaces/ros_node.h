@@ -22,6 +22,7 @@
 #include <vector>
 
 #include "interfaces/dds_entities.h"
+#include "perception/geometry/options.h"
 
 namespace monoplane::interfaces {
 
@@ -49,6 +50,8 @@ class RosNode {
     std::string name = "monoplane";    // ROS 2 node name: letters, digits, '_'; no leading digit
     std::string node_namespace = "/";  // absolute: "/" or "/a/b"
     std::string enclave = "/";         // the participant's USER_DATA "enclave=<enclave>;"
+    // Every field's key, range and meaning (CheckOptions uses it).
+    void Describe(OptionVisitor& v);
     bool IsValid(std::string* error) const;
   };
 

@@ -203,16 +203,17 @@ StorageStatus MapDatabase::LoadTiledGrid(TiledGrid* grid) {
   if (!st.ok()) return st;
   st = impl_->ForEachRow(s, kContext, [&](sqlite3_stmt*) { return impl_->DecodeTileRow(s, grid); });
   if (!st.ok()) return st;
-  // Exports and the published map are one raster over the tiles' bounding box: a box no real run
-  // makes (2^31 cells, e.g. 2.3 km x 2.3 km at 5 cm) comes from a damaged file.
+  // Exports and the published map are one raster over the tiles' bounding box, a byte per cell: a
+  // box of more than 2^30 cells (1.6 km x 1.6 km at 5 cm) cannot be, and comes from a damaged file
+  // or a run that needed coarser cells.
   if (const auto bounds = grid->TileBounds()) {
     const double cells = (static_cast<double>(bounds->second.x()) - bounds->first.x() + 1) *
                          (static_cast<double>(bounds->second.y()) - bounds->first.y() + 1);
-    if (cells > 2147483648.0) {
+    if (cells > 1073741824.0) {
       grid->mutable_tiles().clear();
       return impl_->Error(StorageErrorKind::kCorrupt,
                           "the grid's tiles span " + std::to_string(cells) +
-                              " cells, more than a map can hold (2^31)");
+                              " cells, more than a map can hold (2^30)");
     }
   }
   return {};

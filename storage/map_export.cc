@@ -120,18 +120,15 @@ bool WriteBytesFile(const std::string& bytes, const std::string& path, std::stri
   return WriteText(bytes, path, error);
 }
 
+void MapPictureOptions::Describe(OptionVisitor& v) {
+  v.Integer("pixels_per_cell", &pixels_per_cell, OptionRange::Closed(1, 16),
+            "picture pixels per map cell (reduced to fit max_side_px)");
+  v.Integer("max_side_px", &max_side_px, OptionRange::AtLeast(64),
+            "longest side of the picture, px");
+}
+
 bool MapPictureOptions::IsValid(std::string* error) const {
-  if (pixels_per_cell < 1 || pixels_per_cell > 16) {
-    *error = "MapPictureOptions::pixels_per_cell = " + std::to_string(pixels_per_cell) +
-             ". Violated constraint: 1..16";
-    return false;
-  }
-  if (max_side_px < 64) {
-    *error = "MapPictureOptions::max_side_px = " + std::to_string(max_side_px) +
-             ". Violated constraint: >= 64";
-    return false;
-  }
-  return true;
+  return CheckOptions(*this, "map_picture", error);
 }
 
 cv::Mat RenderMapPicture(const OccupancyGrid& grid, const std::vector<TrajectoryPoint>& trajectory,

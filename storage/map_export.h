@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "perception/geometry/occupancy_grid.h"
+#include "perception/geometry/options.h"
 #include "storage/map_database.h"
 
 namespace monoplane {
@@ -44,6 +45,8 @@ bool WriteBytesFile(const std::string& bytes, const std::string& path, std::stri
 struct MapPictureOptions {
   int pixels_per_cell = 2;  // 1..16; reduced when the picture would exceed max_side_px
   int max_side_px = 4096;   // >= 64
+  // Every field's key, range and meaning (CheckOptions uses it).
+  void Describe(OptionVisitor& v);
   bool IsValid(std::string* error) const;
 };
 // A picture for people: free white, occupied black, unknown grey, the trajectory of each run in

@@ -246,18 +246,23 @@ std::optional<ChessboardDetection> DetectChessboard(const cv::Mat& image,
   return detection;
 }
 
+void IntrinsicsCalibrationOptions::Describe(OptionVisitor& v) {
+  using R = OptionRange;
+  v.Integer("min_views", &min_views, R::AtLeast(3),
+            "views left after rejection; fewer is an error");
+  v.Real("max_view_rms_px", &max_view_rms_px, R::Above(0),
+         "a view is rejected when its RMS exceeds this, px...");
+  v.Real("reject_factor", &reject_factor, R::Above(1),
+         "...and this times the median RMS of the kept views");
+  v.Flag("fix_k3", &fix_k3, "hold k3 = 0");
+  v.Integer("coverage_grid_cols", &coverage_grid_cols, R::AtLeast(1),
+            "coverage cells across the image");
+  v.Integer("coverage_grid_rows", &coverage_grid_rows, R::AtLeast(1),
+            "coverage cells down the image");
+}
+
 bool IntrinsicsCalibrationOptions::IsValid(std::string* error) const {
-  auto fail = [&](const std::string& message) {
-    *error = "IntrinsicsCalibrationOptions::" + message;
-    return false;
-  };
-  if (min_views < 3) return fail("min_views = " + Num(min_views) + ": must be >= 3");
-  if (!(max_view_rms_px > 0))
-    return fail("max_view_rms_px = " + Num(max_view_rms_px) + ": must be > 0");
-  if (!(reject_factor > 1)) return fail("reject_factor = " + Num(reject_factor) + ": must be > 1");
-  if (coverage_grid_cols < 1 || coverage_grid_rows < 1)
-    return fail("coverage grid: must be >= 1x1");
-  return true;
+  return CheckOptions(*this, "intrinsics_calibration", error);
 }
 
 IntrinsicsCalibrationResult CalibrateIntrinsics(
@@ -376,20 +381,18 @@ IntrinsicsCalibrationResult CalibrateIntrinsics(
   return result;
 }
 
+void MountCalibrationOptions::Describe(OptionVisitor& v) {
+  using R = OptionRange;
+  v.Real("max_view_rms_px", &max_view_rms_px, R::Above(0),
+         "a view fitting the intrinsics worse is an error, px");
+  v.Real("max_height_spread_m", &max_height_spread_m, R::Above(0),
+         "views' camera heights must agree within this, m");
+  v.Real("max_normal_spread_deg", &max_normal_spread_deg, R::Above(0),
+         "views' floor normals must agree within this, deg");
+}
+
 bool MountCalibrationOptions::IsValid(std::string* error) const {
-  auto fail = [&](const std::string& message) {
-    *error = "MountCalibrationOptions::" + message;
-    return false;
-  };
-  if (!(max_view_rms_px > 0))
-    return fail("max_view_rms_px = " + Num(max_view_rms_px) + ": must be > 0");
-  if (!(max_height_spread_m > 0)) {
-    return fail("max_height_spread_m = " + Num(max_height_spread_m) + ": must be > 0");
-  }
-  if (!(max_normal_spread_deg > 0)) {
-    return fail("max_normal_spread_deg = " + Num(max_normal_spread_deg) + ": must be > 0");
-  }
-  return true;
+  return CheckOptions(*this, "mount_calibration", error);
 }
 
 MountCalibrationResult CalibrateMount(

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "perception/geometry/camera_calibration.h"
+#include "perception/geometry/options.h"
 #include "perception/geometry/pose2.h"
 
 namespace monoplane {
@@ -65,6 +66,8 @@ struct IntrinsicsCalibrationOptions {
   int coverage_grid_cols = 8;  // coverage cells across the image, >= 1
   int coverage_grid_rows = 6;  // coverage cells down the image, >= 1
 
+  // Every field's key, range and meaning (CheckOptions uses it).
+  void Describe(OptionVisitor& v);
   bool IsValid(std::string* error) const;
 };
 
@@ -103,6 +106,8 @@ struct MountCalibrationOptions {
   double max_height_spread_m = 0.02;
   double max_normal_spread_deg = 1.0;
 
+  // Every field's key, range and meaning (CheckOptions uses it).
+  void Describe(OptionVisitor& v);
   bool IsValid(std::string* error) const;
 };
 

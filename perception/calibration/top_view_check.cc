@@ -9,27 +9,21 @@
 #include "perception/geometry/camera_model.h"
 
 namespace monoplane {
-namespace {
 
-std::string Num(double value) {
-  std::ostringstream out;
-  out << value;
-  return out.str();
+void TopViewOptions::Describe(OptionVisitor& v) {
+  using R = OptionRange;
+  v.Real("resolution_m", &resolution_m, R::Above(0),
+         "floor metres per output pixel (raised to fit max_side_px)");
+  v.Real("max_range_m", &max_range_m, R::Above(0),
+         "floor farther than this from the camera is left out, m");
+  v.Integer("max_side_px", &max_side_px, R::AtLeast(64), "longest side of the output, px");
+  v.Real("grid_m", &grid_m, R::Above(0), "spacing of the grid lines, m");
+  v.Integer("major_every", &major_every, R::AtLeast(1),
+            "every n-th line is drawn bold and labelled");
 }
 
-}  // namespace
-
 bool TopViewOptions::IsValid(std::string* error) const {
-  auto fail = [&](const std::string& message) {
-    *error = "TopViewOptions::" + message;
-    return false;
-  };
-  if (!(resolution_m > 0)) return fail("resolution_m = " + Num(resolution_m) + ": must be > 0");
-  if (!(max_range_m > 0)) return fail("max_range_m = " + Num(max_range_m) + ": must be > 0");
-  if (max_side_px < 64) return fail("max_side_px = " + Num(max_side_px) + ": must be >= 64");
-  if (!(grid_m > 0)) return fail("grid_m = " + Num(grid_m) + ": must be > 0");
-  if (major_every < 1) return fail("major_every = " + Num(major_every) + ": must be >= 1");
-  return true;
+  return CheckOptions(*this, "top_view", error);
 }
 
 TopViewArea ChooseTopViewArea(const CameraCalibration& calibration, const TopViewOptions& options) {

@@ -9,6 +9,7 @@
 #include <string>
 
 #include "perception/geometry/camera_calibration.h"
+#include "perception/geometry/options.h"
 
 namespace monoplane {
 
@@ -19,6 +20,8 @@ struct TopViewOptions {
   double grid_m = 0.1;          // spacing of the grid lines, metres, > 0
   int major_every = 5;          // every n-th line is drawn bold and labelled, >= 1
 
+  // Every field's key, range and meaning (CheckOptions uses it).
+  void Describe(OptionVisitor& v);
   bool IsValid(std::string* error) const;
 };
 

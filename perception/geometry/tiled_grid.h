@@ -126,14 +126,13 @@ inline OccupancyGrid ToOccupancyGrid(const TiledGrid& grid,
   g.width = hi.x() - lo.x() + 1;
   g.height = hi.y() - lo.y() + 1;
   OccupancyGrid out(g, kCellUnknown);
-  for (int row = 0; row < g.height; ++row) {
-    for (int col = 0; col < g.width; ++col) {
-      const Eigen::Vector2i cell(lo.x() + col, lo.y() + row);
-      const TiledGrid::Tile* tile = grid.FindTile(cell);
-      if (!tile) continue;
-      const int k = TiledGrid::IndexInTile(cell);
-      if (tile->last_seen_ns[k] == 0 && tile->log_odds[k] == 0.0f) continue;
-      const double p = TiledGrid::Probability(tile->log_odds[k]);
+  // Tile by tile: the box may be mostly empty (tiles far apart), so its cells are not visited.
+  for (const auto& [key, tile] : grid.tiles()) {
+    for (int k = 0; k < TiledGrid::kTileSize * TiledGrid::kTileSize; ++k) {
+      if (tile.last_seen_ns[k] == 0 && tile.log_odds[k] == 0.0f) continue;
+      const int col = key.first * TiledGrid::kTileSize + k % TiledGrid::kTileSize - lo.x();
+      const int row = key.second * TiledGrid::kTileSize + k / TiledGrid::kTileSize - lo.y();
+      const double p = TiledGrid::Probability(tile.log_odds[k]);
       if (p >= thresholds.occupied) {
         out.At(col, row) = kCellOccupied;
       } else if (p <= thresholds.free) {

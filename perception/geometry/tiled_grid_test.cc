@@ -42,5 +42,24 @@ TEST(TiledGrid, ToOccupancyGridKeepsUnknownDistinct) {
   EXPECT_EQ(unknown, 5 * 4 - 2);
 }
 
+// Tiles far apart (a map's rooms 300 m apart, or a damaged file's): each observed cell lands
+// where it is, in negative tiles too, and the box between them is unknown.
+TEST(TiledGrid, ToOccupancyGridOfTilesFarApart) {
+  TiledGrid grid(0.05);
+  const Eigen::Vector2i a(-700, -3), b(5300, 900);
+  grid.TileAt(a).log_odds[TiledGrid::IndexInTile(a)] = 2.0f;
+  grid.TileAt(a).last_seen_ns[TiledGrid::IndexInTile(a)] = 1;
+  grid.TileAt(b).log_odds[TiledGrid::IndexInTile(b)] = -2.0f;
+  grid.TileAt(b).last_seen_ns[TiledGrid::IndexInTile(b)] = 1;
+  const OccupancyGrid out = ToOccupancyGrid(grid);
+  EXPECT_EQ(out.geometry.width, 6001);
+  EXPECT_EQ(out.geometry.height, 904);
+  EXPECT_EQ(out.At(0, 0), kCellOccupied);
+  EXPECT_EQ(out.At(6000, 903), kCellFree);
+  int unknown = 0;
+  for (auto v : out.cells) unknown += v == kCellUnknown;
+  EXPECT_EQ(unknown, 6001 * 904 - 2);
+}
+
 }  // namespace
 }  // namespace monoplane
