@@ -100,7 +100,7 @@ int InfoCommand(const InfoArgs& args) {
         << ", \"local_maps\": " << info.local_maps
         << ", \"floor_feature_sets\": " << info.floor_feature_sets
         << ", \"floor_features\": " << info.floor_features << ", \"tiles\": " << info.tiles
-        << ", \"landmarks\": " << info.landmarks << ", \"moving_objects\": " << info.moving_objects
+        << ", \"moving_objects\": " << info.moving_objects
         << ", \"moving_object_observations\": " << info.moving_object_observations
         << ", \"octomap_bytes\": " << info.octomap_bytes
         << ", \"resolution_m\": " << (info.tiles ? Num(info.resolution_m) : "null")
@@ -144,7 +144,6 @@ int InfoCommand(const InfoArgs& args) {
     }
     out << "moving objects: " << info.moving_objects << " (seen in "
         << info.moving_object_observations << " frame observations)\n"
-        << "landmarks: " << info.landmarks << "\n"
         << "octomap: "
         << (info.octomap_bytes ? std::to_string(info.octomap_bytes) + " bytes" : "none") << "\n";
   }

@@ -85,7 +85,7 @@ struct Migration {
 };
 
 // The schema, one migration per version. Append; never edit a released migration.
-constexpr std::array<Migration, 3> kMigrations = {{
+constexpr std::array<Migration, 4> kMigrations = {{
     {1, "initial schema", R"sql(
 CREATE TABLE runs (
   id INTEGER PRIMARY KEY,
@@ -173,6 +173,9 @@ CREATE TABLE moving_objects (
   PRIMARY KEY (run_id, frame_index, object_id),
   FOREIGN KEY (run_id, frame_index) REFERENCES frames(run_id, frame_index)
 );
+)sql"},
+    {4, "landmarks table dropped (nothing wrote it)", R"sql(
+DROP TABLE landmarks;
 )sql"},
 }};
 

@@ -83,14 +83,6 @@ struct MovingObjectObservation {
   bool coasting = false;  // predicted: no image region for it in that frame
 };
 
-// A 3-D landmark in the map frame as mapping defines it (kind is mapping's code).
-struct Landmark {
-  std::int64_t id = 0;      // chosen by the caller, unique in the map
-  std::int64_t run_id = 0;  // the run that last wrote it
-  Eigen::Vector3d position_m = Eigen::Vector3d::Zero();
-  int kind = 0;
-};
-
 // The OctoMap as stored: the bytes OcTree::writeBinary produced (a .bt file's content).
 struct StoredOctomap {
   std::int64_t run_id = 0;
@@ -108,7 +100,6 @@ struct MapInfo {
   std::int64_t floor_feature_sets = 0;  // keyframes with stored floor features
   std::int64_t floor_features = 0;      // floor features stored, over all keyframes
   std::int64_t tiles = 0;
-  std::int64_t landmarks = 0;
   std::int64_t moving_object_observations = 0;  // (frame, object) pairs stored
   std::int64_t moving_objects = 0;              // distinct objects (per run) among them
   std::int64_t octomap_bytes = 0;               // 0 when no OctoMap is stored
@@ -120,7 +111,7 @@ struct MapInfo {
 };
 
 // The persistent map: one SQLite file (WAL mode, versioned schema) holding runs, frames, keyframe
-// local maps and floor features, landmarks, the global grid in tiles, the OctoMap and statistics.
+// local maps and floor features, the global grid in tiles, the OctoMap and statistics.
 //
 // Schema versions: 1 the initial schema; 2 adds keyframes' floor features; 3 adds the moving
 // objects tracked in frames. Opening an older map for writing migrates it (one transaction per
@@ -144,7 +135,7 @@ class MapDatabase {
     bool IsValid(std::string* error) const;
   };
 
-  static constexpr int kSchemaVersion = 3;
+  static constexpr int kSchemaVersion = 4;
 
   // Opens a map. On failure *db is reset and the status names the file and the cause (not a
   // database, not a monoplane map, corrupt or truncated, read-only, busy, disk full, newer schema).
@@ -192,8 +183,6 @@ class MapDatabase {
                                const std::vector<TiledGrid::TileKey>& changed);
   // Replaces the stored OctoMap with `bytes` (the content of a .bt file).
   StorageStatus WriteOctomap(std::int64_t run_id, double resolution_m, const std::string& bytes);
-  // Inserts or replaces landmarks by id.
-  StorageStatus WriteLandmarks(std::int64_t run_id, const std::vector<Landmark>& landmarks);
   // Inserts or replaces statistics (key -> value) of a run.
   StorageStatus WriteStatistics(std::int64_t run_id, const std::map<std::string, double>& stats);
   // Marks a run finished (or failed) at ended_ns.
@@ -224,7 +213,6 @@ class MapDatabase {
   std::optional<double> grid_resolution_m() const;
   // The stored OctoMap (kNotFound when none).
   StorageStatus ReadOctomap(StoredOctomap* octomap);
-  StorageStatus ReadLandmarks(std::vector<Landmark>* landmarks);
   // The moving objects of one run's frames (all runs when run_id is unset), in the map frame at
   // each frame's pose from `source`, ordered by run, frame and object id. A map of schema 1 or 2
   // has none.

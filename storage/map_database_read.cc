@@ -1,5 +1,5 @@
 // MapDatabase's reads: runs, trajectories, local maps, floor features, the grid (whole or the
-// tiles in a box), the OctoMap, landmarks, statistics, the map's summary and its integrity check.
+// tiles in a box), the OctoMap, statistics, the map's summary and its integrity check.
 
 #include <sqlite3.h>
 
@@ -291,25 +291,6 @@ StorageStatus MapDatabase::ReadOctomap(StoredOctomap* octomap) {
   return {};
 }
 
-StorageStatus MapDatabase::ReadLandmarks(std::vector<Landmark>* landmarks) {
-  constexpr const char* kContext = "reading landmarks";
-  landmarks->clear();
-  Statement s;
-  StorageStatus st =
-      impl_->Prepare("SELECT id, run_id, kind, x, y, z FROM landmarks ORDER BY id", &s, kContext);
-  if (!st.ok()) return st;
-  return impl_->ForEachRow(s, kContext, [&](sqlite3_stmt* row) {
-    Landmark l;
-    l.id = sqlite3_column_int64(row, 0);
-    l.run_id = sqlite3_column_int64(row, 1);
-    l.kind = sqlite3_column_int(row, 2);
-    l.position_m = {sqlite3_column_double(row, 3), sqlite3_column_double(row, 4),
-                    sqlite3_column_double(row, 5)};
-    landmarks->push_back(l);
-    return StorageStatus();
-  });
-}
-
 StorageStatus MapDatabase::ReadStatistics(std::int64_t run_id,
                                           std::map<std::string, double>* stats) {
   constexpr const char* kContext = "reading statistics";
@@ -335,7 +316,6 @@ StorageStatus MapDatabase::Info(MapInfo* info) {
       {"SELECT count(*) FROM frames WHERE is_keyframe != 0", &info->keyframes},
       {"SELECT count(*) FROM local_maps", &info->local_maps},
       {"SELECT count(*) FROM grid_tiles", &info->tiles},
-      {"SELECT count(*) FROM landmarks", &info->landmarks},
       {"SELECT coalesce(sum(length(data)), 0) FROM octomap", &info->octomap_bytes},
   };
   StorageStatus st;

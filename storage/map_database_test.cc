@@ -276,15 +276,7 @@ TEST_P(MapDatabaseRoundTrip, EveryRecordTypeComesBack) {
   ASSERT_TRUE(db->LoadTilesInBox({-1.0, -1.0}, {1.0, 1.0}, &cache).ok());
   EXPECT_EQ(cache.tiles().size(), 2u);
 
-  // Landmarks, statistics, OctoMap bytes (with a NUL inside).
-  ASSERT_TRUE(
-      db->WriteLandmarks(run, {{5, run, {1.0, 2.0, 0.25}, 3}, {9, run, {-1, 0, 0}, 1}}).ok());
-  std::vector<Landmark> landmarks;
-  ASSERT_TRUE(db->ReadLandmarks(&landmarks).ok());
-  ASSERT_EQ(landmarks.size(), 2u);
-  EXPECT_EQ(landmarks[0].id, 5);
-  EXPECT_EQ(landmarks[0].kind, 3);
-  EXPECT_DOUBLE_EQ(landmarks[0].position_m.z(), 0.25);
+  // Statistics, OctoMap bytes (with a NUL inside).
   ASSERT_TRUE(db->WriteStatistics(run, {{"frames_per_s", 14.5}, {"keyframes", 1}}).ok());
   std::map<std::string, double> stats;
   ASSERT_TRUE(db->ReadStatistics(run, &stats).ok());
@@ -320,7 +312,6 @@ TEST_P(MapDatabaseRoundTrip, EveryRecordTypeComesBack) {
   EXPECT_EQ(info.floor_feature_sets, 1);
   EXPECT_EQ(info.floor_features, 700);
   EXPECT_EQ(info.tiles, 2);
-  EXPECT_EQ(info.landmarks, 2);
   EXPECT_EQ(info.octomap_bytes, 33);
   EXPECT_DOUBLE_EQ(info.resolution_m, 0.05);
   ASSERT_TRUE(info.extent_min_m && info.extent_max_m);
@@ -638,11 +629,11 @@ TEST(MapDatabase, RefusesANewerSchemaWithItsVersion) {
   const std::string path = dir.File("map.db");
   MakeSmallMap(path);
   RawExec(path,
-          "INSERT INTO schema_migrations (version, description) VALUES (4, 'from the future')");
+          "INSERT INTO schema_migrations (version, description) VALUES (5, 'from the future')");
   const std::string before = testing::ReadFileBytes(path);
   for (OpenMode mode : {OpenMode::kReadOnly, OpenMode::kReadWrite, OpenMode::kCreate}) {
     ExpectRefused(path, mode, StorageErrorKind::kNewerSchema,
-                  "map schema version 4 is newer than this program supports (3)");
+                  "map schema version 5 is newer than this program supports (4)");
   }
   EXPECT_EQ(testing::ReadFileBytes(path), before);
 }
@@ -726,14 +717,21 @@ TEST(MapDatabase, MigratesASchema1MapWhenOpenedForWriting) {
                                -1, &s, nullptr),
             SQLITE_OK);
   ASSERT_EQ(sqlite3_step(s), SQLITE_ROW);
-  EXPECT_STREQ(reinterpret_cast<const char*>(sqlite3_column_text(s, 0)), "1,2,3");
-  EXPECT_EQ(sqlite3_column_int(s, 1), 3);
+  EXPECT_STREQ(reinterpret_cast<const char*>(sqlite3_column_text(s, 0)), "1,2,3,4");
+  EXPECT_EQ(sqlite3_column_int(s, 1), 4);
+  sqlite3_finalize(s);
+  // Schema 4 dropped the landmarks table nothing wrote.
+  ASSERT_EQ(sqlite3_prepare_v2(raw, "SELECT count(*) FROM sqlite_master WHERE name = 'landmarks'",
+                               -1, &s, nullptr),
+            SQLITE_OK);
+  ASSERT_EQ(sqlite3_step(s), SQLITE_ROW);
+  EXPECT_EQ(sqlite3_column_int(s, 0), 0);
   sqlite3_finalize(s);
   sqlite3_close(raw);
 
   auto db = MustOpen(path, OpenMode::kReadOnly);
   ASSERT_TRUE(db);
-  EXPECT_EQ(db->schema_version(), 3);
+  EXPECT_EQ(db->schema_version(), 4);
   ASSERT_TRUE(db->ReadFloorFeatures(2, 1, &features).ok());
   EXPECT_TRUE(SameFloorFeatures(features, TestFloorFeatures(300, 1)));
   EXPECT_EQ(db->ReadFloorFeatures(2, 0, &features).kind(), StorageErrorKind::kNotFound);

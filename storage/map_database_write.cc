@@ -1,4 +1,4 @@
-// MapDatabase's writes: runs, keyframes and frames, grid tiles, the OctoMap, landmarks and
+// MapDatabase's writes: runs, keyframes and frames, grid tiles, the OctoMap and
 // statistics, each in one transaction.
 
 #include <sqlite3.h>
@@ -238,28 +238,6 @@ StorageStatus MapDatabase::WriteOctomap(std::int64_t run_id, double resolution_m
     if (st.ok()) st = d.BindDouble(s, 2, resolution_m, kContext);
     if (st.ok()) st = d.BindBlob(s, 3, bytes.data(), bytes.size(), kContext);
     if (st.ok()) st = d.StepDone(s, kContext);
-    return st;
-  });
-}
-
-StorageStatus MapDatabase::WriteLandmarks(std::int64_t run_id,
-                                          const std::vector<Landmark>& landmarks) {
-  constexpr const char* kContext = "writing landmarks";
-  Impl& d = *impl_;
-  return d.InTransaction(run_id, kContext, [&] {
-    Statement s;
-    StorageStatus st = d.Prepare(
-        "INSERT OR REPLACE INTO landmarks (id, run_id, kind, x, y, z) VALUES (?, ?, ?, ?, ?, ?)",
-        &s, kContext);
-    for (std::size_t i = 0; i < landmarks.size() && st.ok(); ++i) {
-      const Landmark& l = landmarks[i];
-      sqlite3_reset(s.get());
-      st = d.BindInt(s, 1, l.id, kContext);
-      if (st.ok()) st = d.BindInt(s, 2, run_id, kContext);
-      if (st.ok()) st = d.BindInt(s, 3, l.kind, kContext);
-      for (int k = 0; k < 3 && st.ok(); ++k) st = d.BindDouble(s, 4 + k, l.position_m[k], kContext);
-      if (st.ok()) st = d.StepDone(s, kContext);
-    }
     return st;
   });
 }

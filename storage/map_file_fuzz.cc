@@ -1,6 +1,6 @@
 // Fuzz target: the map file. Any bytes, written to a file and opened as a map for reading (as
 // info, query, export and serve do), are either refused with a reason or read: runs, trajectory,
-// keyframes' local maps and floor features, the grid, the OctoMap, landmarks and statistics, each
+// keyframes' local maps and floor features, the grid, the OctoMap and statistics, each
 // read succeeding or failing with a status, never crashing, hanging or allocating without bound.
 // Seeds: maps written by this program (tests/data/storage and the corpus).
 #include <unistd.h>
@@ -69,8 +69,6 @@ void ReadEverything(MapDatabase* db) {
   (void)db->LoadTilesInBox(Eigen::Vector2d(-1, -1), Eigen::Vector2d(2, 2), &cache);
   StoredOctomap octomap;
   (void)db->ReadOctomap(&octomap);
-  std::vector<Landmark> landmarks;
-  (void)db->ReadLandmarks(&landmarks);
 }
 
 }  // namespace
