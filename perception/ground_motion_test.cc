@@ -1,0 +1,162 @@
+// The floor motion fit and the zero-disparity search on images ray-cast by the test scene.
+#include <gtest/gtest.h>
+
+#include "perception/testing/detector_scene.h"
+
+namespace monoplane {
+namespace {
+
+TEST(GroundMotion, RecoversPlanarMotionOnTexturedFloor) {
+  const CameraCalibration calib = DefaultCalibration();
+  const CameraModel camera(calib);
+  Scene scene;
+  scene.boxes.push_back({{1.2, -0.2, 0.0}, {1.5, 0.2, 0.25}});  // an obstacle in the strip
+  const Pose2 p1{0.0, 0.0, 0.0}, p2{0.05, 0.01, 0.03};
+  const Rendered a = Render(scene, camera, p1), b = Render(scene, camera, p2);
+  const GroundMotion truth = KnownMotion(p1, p2);
+  const GroundMotion m = EstimateGroundMotion(a.image, b.image, camera, GroundMotionOptions{});
+  ASSERT_EQ(m.status, GroundMotion::Status::kOk);
+  EXPECT_GT(m.num_inliers, 50);
+  EXPECT_LT(m.rms_residual_px, 0.3);
+  EXPECT_NEAR(m.base2_from_base1.x, truth.base2_from_base1.x, 0.002);
+  EXPECT_NEAR(m.base2_from_base1.y, truth.base2_from_base1.y, 0.002);
+  EXPECT_NEAR(m.base2_from_base1.yaw, truth.base2_from_base1.yaw, 0.001);
+}
+
+TEST(GroundMotion, FailsOnBlankImagesAndFallsBackToPrior) {
+  const CameraModel camera(DefaultCalibration());
+  const cv::Mat grey(480, 640, CV_8U, cv::Scalar(128));
+  EXPECT_EQ(EstimateGroundMotion(grey, grey, camera, {}).status, GroundMotion::Status::kFailed);
+  const Pose2 prior{-0.03, 0.0, 0.0};
+  const GroundMotion m = EstimateGroundMotion(grey, grey, camera, {}, prior);
+  EXPECT_EQ(m.status, GroundMotion::Status::kFallback);
+  EXPECT_DOUBLE_EQ(m.base2_from_base1.x, -0.03);
+}
+
+// Corners on the flat top of a box outnumber those on the floor in the strip, as on a floor with
+// little texture: the plain inlier count fits the "floor" to the box top; the floor as the lowest
+// surface in view (below_floor_weight) fits it to the floor.
+TEST(GroundMotion, PrefersTheLowestSurfaceOverMoreCornersOnABoxTop) {
+  const CameraModel camera(DefaultCalibration());
+  const Pose2 truth = Pose2{0.05, 0.005, 0.02}.Inverse();  // base2_from_base1, driving forward
+  std::vector<Eigen::Vector2d> pixels1, pixels2;
+  const auto add = [&](double x, double y, double z) {
+    const Eigen::Vector2d xy2 = truth * Eigen::Vector2d(x, y);
+    const auto a = camera.ProjectToPixel({x, y, z});
+    const auto b = camera.ProjectToPixel({xy2.x(), xy2.y(), z});
+    ASSERT_TRUE(a && b);
+    pixels1.push_back(*a);
+    pixels2.push_back(*b);
+  };
+  for (int i = 0; i < 15; ++i) add(0.6 + 0.05 * i, -0.5 + 0.07 * i, 0.0);         // floor
+  for (int i = 0; i < 40; ++i) add(1.0 + 0.01 * i, -0.2 + 0.02 * (i % 7), 0.15);  // box top
+  GroundMotionOptions options;
+  options.below_floor_weight = 0.0;
+  const GroundMotion plain = FitGroundMotion(pixels1, pixels2, camera, options);
+  ASSERT_EQ(plain.status, GroundMotion::Status::kOk);
+  EXPECT_GT(std::abs(plain.base2_from_base1.x - truth.x), 0.003);  // the box top's motion
+  options = GroundMotionOptions{};
+  const GroundMotion lowest = FitGroundMotion(pixels1, pixels2, camera, options);
+  ASSERT_EQ(lowest.status, GroundMotion::Status::kOk);
+  EXPECT_EQ(lowest.num_inliers, 15);
+  EXPECT_NEAR(lowest.base2_from_base1.x, truth.x, 1e-4);
+  EXPECT_NEAR(lowest.base2_from_base1.y, truth.y, 1e-4);
+  EXPECT_NEAR(lowest.base2_from_base1.yaw, truth.yaw, 1e-5);
+}
+
+// Tracks that hardly moved (a car driving ahead of a car, corners stuck on a reflection) lie far
+// below the floor under the true motion: they are not evidence against it (below_floor_max_share),
+// or a still camera would outscore the driving one.
+TEST(GroundMotion, TracksThatBarelyMovedDoNotVoteAgainstTheFloor) {
+  const CameraModel camera(DefaultCalibration());
+  const Pose2 truth = Pose2{0.05, 0.0, 0.01}.Inverse();
+  std::vector<Eigen::Vector2d> pixels1, pixels2;
+  for (int i = 0; i < 30; ++i) {
+    const Eigen::Vector2d xy(0.5 + 0.04 * i, -0.6 + 0.04 * i);
+    const Eigen::Vector2d xy2 = truth * xy;
+    const auto a = camera.ProjectToPixel({xy.x(), xy.y(), 0.0});
+    const auto b = camera.ProjectToPixel({xy2.x(), xy2.y(), 0.0});
+    ASSERT_TRUE(a && b);
+    pixels1.push_back(*a);
+    pixels2.push_back(*b);
+  }
+  for (int i = 0; i < 20; ++i) {  // a thing ahead moving along with the camera: no image motion
+    const auto a = camera.ProjectToPixel({1.2 + 0.03 * i, 0.3 - 0.02 * i, 0.0});
+    ASSERT_TRUE(a);
+    pixels1.push_back(*a);
+    pixels2.push_back(*a);
+  }
+  GroundMotionOptions options;
+  const GroundMotion fit = FitGroundMotion(pixels1, pixels2, camera, options);
+  ASSERT_EQ(fit.status, GroundMotion::Status::kOk);
+  EXPECT_EQ(fit.num_inliers, 30);
+  EXPECT_NEAR(fit.base2_from_base1.x, truth.x, 1e-4);
+  options.below_floor_max_share = 1.0;  // every point below counts: the standing still wins
+  const GroundMotion counted = FitGroundMotion(pixels1, pixels2, camera, options);
+  EXPECT_GT(std::abs(counted.base2_from_base1.x - truth.x), 0.03);
+}
+
+// A car at 13 m/s (1.34 m per 0.103 s step) cannot reverse within one step; a robot at 0.4 m/s
+// can start and stop. The KITTI drive's frame-5 corner fit went 0.17 m backwards.
+TEST(GroundMotion, UndrivableStepsAreRecognised) {
+  GroundMotionOptions options;       // 10 m/s^2 + 0.1 m/s
+  const Pose2 car{-1.34, 0.0, 0.0};  // base2_from_base1 of forward motion
+  EXPECT_TRUE(IsDrivableStep({-1.40, 0.01, 0.0}, 0.103, car, 0.103, options));
+  EXPECT_FALSE(IsDrivableStep({0.17, 0.0, 0.0}, 0.103, car, 0.103, options));
+  EXPECT_FALSE(IsDrivableStep({-1.60, 0.0, 0.0}, 0.103, car, 0.103, options));  // +2.5 m/s
+  const Pose2 robot{-0.027, 0.0, 0.0}, still{0.0, 0.0, 0.0};
+  EXPECT_TRUE(IsDrivableStep(robot, 1.0 / 15, still, 1.0 / 15, options));
+  EXPECT_TRUE(IsDrivableStep(still, 1.0 / 15, robot, 1.0 / 15, options));
+  // Off, or durations unknown: every step passes.
+  EXPECT_TRUE(IsDrivableStep({0.17, 0.0, 0.0}, 0.0, car, 0.103, options));
+  options.max_acceleration_mps2 = 0;
+  EXPECT_TRUE(IsDrivableStep({0.17, 0.0, 0.0}, 0.103, car, 0.103, options));
+}
+
+TEST(ZeroDisparity, DirectionMatchesGeometry) {
+  const CameraModel camera(DefaultCalibration());
+  const Pose2 t = Pose2{0.1, 0.02, 0.05}.Inverse();
+  const Eigen::Vector3d e = EpipoleInImage2(camera, t);
+  for (const Eigen::Vector2d& p1 : {Eigen::Vector2d(100, 400), Eigen::Vector2d(500, 300)}) {
+    const auto z = ZeroDisparityAtHeight(camera, t, p1, 0.05);
+    ASSERT_TRUE(z);
+    const Eigen::Vector2d x = z->floor_predicted;
+    const Eigen::Vector2d u =
+        Eigen::Vector2d(e.x() - e.z() * x.x(), e.y() - e.z() * x.y()).normalized();
+    EXPECT_GT(u.dot(z->direction), 0.999);
+  }
+}
+
+// On a textured floor every pixel's zero disparity is 0: the spread of the estimates is the
+// search's own noise. Each pixel of a window is warped by its own estimate, so the window's step
+// must account for their differences; stepping as if they were all the centre's lets the noise of
+// the window sums grow with every iteration.
+TEST(ZeroDisparity, FloorEstimatesAreTightAndDoNotDriftWithIterations) {
+  const CameraModel camera(DefaultCalibration());
+  const Scene scene;  // the floor alone
+  const Pose2 p1{0.0, 0.0, 0.0}, p2{0.1, 0.0, 0.02};
+  const Rendered a = Render(scene, camera, p1), b = Render(scene, camera, p2);
+  const Pose2 motion = KnownMotion(p1, p2).base2_from_base1;
+  const auto spread = [&](int iterations) {
+    ZeroDisparityOptions options;
+    options.iterations_per_level = iterations;
+    const ZeroDisparityField f = ComputeZeroDisparity(a.image, b.image, camera, motion, options);
+    std::vector<float> magnitudes;
+    for (int y = f.s_px.rows / 2; y < f.s_px.rows - 8; ++y) {  // the floor within about 1.5 m
+      for (int x = 8; x < f.s_px.cols - 8; ++x)
+        magnitudes.push_back(std::abs(f.s_px.at<float>(y, x)));
+    }
+    std::nth_element(magnitudes.begin(), magnitudes.begin() + magnitudes.size() * 3 / 4,
+                     magnitudes.end());
+    return magnitudes[magnitudes.size() * 3 / 4];  // 75th percentile of |s|, input pixels
+  };
+  // Stepping as if the window were warped by the centre's s gives about 0.8 px with 3
+  // iterations and 17 px with 10.
+  const float three = spread(3), ten = spread(10);
+  EXPECT_LT(three, 0.3f);
+  EXPECT_LT(ten, 0.3f);
+  EXPECT_LT(ten, 1.2f * three);
+}
+
+}  // namespace
+}  // namespace monoplane

@@ -1,0 +1,170 @@
+// The top view of one pair: where the floor is free, where it ends, and what an overhang hides.
+#include <gtest/gtest.h>
+
+#include "perception/testing/detector_scene.h"
+
+namespace monoplane {
+namespace {
+
+TEST_F(DetectorOnSyntheticScene, WhereTheFloorEndsTheCellIsNotFree) {
+  Scene scene;
+  scene.box_texture = Texture(2, 0.0);
+  // Taller than the view: no edge of it above the floor samples in the middle columns (the
+  // overhang rule of the top view would keep their cells from reading free there too).
+  scene.boxes.push_back({{1.52, -0.4, 0.0}, {1.9, 0.4, 2.0}});
+  const Pose2 p1{0, 0, 0}, p2{0.12, 0.0, 0.0};
+  options_.classification.free_margin_cells = 0;  // the rule alone
+  DetectorOptions off = options_;
+  off.classification.floor_edge_samples = 0;
+  const auto [b, r, r0] = DetectBoth(scene, p1, p2, off);
+  ASSERT_EQ(r.status, PairStatus::kOk) << r.message;
+  const int free = FreeCellsUnder(scene.boxes[0], r, p2);
+  const int free0 = FreeCellsUnder(scene.boxes[0], r0, p2);
+  std::printf("cells under the box read free: %d with the floor edge rule, %d without\n", free,
+              free0);
+  // The margin around detected obstacle points alone (ClassificationOptions::free_margin_cells).
+  DetectorOptions margin_only = off;
+  margin_only.classification.free_margin_cells = 1;
+  const int free_margin =
+      FreeCellsUnder(scene.boxes[0], DetectBoth(scene, p1, p2, margin_only).r0, p2);
+  std::printf("... %d with the 1-cell margin around obstacle points alone\n", free_margin);
+  EXPECT_LT(free_margin, free0);
+  EXPECT_GT(free0, 3);
+  EXPECT_LE(free, free0 / 3);
+  // The floor in front of the box stays free.
+  int free_in_front = 0;
+  const GridGeometry& g = r.local_map.geometry;
+  for (double x = 0.7; x < 1.2; x += 0.05) {
+    for (double y = -0.3; y <= 0.3; y += 0.05) {
+      const auto c = g.CellOf(p2.Inverse() * Eigen::Vector2d(x, y));
+      free_in_front += r.local_map.At(c->x(), c->y()) == kCellFree;
+    }
+  }
+  EXPECT_GT(free_in_front, 100);
+}
+
+// Free space by rays: the floor between two consecutive floor samples of an image column is free
+// too (ClassificationOptions::free_between_floor_samples); beyond 1.5 m a sample's row lies
+// more than a cell beyond the one below it on the floor.
+TEST_F(DetectorOnSyntheticScene, TheFloorBetweenTheSamplesOfAColumnIsFree) {
+  const Scene scene;
+  const Pose2 p1{0, 0, 0}, p2{0.3, 0.0, 0.0};
+  DetectorOptions off = options_;
+  off.classification.free_between_floor_samples = false;
+  const auto [b, r, r0] = DetectBoth(scene, p1, p2, off);
+  ASSERT_EQ(r.status, PairStatus::kOk) << r.message;
+  // 1.8-2.6 m ahead of the robot.
+  const int free = FreeCellsIn(r, p2, 2.1, 2.9, -0.4, 0.4);
+  const int free0 = FreeCellsIn(r0, p2, 2.1, 2.9, -0.4, 0.4);
+  std::printf("free cells 1.8-2.6 m ahead: %d with the rays, %d without (of 256)\n", free, free0);
+  EXPECT_GT(free, free0 * 4 / 3);
+  EXPECT_GT(free, 256 * 6 / 10);
+}
+
+// A patch of floor without texture leaves its samples unknown; the floor seen in front of it is
+// still free (it is a hole in the texture, not the base of something standing there), the patch
+// itself is not.
+TEST_F(DetectorOnSyntheticScene, ATexturelessPatchOfFloorLeavesTheFloorAroundItFree) {
+  const Pose2 p1{0, 0, 0}, p2{0.12, 0.0, 0.0};
+  const auto [b, r, r0] =
+      DetectBoth(WithPlainBox({{1.5, -0.5, 0.0}, {1.8, 0.5, 0.002}}), p1, p2, options_);
+  const auto [b_plain, r_plain, r0_plain] = DetectBoth(Scene{}, p1, p2, options_);
+  ASSERT_EQ(r.status, PairStatus::kOk) << r.message;
+  // The 10 cm just in front of it: a floor edge's margin took them before (9 of 32 free).
+  const int in_front = FreeCellsIn(r, p2, 1.35, 1.45, -0.4, 0.4);
+  const int in_front_plain = FreeCellsIn(r_plain, p2, 1.35, 1.45, -0.4, 0.4);
+  const int on_patch = FreeCellsIn(r, p2, 1.6, 1.7, -0.4, 0.4);
+  std::printf("free cells in front of the patch: %d (%d without the patch), on it: %d\n", in_front,
+              in_front_plain, on_patch);
+  EXPECT_GT(in_front, in_front_plain * 3 / 4);
+  // Of 32 in its middle: near its edges the matching windows hold the floor's texture.
+  EXPECT_LE(on_patch, 4);
+}
+
+// A low box without texture, with the floor seen behind it: whatever the rules for holes in the
+// floor's texture and for overhangs do, the cells under the box must not read free, and the
+// floor seen behind it must.
+TEST_F(DetectorOnSyntheticScene, ALowPlainBoxWithTheFloorSeenBehindItIsNotFree) {
+  const Scene scene = WithPlainBox({{1.0, -0.3, 0.0}, {1.2, 0.3, 0.06}});
+  const Pose2 p1{0, 0, 0}, p2{0.12, 0.0, 0.0};
+  const auto [b, r, r0] = DetectBoth(scene, p1, p2, options_);
+  ASSERT_EQ(r.status, PairStatus::kOk) << r.message;
+  const int under = FreeCellsUnder(scene.boxes[0], r, p2);
+  const int behind = FreeCellsIn(r, p2, 1.5, 1.9, -0.2, 0.2);
+  std::printf("cells under the low box read free: %d; behind it: %d\n", under, behind);
+  EXPECT_EQ(under, 0);
+  EXPECT_GT(behind, 32 / 2);  // the floor seen behind it is free
+}
+
+// The floor seen under a shelf (an obstacle standing above the floor samples in their image
+// columns, nearer to the camera than they are) is not free: the shelf stands over it.
+TEST_F(DetectorOnSyntheticScene, TheFloorUnderAnOverhangIsNotFree) {
+  Scene scene;
+  scene.boxes.push_back({{1.4, -0.4, 0.2}, {2.2, 0.4, 0.3}});
+  const Pose2 p1{0, 0, 0}, p2{0.12, 0.0, 0.0};
+  const auto [b, r, r0] = DetectBoth(scene, p1, p2, options_);
+  ASSERT_EQ(r.status, PairStatus::kOk) << r.message;
+  MaybeDump("overhang", b.image, r);
+  // The floor under it is seen, and labelled floor.
+  const CameraModel& camera = ObstacleDetector(calib_, options_).camera();
+  int floor_under = 0;
+  for (int y = 0; y < r.labels.rows; y += 4) {
+    for (int x = 0; x < r.labels.cols; x += 4) {
+      const auto f = camera.PixelToFloor(Eigen::Vector2d(x, y));
+      if (!f || b.height_m.at<float>(y, x) != 0.0f) continue;
+      const Eigen::Vector2d w = p2 * *f;
+      floor_under += w.x() > 1.45 && w.x() < 2.15 && std::abs(w.y()) < 0.35 &&
+                     static_cast<PixelLabel>(r.labels.at<std::uint8_t>(y, x)) == PixelLabel::kFloor;
+    }
+  }
+  const int under = FreeCellsUnder(scene.boxes[0], r, p2);
+  std::printf("floor samples under the shelf labelled floor: %d; its cells read free: %d\n",
+              floor_under, under);
+  EXPECT_GT(floor_under, 50);
+  EXPECT_LE(under, 3);
+}
+
+// The far pair (PairSelectionOptions::far_min_baseline_m): beyond 2.5 m one 0.1 m pair cannot
+// tell the floor from a 3 cm obstacle, a 0.3 m pair can; the near floor keeps the near pair.
+TEST_F(DetectorOnSyntheticScene, TheFarPairLabelsTheFarFloor) {
+  Scene scene;
+  scene.boxes.push_back({{2.4, 0.5, 0.0}, {2.7, 0.9, 0.25}});
+  std::vector<Pose2> poses;
+  for (int k = 0; k <= 14; ++k) poses.push_back({0.03 * k, 0.0, 0.0});
+  DetectorOptions off = options_;
+  off.pair_selection.far_min_baseline_m = 0.0;
+  Rendered last;
+  const SequenceDetector::Output with = RunEveryFrame(options_, scene, poses, &last);
+  const SequenceDetector::Output without = RunEveryFrame(off, scene, poses, &last);
+  ASSERT_TRUE(with.result && without.result);
+  const CameraModel camera(calib_);
+  const auto floor_labelled = [&](const FrameResult& r, double near_m, double far_m) {
+    int n = 0;
+    for (int y = 0; y < r.labels.rows; y += 4) {
+      for (int x = 0; x < r.labels.cols; x += 4) {
+        const auto f = camera.PixelToFloor(Eigen::Vector2d(x, y));
+        if (!f || last.height_m.at<float>(y, x) != 0.0f || f->norm() < near_m || f->norm() > far_m)
+          continue;
+        n += static_cast<PixelLabel>(r.labels.at<std::uint8_t>(y, x)) == PixelLabel::kFloor;
+      }
+    }
+    return n;
+  };
+  const int far = floor_labelled(*with.result, 2.5, 5.0);
+  const int far0 = floor_labelled(*without.result, 2.5, 5.0);
+  const int near = floor_labelled(*with.result, 0.0, 1.0);
+  const int near0 = floor_labelled(*without.result, 0.0, 1.0);
+  std::printf(
+      "floor samples labelled floor 2.5-5 m ahead: %d with the far pair, %d without; "
+      "within 1 m: %d, %d\n",
+      far, far0, near, near0);
+  EXPECT_GT(far, far0 * 13 / 10);
+  EXPECT_GE(near, near0 * 95 / 100);
+  const BoxFloorCounts c = CountBoxAndFloor(last, with.result->labels);
+  const BoxFloorCounts c0 = CountBoxAndFloor(last, without.result->labels);
+  EXPECT_GE(c.box_obstacle, c0.box_obstacle * 9 / 10);
+  EXPECT_LE(c.box_floor, c0.box_floor + c.box / 100);
+}
+
+}  // namespace
+}  // namespace monoplane
