@@ -2,6 +2,7 @@
 
 // Helpers shared by the storage tests (not part of the library).
 
+#include <gtest/gtest.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -17,6 +18,7 @@
 #include "perception/geometry/frame_values.h"
 #include "perception/geometry/occupancy_grid.h"
 #include "perception/geometry/tiled_grid.h"
+#include "storage/map_database.h"
 
 namespace monoplane::testing {
 
@@ -121,6 +123,44 @@ inline void MarkCell(TiledGrid* grid, const Eigen::Vector2i& cell, float log_odd
   t.log_odds[k] = log_odds;
   t.height_m[k] = height_m;
   t.last_seen_ns[k] = seen_ns;
+}
+
+// Opening, starting a run in and writing a small map, checked as they go (MapDatabase tests).
+inline std::unique_ptr<MapDatabase> MustOpen(const std::string& path, OpenMode mode,
+                                             const MapDatabase::Options& options = {}) {
+  std::unique_ptr<MapDatabase> db;
+  const StorageStatus st = MapDatabase::Open(path, mode, &db, options);
+  EXPECT_TRUE(st.ok()) << st.message();
+  return db;
+}
+
+inline std::int64_t MustBeginRun(MapDatabase* db, TimestampNs start = 1000) {
+  std::int64_t run = 0;
+  const StorageStatus st = db->BeginRun(TestCalibration(), "detector: {min_height_m: 0.05}\n",
+                                        "0.1.0-test", start, &run);
+  EXPECT_TRUE(st.ok()) << st.message();
+  return run;
+}
+
+// A map file with one finished run, three keyframes (keyframe k with 100 + k floor features) and
+// two tiles, closed cleanly.
+inline void MakeSmallMap(const std::string& path) {
+  auto db = MustOpen(path, OpenMode::kCreate);
+  ASSERT_TRUE(db);
+  const std::int64_t run = MustBeginRun(db.get());
+  for (int k = 0; k < 3; ++k) {
+    FrameRecord f;
+    f.index = k;
+    f.stamp_ns = 1000000000ll * k;
+    f.map_from_base_raw = {0.1 * k, 0.0, 0.0};
+    ASSERT_TRUE(
+        db->WriteKeyframe(run, f, TestLocalMap(160, k), TestFloorFeatures(100 + k, k)).ok());
+  }
+  TiledGrid grid(0.05);
+  MarkCell(&grid, {3, 4}, 2.0f, 0.3f, 5000000);
+  MarkCell(&grid, {-300, 10}, -2.0f);
+  ASSERT_TRUE(db->WriteGridTiles(run, grid, {}).ok());
+  ASSERT_TRUE(db->EndRun(run, 99).ok());
 }
 
 }  // namespace monoplane::testing
