@@ -171,33 +171,25 @@ bool Mapper::Options::IsValid(std::string* error) const {
 }
 
 Mapper::Mapper(const Options& options, const CameraCalibration& calibration)
-    : options_(options),
-      calibration_(calibration),
+    : options_(ValidOrDie(options, "Mapper")),
+      calibration_(ValidOrDie(calibration, "Mapper")),
       camera_(calibration),
       mount_(calibration.mount),
-      grid_(options.grid_resolution_m),
-      saved_grid_(options.grid_resolution_m),
-      octree_(options.octree) {
-  std::string error;
-  CheckOrDie(options.IsValid(&error), error);
-  CheckOrDie(calibration.IsValid(&error), error);
-  footprint_ = FootprintGrid(options_.footprint_radius_m, options_.grid_resolution_m);
-}
+      fusion_(MapFusion::Options{options.grid_resolution_m, options.footprint_radius_m,
+                                 options.log_odds, options.build_octree, options.octree},
+              camera_.CameraCentreInBase()) {}
 
 Mapper::Mapper(const Options& options, const CameraCalibration& calibration, TiledGrid saved_grid,
                std::vector<Keyframe> saved_keyframes, const Pose2& initial_map_from_base)
     : Mapper(options, calibration) {
   CheckOrDie(std::abs(saved_grid.resolution_m() - options.grid_resolution_m) < 1e-9,
              "saved grid resolution differs from Options::grid_resolution_m");
-  saved_grid_ = std::move(saved_grid);
-  grid_ = saved_grid_;
   keyframes_ = std::move(saved_keyframes);
   num_saved_ = static_cast<int>(keyframes_.size());
+  fusion_.StartFromSavedMap(std::move(saved_grid), keyframes_);
   for (Keyframe& k : keyframes_) {
     k.from_saved_map = true;
     next_id_ = std::max(next_id_, k.id + 1);
-    if (options_.build_octree)
-      octree_.Insert(k.ObstaclePoints(), k.map_from_base, camera_.CameraCentreInBase());
     Pack(&k);
   }
   initial_map_from_base_ = initial_map_from_base;
@@ -329,7 +321,8 @@ Mapper::FrameUpdate Mapper::AddFrame(const FrameObservation& frame) {
   }
   update.map_from_base = CurrentPose();
   // Before this run's first keyframe the pose is a guess (a saved map localises that keyframe).
-  if (frames_.back().keyframe_index >= 0) SweepFootprint(update.map_from_base, frame.stamp_ns);
+  if (frames_.back().keyframe_index >= 0)
+    fusion_.SweepFootprint(update.map_from_base, frame.stamp_ns);
   return update;
 }
 
@@ -354,7 +347,7 @@ void Mapper::AddKeyframe(const FrameObservation& frame, FrameUpdate* update) {
       // Localise in the saved map with a wide search.
       const ScanMatchOptions& m = options_.localization_match;
       const auto [lo, hi] = LocalMapBounds(kf.local_map, kf.map_from_base, m.linear_window_m + 0.5);
-      const MatchTarget target = MakeMatchTarget(saved_grid_, lo, hi, m.smoothing_sigma_m);
+      const MatchTarget target = MakeMatchTarget(fusion_.saved_grid(), lo, hi, m.smoothing_sigma_m);
       const ScanMatchResult r =
           MatchScan(OccupiedPoints(kf.local_map, m.max_points), target, kf.map_from_base, m);
       LocalizationResult& loc = *localization_;
@@ -387,7 +380,7 @@ void Mapper::AddKeyframe(const FrameObservation& frame, FrameUpdate* update) {
   const int index = static_cast<int>(keyframes_.size()) - 1;
 
   OptimizeWindow();
-  FuseKeyframe(keyframes_[index]);
+  fusion_.FuseKeyframe(keyframes_[index]);
   update->keyframe = true;
   update->keyframe_id = keyframes_[index].id;
   if (TryLoopClosure(index)) {
@@ -446,44 +439,16 @@ void Mapper::OptimizeWindow() {
   }
 }
 
-void Mapper::FuseKeyframe(const Keyframe& keyframe) {
-  const std::vector<Eigen::Vector3f> obstacle_points_in_base = keyframe.ObstaclePoints();
-  FuseLocalMap(keyframe.LocalMap(), obstacle_points_in_base, keyframe.map_from_base,
-               keyframe.stamp_ns, options_.log_odds, &grid_, &changed_tiles_);
-  if (options_.build_octree) {
-    octree_.Insert(obstacle_points_in_base, keyframe.map_from_base, camera_.CameraCentreInBase());
-  }
-}
-
-void Mapper::SweepFootprint(const Pose2& map_from_base, TimestampNs stamp_ns) {
-  if (footprint_.cells.empty()) return;
-  // What the camera saw occupied stays so (the path may graze a detected obstacle's cell, or
-  // cross something low the robot drove over).
-  FuseLocalMap(footprint_, {}, map_from_base, stamp_ns, options_.log_odds, &grid_, &changed_tiles_,
-               /*keep_occupied=*/true);
-}
-
 void Mapper::Rebuild() {
   ++counters_.map_rebuilds;
-  ClearGrid(&grid_, &changed_tiles_);
-  for (const auto& [key, tile] : saved_grid_.tiles()) {
-    grid_.mutable_tiles()[key] = tile;
-    changed_tiles_.insert(key);
-  }
-  octree_.Clear();
-  for (int i = 0; i < static_cast<int>(keyframes_.size()); ++i) {
-    const Keyframe& k = keyframes_[i];
-    if (k.from_saved_map) {
-      if (options_.build_octree)
-        octree_.Insert(k.ObstaclePoints(), k.map_from_base, camera_.CameraCentreInBase());
-    } else {
-      FuseKeyframe(k);
+  std::vector<std::pair<Pose2, TimestampNs>> footprint_poses;
+  for (const FrameRecord& f : frames_) {
+    if (f.keyframe_index >= 0) {
+      footprint_poses.emplace_back(
+          keyframes_[f.keyframe_index].map_from_base * f.keyframe_from_base, f.stamp_ns);
     }
   }
-  for (const FrameRecord& f : frames_) {
-    if (f.keyframe_index >= 0)
-      SweepFootprint(keyframes_[f.keyframe_index].map_from_base * f.keyframe_from_base, f.stamp_ns);
-  }
+  fusion_.Rebuild(keyframes_, footprint_poses);
 }
 
 std::vector<FramePose> Mapper::Trajectory() const {
@@ -513,12 +478,8 @@ Pose2 Mapper::CurrentPose() const {
   return map_from_odom_.value_or(Pose2::Identity()) * f.odom_from_base;
 }
 
-std::set<TiledGrid::TileKey> Mapper::TakeChangedTiles() {
-  std::set<TiledGrid::TileKey> out;
-  out.swap(changed_tiles_);
-  return out;
-}
+std::set<TiledGrid::TileKey> Mapper::TakeChangedTiles() { return fusion_.TakeChangedTiles(); }
 
-std::string Mapper::OctomapBinary() const { return octree_.ToBinary(); }
+std::string Mapper::OctomapBinary() const { return fusion_.octree().ToBinary(); }
 
 }  // namespace monoplane

@@ -8,6 +8,7 @@
 
 #include "mapping/floor_matcher.h"
 #include "mapping/grid_fusion.h"
+#include "mapping/map_fusion.h"
 #include "mapping/obstacle_octree.h"
 #include "mapping/optimization.h"
 #include "mapping/scan_matcher.h"
@@ -185,11 +186,11 @@ class Mapper {
   }
   std::vector<FramePose> Trajectory() const;  // every frame, latest correction applied
   Pose2 CurrentPose() const;
-  const TiledGrid& grid() const { return grid_; }
+  const TiledGrid& grid() const { return fusion_.grid(); }
   // Keys of the tiles changed since the last call (for storage and DDS), then forgets them.
   std::set<TiledGrid::TileKey> TakeChangedTiles();
   std::string OctomapBinary() const;  // .bt bytes (empty tree when build_octree is off)
-  const ObstacleOctree& octree() const { return octree_; }
+  const ObstacleOctree& octree() const { return fusion_.octree(); }
   const MapperCounters& counters() const { return counters_; }
   const std::vector<LoopClosureEvent>& loop_closures() const { return loop_events_; }
   const std::optional<LocalizationResult>& localization() const { return localization_; }
@@ -225,9 +226,7 @@ class Mapper {
   // Removes keyframe `culled`: edges and frames move to `survivor` (< culled) through
   // survivor_from_culled (measured, for the edges) and the current estimates (for the frames).
   void MergeKeyframe(int culled, int survivor, const Pose2& survivor_from_culled);
-  void FuseKeyframe(const Keyframe& keyframe);
   // Clears the robot's footprint at a frame's map pose (Options::footprint_radius_m).
-  void SweepFootprint(const Pose2& map_from_base, TimestampNs stamp_ns);
   void Rebuild();
   int FirstRunIndex() const { return num_saved_; }
 
@@ -257,11 +256,7 @@ class Mapper {
   int last_closure_id_ = -1;  // the keyframe of the last accepted closure
   bool finished_ = false;     // FinishRun was called
 
-  TiledGrid grid_;
-  TiledGrid saved_grid_;
-  OccupancyGrid footprint_;  // base frame: free inside Options::footprint_radius_m, else unknown
-  std::set<TiledGrid::TileKey> changed_tiles_;
-  ObstacleOctree octree_;
+  MapFusion fusion_;  // the grid, the footprint swept free and the OctoMap
 
   MapperCounters counters_;
   std::vector<LoopClosureEvent> loop_events_;

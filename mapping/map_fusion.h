@@ -1,0 +1,63 @@
+#pragma once
+
+#include <Eigen/Core>
+#include <set>
+#include <utility>
+#include <vector>
+
+#include "mapping/grid_fusion.h"
+#include "mapping/obstacle_octree.h"
+#include "mapping/types.h"
+#include "perception/geometry/pose2.h"
+#include "perception/geometry/tiled_grid.h"
+#include "perception/geometry/timestamp.h"
+
+namespace monoplane {
+
+// The maps a Mapper fuses from its keyframes: the global log-odds grid (starting from a saved
+// map's grid when it extends one), the cells the robot's footprint swept free, and the OctoMap of
+// obstacle points. Keyframes are fused at their poses as they come; when the poses change, the
+// whole is rebuilt from them. Records the tiles it changes until they are taken.
+class MapFusion {
+ public:
+  struct Options {
+    double grid_resolution_m = 0.05;
+    double footprint_radius_m = 0.15;  // 0: no footprint
+    LogOddsOptions log_odds;
+    bool build_octree = true;
+    ObstacleOctree::Options octree;
+  };
+  // camera_centre_in_base: where the OctoMap's rays start, base frame.
+  MapFusion(const Options& options, const Eigen::Vector3d& camera_centre_in_base);
+
+  // Starts from a saved map: its grid as it is, its keyframes' obstacle points in the OctoMap.
+  void StartFromSavedMap(TiledGrid saved_grid, const std::vector<Keyframe>& saved_keyframes);
+  // A keyframe of this run at its map pose: its local map into the grid, its points into the
+  // OctoMap.
+  void FuseKeyframe(const Keyframe& keyframe);
+  // The footprint at a frame's map pose: free, except cells that read occupied.
+  void SweepFootprint(const Pose2& map_from_base, TimestampNs stamp_ns);
+  // From scratch at the keyframes' current poses: the saved grid, every keyframe of this run
+  // (saved keyframes only into the OctoMap), then the footprint at each frame pose.
+  void Rebuild(const std::vector<Keyframe>& keyframes,
+               const std::vector<std::pair<Pose2, TimestampNs>>& footprint_poses);
+
+  const TiledGrid& grid() const { return grid_; }
+  const TiledGrid& saved_grid() const { return saved_grid_; }
+  const ObstacleOctree& octree() const { return octree_; }
+  // The tiles changed since the last call.
+  std::set<TiledGrid::TileKey> TakeChangedTiles();
+
+ private:
+  void InsertPoints(const Keyframe& keyframe);
+
+  Options options_;
+  Eigen::Vector3d camera_centre_in_base_;
+  TiledGrid grid_;
+  TiledGrid saved_grid_;
+  OccupancyGrid footprint_;  // base frame: free inside footprint_radius_m, else unknown
+  std::set<TiledGrid::TileKey> changed_tiles_;
+  ObstacleOctree octree_;
+};
+
+}  // namespace monoplane
