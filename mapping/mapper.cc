@@ -7,6 +7,7 @@
 #include <limits>
 #include <unordered_set>
 
+#include "mapping/localizer.h"
 #include "mapping/mapper_internal.h"
 
 namespace monoplane {
@@ -345,21 +346,12 @@ void Mapper::AddKeyframe(const FrameObservation& frame, FrameUpdate* update) {
     kf.map_from_base = *map_from_odom_ * frame.odom_from_base;
     if (num_saved_ > 0) {
       // Localise in the saved map with a wide search.
-      const ScanMatchOptions& m = options_.localization_match;
-      const auto [lo, hi] = LocalMapBounds(kf.local_map, kf.map_from_base, m.linear_window_m + 0.5);
-      const MatchTarget target = MakeMatchTarget(fusion_.saved_grid(), lo, hi, m.smoothing_sigma_m);
-      const ScanMatchResult r =
-          MatchScan(OccupiedPoints(kf.local_map, m.max_points), target, kf.map_from_base, m);
-      LocalizationResult& loc = *localization_;
-      loc.success = r.accepted;
-      loc.score = r.score;
-      loc.second_score = r.second_score;
-      loc.message = r.accepted ? "localised" : r.reason;
-      if (r.accepted) {
-        kf.map_from_base = r.map_from_base;
+      *localization_ = LocalizeInSavedMap(fusion_.saved_grid(), kf.local_map, kf.map_from_base,
+                                          options_.localization_match);
+      if (localization_->success) {
+        kf.map_from_base = localization_->map_from_base;
         map_from_odom_ = kf.map_from_base * frame.odom_from_base.Inverse();
       }
-      loc.map_from_base = kf.map_from_base;
     }
   } else {
     const Keyframe& prev = keyframes_.back();

@@ -1,0 +1,24 @@
+#include "mapping/localizer.h"
+
+#include "mapping/mapper_internal.h"
+
+namespace monoplane {
+
+LocalizationResult LocalizeInSavedMap(const TiledGrid& saved_grid, const OccupancyGrid& local_map,
+                                      const Pose2& guess_map_from_base,
+                                      const ScanMatchOptions& options) {
+  const auto [lo, hi] = mapper_internal::LocalMapBounds(local_map, guess_map_from_base,
+                                                        options.linear_window_m + 0.5);
+  const MatchTarget target = MakeMatchTarget(saved_grid, lo, hi, options.smoothing_sigma_m);
+  const ScanMatchResult r = MatchScan(OccupiedPoints(local_map, options.max_points), target,
+                                      guess_map_from_base, options);
+  LocalizationResult loc;
+  loc.success = r.accepted;
+  loc.score = r.score;
+  loc.second_score = r.second_score;
+  loc.message = r.accepted ? "localised" : r.reason;
+  loc.map_from_base = r.accepted ? r.map_from_base : guess_map_from_base;
+  return loc;
+}
+
+}  // namespace monoplane
