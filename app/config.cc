@@ -2,7 +2,6 @@
 
 #include <yaml-cpp/yaml.h>
 
-#include <charconv>
 #include <fstream>
 #include <optional>
 #include <sstream>
@@ -12,18 +11,6 @@
 #include "perception/geometry/yaml_keys.h"
 
 namespace monoplane::app {
-namespace {
-
-// The shortest text that reads back as exactly v (0.2, not 0.20000000000000001): the dump is
-// stored with each run and must give the same options when read again.
-template <typename T>
-std::string Format(T v) {
-  char buffer[32];
-  const auto result = std::to_chars(buffer, buffer + sizeof(buffer), v);
-  return std::string(buffer, result.ptr);
-}
-
-}  // namespace
 
 void InputOptions::Describe(OptionVisitor& v) {
   v.Real("fps", &fps, OptionRange::Above(0), "frame rate for inputs without timestamps, Hz");
@@ -164,7 +151,7 @@ void OptionTable::AddDouble(const std::string& section, const std::string& key, 
                             const std::string& comment) {
   auto parse = [](const std::string& v, std::size_t* used) { return std::stod(v, used); };
   entries_.push_back({section, key, comment, NumberSetter(target, parse, "a number"),
-                      [target] { return Format(*target); }, target});
+                      [target] { return FormatOptionValue(*target); }, target});
 }
 
 void OptionTable::ScaleWith(Entry::Scale scale, const std::vector<std::string>& names) {
@@ -194,7 +181,7 @@ void OptionTable::AddFloat(const std::string& section, const std::string& key, f
                            const std::string& comment) {
   auto parse = [](const std::string& v, std::size_t* used) { return std::stof(v, used); };
   entries_.push_back({section, key, comment, NumberSetter(target, parse, "a number"),
-                      [target] { return Format(*target); }});
+                      [target] { return FormatOptionValue(*target); }});
 }
 
 void OptionTable::AddInt(const std::string& section, const std::string& key, int* target,

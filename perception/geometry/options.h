@@ -154,7 +154,8 @@ class OptionChecker : public OptionVisitor {
   std::map<std::string, std::string> values_;  // key -> value as text, for rules' messages
 };
 
-// The shortest text that reads back as exactly v (0.2, not 0.20000000000000001).
+// The shortest text that reads back as exactly v (0.2, not 0.20000000000000001): config dumps
+// stored with each run must give the same options when read again.
 std::string FormatOptionValue(double v);
 std::string FormatOptionValue(float v);
 
