@@ -5,24 +5,20 @@
 #include <cmath>
 #include <random>
 
+#include "mapping/testing/synthetic_world.h"
+
 namespace monoplane {
 namespace {
 
 constexpr double kDegToRad = M_PI / 180.0;
 
-// Floor points in front of a robot (the region the floor features cover).
-std::vector<Eigen::Vector2d> FloorPoints(int n, std::mt19937* rng) {
-  std::uniform_real_distribution<double> x(0.5, 2.2), y(-1.0, 1.0);
-  std::vector<Eigen::Vector2d> out;
-  for (int i = 0; i < n; ++i) out.emplace_back(x(*rng), y(*rng));
-  return out;
-}
+using testing::FloorPointsAhead;
 
 TEST(FloorMatcherTest, RansacRecoversMotionAmongOutliers) {
   std::mt19937 rng(7);
   const Pose2 truth{0.83, -0.41,
                     1.2};  // target_from_source: 69 deg, as when a loop meets at a corner
-  const std::vector<Eigen::Vector2d> source = FloorPoints(250, &rng);
+  const std::vector<Eigen::Vector2d> source = FloorPointsAhead(250, &rng);
   std::vector<Eigen::Vector2d> target;
   std::normal_distribution<double> noise(0.0, 0.002);
   std::uniform_real_distribution<double> anywhere(-2.0, 3.0);
@@ -48,7 +44,7 @@ TEST(FloorMatcherTest, RansacRecoversMotionAmongOutliers) {
 TEST(FloorMatcherTest, LeastSquaresIsExactWithoutNoise) {
   std::mt19937 rng(3);
   const Pose2 truth{-0.2, 0.35, -2.9};
-  const std::vector<Eigen::Vector2d> source = FloorPoints(20, &rng);
+  const std::vector<Eigen::Vector2d> source = FloorPointsAhead(20, &rng);
   std::vector<Eigen::Vector2d> target;
   for (const auto& p : source) target.push_back(truth * p);
   const Pose2 fit = FitSe2LeastSquares(source, target);
@@ -60,7 +56,7 @@ TEST(FloorMatcherTest, LeastSquaresIsExactWithoutNoise) {
 TEST(FloorMatcherTest, TwoEquallySupportedMotionsAreReported) {
   // A repeating floor: half the matches agree on one motion, half on another 0.3 m away.
   std::mt19937 rng(11);
-  const std::vector<Eigen::Vector2d> source = FloorPoints(120, &rng);
+  const std::vector<Eigen::Vector2d> source = FloorPointsAhead(120, &rng);
   const Pose2 a{0.5, 0.0, 0.1}, b{0.8, 0.0, 0.1};
   std::vector<Eigen::Vector2d> target;
   for (int i = 0; i < 120; ++i) target.push_back((i % 2 ? a : b) * source[i]);
@@ -69,41 +65,10 @@ TEST(FloorMatcherTest, TwoEquallySupportedMotionsAreReported) {
   EXPECT_GE(fit.second_inliers, 55);
 }
 
-// Random 32-byte descriptors; the target frame sees the same floor points moved by a motion, with
-// a few bits of each descriptor flipped, plus features of its own.
-struct Pair {
-  FloorFeatures source, target;
-};
-Pair MakePair(const Pose2& target_from_source, int shared, int own, std::mt19937* rng) {
-  std::uniform_int_distribution<int> byte(0, 255), bit(0, 255);
-  const std::vector<Eigen::Vector2d> points = FloorPoints(shared + own, rng);
-  Pair p;
-  p.source.descriptors.create(shared + own, 32, CV_8U);
-  p.target.descriptors.create(shared + own, 32, CV_8U);
-  for (int i = 0; i < shared + own; ++i) {
-    for (int j = 0; j < 32; ++j)
-      p.source.descriptors.at<std::uint8_t>(i, j) = static_cast<std::uint8_t>(byte(*rng));
-    p.source.points_in_base.push_back(points[i].cast<float>());
-    if (i < shared) {
-      p.source.descriptors.row(i).copyTo(p.target.descriptors.row(i));
-      for (int k = 0; k < 12; ++k) {
-        const int b = bit(*rng);
-        p.target.descriptors.at<std::uint8_t>(i, b / 8) ^= static_cast<std::uint8_t>(1 << (b % 8));
-      }
-      p.target.points_in_base.push_back((target_from_source * points[i]).cast<float>());
-    } else {
-      for (int j = 0; j < 32; ++j)
-        p.target.descriptors.at<std::uint8_t>(i, j) = static_cast<std::uint8_t>(byte(*rng));
-      p.target.points_in_base.push_back(FloorPoints(1, rng)[0].cast<float>());
-    }
-  }
-  return p;
-}
-
 TEST(FloorMatcherTest, MatchesSharedFloor) {
   std::mt19937 rng(5);
   const Pose2 truth{0.4, 0.9, -1.57};
-  const Pair p = MakePair(truth, 60, 200, &rng);
+  const testing::FloorFeaturePair p = testing::MakeFloorFeaturePair(truth, 60, 200, &rng);
   const FloorMatchResult r = MatchFloorFeatures(p.source, p.target, FloorMatchOptions{});
   EXPECT_TRUE(r.accepted) << r.reason;
   EXPECT_GE(r.num_inliers, 55);
@@ -114,7 +79,8 @@ TEST(FloorMatcherTest, MatchesSharedFloor) {
 
 TEST(FloorMatcherTest, RejectsUnrelatedFloor) {
   std::mt19937 rng(9);
-  const Pair p = MakePair(Pose2{0.4, 0.9, -1.57}, 0, 300, &rng);
+  const testing::FloorFeaturePair p =
+      testing::MakeFloorFeaturePair(Pose2{0.4, 0.9, -1.57}, 0, 300, &rng);
   const FloorMatchResult r = MatchFloorFeatures(p.source, p.target, FloorMatchOptions{});
   EXPECT_FALSE(r.accepted);
   EXPECT_LT(r.num_inliers, 15);
@@ -126,7 +92,7 @@ TEST(FloorMatcherTest, RejectsUnrelatedFloor) {
 TEST(FloorMatcherTest, PriorDisambiguatesARepeatingFloor) {
   std::mt19937 rng(21);
   const Pose2 truth{0.7, -0.2, 0.9};
-  Pair p = MakePair(truth, 80, 0, &rng);
+  testing::FloorFeaturePair p = testing::MakeFloorFeaturePair(truth, 80, 0, &rng);
   const int n = p.target.size();
   cv::Mat twins = p.target.descriptors.clone();
   cv::vconcat(p.target.descriptors, twins, p.target.descriptors);

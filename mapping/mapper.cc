@@ -171,6 +171,37 @@ bool Mapper::Options::IsValid(std::string* error) const {
          nested(localization_match.IsValid(&sub));
 }
 
+LoopSearchOptions Mapper::Options::LoopSearch() const {
+  LoopSearchOptions o;
+  o.min_travel_m = loop_min_travel_m;
+  o.candidate_radius_m = loop_candidate_radius_m;
+  o.max_candidates = loop_max_candidates;
+  o.floor_first = floor_loop_closure;
+  o.floor_match = floor_match;
+  o.floor_max_correction_m = floor_loop_max_correction_m;
+  o.floor_max_correction_rad = floor_loop_max_correction_rad;
+  o.floor_sigma_xy_m = floor_loop_sigma_xy_m;
+  o.floor_sigma_yaw_rad = floor_loop_sigma_yaw_rad;
+  o.scan_match = loop_match;
+  o.scan_sigma_xy_m = loop_sigma_xy_m;
+  o.scan_sigma_yaw_rad = loop_sigma_yaw_rad;
+  o.grid_resolution_m = grid_resolution_m;
+  o.log_odds = log_odds;
+  return o;
+}
+
+CullOptions Mapper::Options::Cull() const {
+  CullOptions o;
+  o.distance_m = cull_distance_m;
+  o.rotation_rad = cull_rotation_rad;
+  o.max_error_m = cull_max_error_m;
+  o.max_error_rad = cull_max_error_rad;
+  o.min_travel_m = cull_min_travel_m;
+  o.max_candidates = cull_max_candidates;
+  o.floor_match = floor_match;
+  return o;
+}
+
 Mapper::Mapper(const Options& options, const CameraCalibration& calibration)
     : options_(ValidOrDie(options, "Mapper")),
       calibration_(ValidOrDie(calibration, "Mapper")),

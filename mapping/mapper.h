@@ -8,6 +8,8 @@
 
 #include "mapping/floor_matcher.h"
 #include "mapping/grid_fusion.h"
+#include "mapping/keyframe_culler.h"
+#include "mapping/loop_closer.h"
 #include "mapping/map_fusion.h"
 #include "mapping/obstacle_octree.h"
 #include "mapping/optimization.h"
@@ -129,6 +131,9 @@ class Mapper {
     // Every field's key, range and meaning (the checks, the config file and --dump use it).
     void Describe(OptionVisitor& v);
     bool IsValid(std::string* error) const;
+    // The collaborators' options, from the fields above.
+    LoopSearchOptions LoopSearch() const;
+    CullOptions Cull() const;
 
     static ScanMatchOptions WideMatch() {
       ScanMatchOptions o;

@@ -1,5 +1,6 @@
-// Module-private (not part of mapping's API): the helpers Mapper's parts share: mapper.cc
-// (frames, keyframes, the window, the map), mapper_culling.cc and mapper_loop_closure.cc.
+// Module-private (not part of mapping's API): the helpers Mapper's parts and collaborators share:
+// mapper.cc (frames, keyframes, the window, the map), mapper_culling.cc, mapper_loop_closure.cc,
+// loop_closer.cc, keyframe_culler.cc and localizer.cc.
 #pragma once
 
 #include <Eigen/Core>

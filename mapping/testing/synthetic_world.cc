@@ -328,5 +328,39 @@ double PathLength(const std::vector<Pose2>& poses) {
   return s;
 }
 
+std::vector<Eigen::Vector2d> FloorPointsAhead(int n, std::mt19937* rng) {
+  std::uniform_real_distribution<double> x(0.5, 2.2), y(-1.0, 1.0);
+  std::vector<Eigen::Vector2d> out;
+  for (int i = 0; i < n; ++i) out.emplace_back(x(*rng), y(*rng));
+  return out;
+}
+
+FloorFeaturePair MakeFloorFeaturePair(const Pose2& target_from_source, int shared, int own,
+                                      std::mt19937* rng) {
+  std::uniform_int_distribution<int> byte(0, 255), bit(0, 255);
+  const std::vector<Eigen::Vector2d> points = FloorPointsAhead(shared + own, rng);
+  FloorFeaturePair p;
+  p.source.descriptors.create(shared + own, 32, CV_8U);
+  p.target.descriptors.create(shared + own, 32, CV_8U);
+  for (int i = 0; i < shared + own; ++i) {
+    for (int j = 0; j < 32; ++j)
+      p.source.descriptors.at<std::uint8_t>(i, j) = static_cast<std::uint8_t>(byte(*rng));
+    p.source.points_in_base.push_back(points[i].cast<float>());
+    if (i < shared) {
+      p.source.descriptors.row(i).copyTo(p.target.descriptors.row(i));
+      for (int k = 0; k < 12; ++k) {
+        const int b = bit(*rng);
+        p.target.descriptors.at<std::uint8_t>(i, b / 8) ^= static_cast<std::uint8_t>(1 << (b % 8));
+      }
+      p.target.points_in_base.push_back((target_from_source * points[i]).cast<float>());
+    } else {
+      for (int j = 0; j < 32; ++j)
+        p.target.descriptors.at<std::uint8_t>(i, j) = static_cast<std::uint8_t>(byte(*rng));
+      p.target.points_in_base.push_back(FloorPointsAhead(1, rng)[0].cast<float>());
+    }
+  }
+  return p;
+}
+
 }  // namespace testing
 }  // namespace monoplane

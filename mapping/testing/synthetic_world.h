@@ -6,6 +6,7 @@
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <random>
 #include <vector>
 
 #include "mapping/types.h"
@@ -109,6 +110,19 @@ SyntheticRun MakeRun(const SyntheticWorld& world, const std::vector<Pose2>& trut
 // RMS of the position error between estimates and truth (same frame, no alignment).
 double Ate(const std::vector<Pose2>& estimate, const std::vector<Pose2>& truth);
 double PathLength(const std::vector<Pose2>& poses);
+
+// Floor points ahead of a robot, in its base frame: x in [0.5, 2.2], y in [-1, 1] m (the region the
+// floor features cover).
+std::vector<Eigen::Vector2d> FloorPointsAhead(int n, std::mt19937* rng);
+
+// Floor features of two views: `shared` floor points seen by both (the target's at
+// target_from_source times the source's, each descriptor with 12 of its 256 bits flipped) and `own`
+// points each view has alone; random 32-byte descriptors.
+struct FloorFeaturePair {
+  FloorFeatures source, target;
+};
+FloorFeaturePair MakeFloorFeaturePair(const Pose2& target_from_source, int shared, int own,
+                                      std::mt19937* rng);
 
 }  // namespace testing
 }  // namespace monoplane
