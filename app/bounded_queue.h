@@ -24,11 +24,12 @@ class BoundedQueue {
     std::unique_lock<std::mutex> lock(mutex_);
     if (when_full_ == WhenFull::kBlock) {
       not_full_.wait(lock, [&] { return closed_ || items_.size() < capacity_; });
-    } else if (items_.size() >= capacity_) {
+    }
+    if (closed_) return false;  // and what is queued stays for the pops
+    if (items_.size() >= capacity_) {
       items_.pop_front();
       ++dropped_;
     }
-    if (closed_) return false;
     items_.push_back(std::move(item));
     not_empty_.notify_one();
     return true;
