@@ -173,6 +173,13 @@ std::vector<Eigen::Vector2d> PlaceOnColumnSurfaces(const std::vector<Sample>& sa
                                                    const Eigen::Vector3d& camera_centre,
                                                    const ClassificationOptions& co);
 
+// Where each sample may be placed: its footprint known well enough (measured, footprint sigma
+// within 0.05 m + max_footprint_sigma_ratio of its range), on a surface (SamplesOnSurfaces), and
+// the column surfaces' positions (PlaceOnColumnSurfaces; when column_min_samples > 0).
+Placement PlaceSamples(const CameraModel& camera, const std::vector<Sample>& samples,
+                       const std::vector<PixelLabel>& labels, const SampleGrid& grid,
+                       const ClassificationOptions& co);
+
 // The top view of one pair: the local map's cells (free, occupied, the rest unknown) and the
 // placed obstacle points (base frame, z = height). Samples carried from earlier frames give no
 // vote (the map counted them when they were measured). `edge_reach_samples`: samples above a

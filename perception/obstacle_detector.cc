@@ -250,6 +250,72 @@ void WriteSampleImages(const std::vector<Sample>& samples, const std::vector<Pix
 }
 
 // The label counts of a result's image, from a histogram (no branch per pixel).
+// The current image as a camera at the reference's pitch would have taken it, and the moving
+// pixels with it; the image itself (shared) when the camera did not pitch.
+struct Levelled {
+  bool pitched = false;
+  cv::Mat image;
+  std::vector<Eigen::Vector2d> moving_pixels;
+  Eigen::Matrix3d pitch_h;  // levelled -> actual pixels
+  Eigen::Matrix3d pitch_inverse;
+};
+
+Levelled LevelToReference(const CameraModel& camera, const cv::Mat& current,
+                          const std::vector<Eigen::Vector2d>& moving_pixels, double pitch_rad) {
+  Levelled l;
+  l.pitched = pitch_rad != 0.0;
+  l.image = current;
+  l.moving_pixels = moving_pixels;
+  l.pitch_h = PitchHomography(camera, pitch_rad);
+  l.pitch_inverse = l.pitch_h.inverse();
+  if (l.pitched) {
+    cv::Mat pitch_cv;
+    cv::eigen2cv(l.pitch_h, pitch_cv);
+    cv::warpPerspective(current, l.image, pitch_cv, current.size(),
+                        cv::INTER_LINEAR | cv::WARP_INVERSE_MAP, cv::BORDER_REPLICATE);
+    for (Eigen::Vector2d& p : l.moving_pixels) p = ApplyHomography(l.pitch_inverse, p);
+  }
+  return l;
+}
+
+// Phase 6: the per-pixel outputs. Samples cover stride x stride blocks of the search level; blown
+// up to input resolution into r's labels and heights (and the sample images).
+void WritePixels(const std::vector<Sample>& samples, const std::vector<PixelLabel>& labels,
+                 const SampleGrid& grid, FrameResult* r) {
+  cv::Mat sample_labels, sample_height;
+  WriteSampleImages(samples, labels, grid, &sample_labels, &sample_height, &r->zero_disparity_px,
+                    &r->height_measurements);
+  const int block = static_cast<int>(grid.SamplePx());
+  cv::Mat labels_full, height_full;
+  cv::resize(sample_labels, labels_full, cv::Size(grid.cols * block, grid.rows * block), 0, 0,
+             cv::INTER_NEAREST);
+  cv::resize(sample_height, height_full, cv::Size(grid.cols * block, grid.rows * block), 0, 0,
+             cv::INTER_NEAREST);
+  const cv::Rect roi(0, 0, std::min(r->labels.cols, labels_full.cols),
+                     std::min(r->labels.rows, labels_full.rows));
+  labels_full(roi).copyTo(r->labels(roi));
+  height_full(roi).copyTo(r->height_mm(roi));
+}
+
+// A pitched camera's per-pixel outputs, computed on the image levelled to the reference's pitch,
+// back to the current image: pixel x there shows what pixel pitch_inverse * x showed here.
+void BackToCurrentImage(const Eigen::Matrix3d& pitch_inverse, FrameResult* r) {
+  const cv::Size size = r->labels.size();
+  cv::Mat inverse_cv;
+  cv::eigen2cv(pitch_inverse, inverse_cv);
+  cv::Mat labels_level = r->labels, height_level = r->height_mm;
+  cv::warpPerspective(labels_level, r->labels, inverse_cv, size,
+                      cv::INTER_NEAREST | cv::WARP_INVERSE_MAP, cv::BORDER_CONSTANT,
+                      cv::Scalar(static_cast<int>(PixelLabel::kUnknown)));
+  cv::warpPerspective(height_level, r->height_mm, inverse_cv, size,
+                      cv::INTER_NEAREST | cv::WARP_INVERSE_MAP, cv::BORDER_CONSTANT, cv::Scalar(0));
+  if (!r->segments.empty()) {
+    cv::Mat segments_level = r->segments;
+    cv::warpPerspective(segments_level, r->segments, inverse_cv, size,
+                        cv::INTER_NEAREST | cv::WARP_INVERSE_MAP, cv::BORDER_REPLICATE);
+  }
+}
+
 void CountLabels(FrameResult* r) {
   std::array<int, 256> count{};
   for (int y = 0; y < r->labels.rows; ++y) {
@@ -311,20 +377,10 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
   // A camera pitched relative to the reference (a car on its suspension): the chain below works
   // on the current image as a camera at the reference's pitch would have taken it, and the
   // per-pixel results are mapped back to the current image at the end.
-  const cv::Mat* current_level = &current;
-  cv::Mat unpitched;
-  std::vector<Eigen::Vector2d> moving_level = moving_pixels;
-  const bool pitched = aligned.pitch2_rad != 0.0;
-  const Eigen::Matrix3d pitch_h = PitchHomography(camera_, aligned.pitch2_rad);  // level -> actual
-  const Eigen::Matrix3d pitch_inverse = pitch_h.inverse();
-  if (pitched) {
-    cv::Mat pitch_cv;
-    cv::eigen2cv(pitch_h, pitch_cv);
-    cv::warpPerspective(current, unpitched, pitch_cv, size, cv::INTER_LINEAR | cv::WARP_INVERSE_MAP,
-                        cv::BORDER_REPLICATE);
-    current_level = &unpitched;
-    for (Eigen::Vector2d& p : moving_level) p = ApplyHomography(pitch_inverse, p);
-  }
+  const Levelled level = LevelToReference(camera_, current, moving_pixels, aligned.pitch2_rad);
+  const bool pitched = level.pitched;
+  const cv::Mat* current_level = &level.image;
+  const std::vector<Eigen::Vector2d>& moving_level = level.moving_pixels;
   FrameResult r = UnknownResult(size, options_.local_map, PairStatus::kOk, "");
   r.motion = refined;
   const ZeroDisparityField field =
@@ -366,7 +422,7 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
     LabelAroundMovingCorners(moving_level, grid, co.moving_track_radius_px, &labels);
   }
   if (moving_mask.size() == size && moving_mask.type() == CV_8U) {
-    LabelMovingMask(moving_mask, grid, pitched ? &pitch_h : nullptr, &labels);
+    LabelMovingMask(moving_mask, grid, pitched ? &level.pitch_h : nullptr, &labels);
   }
   if (co.fill_max_gap_samples > 0) {
     FillColumnGaps(camera_, co, grid.rows, grid.cols, grid.SamplePx(), &samples, &labels);
@@ -378,41 +434,13 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
   // Phase 5: the top view. Obstacle points on a surface (not mixed "veil" points at a depth
   // edge) whose footprint is known well enough to be placed at all (far, tall points whose rays
   // graze their height are not), on the surface their image column shows.
-  Placement placement;
-  placement.on_surface = SamplesOnSurfaces(camera_, samples, labels, grid, co);
-  placement.footprint_known.assign(samples.size(), 0);
-  for (std::size_t k = 0; k < samples.size(); ++k) {
-    const Sample& s = samples[k];
-    placement.footprint_known[k] =
-        s.measured &&
-        s.footprint_sigma_m <= 0.05 + co.max_footprint_sigma_ratio * s.point_in_base2.norm();
-  }
-  if (co.column_min_samples > 0) {
-    std::vector<std::uint8_t> usable(samples.size(), 0);
-    for (std::size_t k = 0; k < samples.size(); ++k)
-      usable[k] = placement.footprint_known[k] && placement.on_surface[k];
-    placement.column_placed = PlaceOnColumnSurfaces(samples, labels, usable, grid.rows, grid.cols,
-                                                    camera_.CameraCentreInBase(), co);
-  }
+  const Placement placement = PlaceSamples(camera_, samples, labels, grid, co);
   const int edge_reach_samples = 1 + options_.zero_disparity.window_px / 2 / grid.stride;
   BuildTopView(samples, labels, placement, grid, edge_reach_samples, co, &r.local_map,
                &r.obstacle_points_in_base);
 
-  // Phase 6: the per-pixel outputs. Samples cover stride x stride blocks of the search level;
-  // blow them up to input resolution.
-  cv::Mat sample_labels, sample_height;
-  WriteSampleImages(samples, labels, grid, &sample_labels, &sample_height, &r.zero_disparity_px,
-                    &r.height_measurements);
-  const int block = static_cast<int>(grid.SamplePx());
-  cv::Mat labels_full, height_full;
-  cv::resize(sample_labels, labels_full, cv::Size(grid.cols * block, grid.rows * block), 0, 0,
-             cv::INTER_NEAREST);
-  cv::resize(sample_height, height_full, cv::Size(grid.cols * block, grid.rows * block), 0, 0,
-             cv::INTER_NEAREST);
-  const cv::Rect roi(0, 0, std::min(size.width, labels_full.cols),
-                     std::min(size.height, labels_full.rows));
-  labels_full(roi).copyTo(r.labels(roi));
-  height_full(roi).copyTo(r.height_mm(roi));
+  // Phase 6: the per-pixel outputs.
+  WritePixels(samples, labels, grid, &r);
   // Floor features from the image and labels the chain worked on (camera 1's pitch).
   if (options_.defer_floor_features) {
     // Mapping the labels back below writes into r.labels' buffer: a pitched frame keeps a copy.
@@ -420,23 +448,7 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
   } else {
     r.floor_features = floor_features_.Compute(*current_level, r.labels);
   }
-  if (pitched) {
-    // Back to the current image: pixel x there shows what pixel pitch_h^-1 x showed here.
-    cv::Mat inverse_cv;
-    cv::eigen2cv(pitch_inverse, inverse_cv);
-    cv::Mat labels_level = r.labels, height_level = r.height_mm;
-    cv::warpPerspective(labels_level, r.labels, inverse_cv, size,
-                        cv::INTER_NEAREST | cv::WARP_INVERSE_MAP, cv::BORDER_CONSTANT,
-                        cv::Scalar(static_cast<int>(PixelLabel::kUnknown)));
-    cv::warpPerspective(height_level, r.height_mm, inverse_cv, size,
-                        cv::INTER_NEAREST | cv::WARP_INVERSE_MAP, cv::BORDER_CONSTANT,
-                        cv::Scalar(0));
-    if (!r.segments.empty()) {
-      cv::Mat segments_level = r.segments;
-      cv::warpPerspective(segments_level, r.segments, inverse_cv, size,
-                          cv::INTER_NEAREST | cv::WARP_INVERSE_MAP, cv::BORDER_REPLICATE);
-    }
-  }
+  if (pitched) BackToCurrentImage(level.pitch_inverse, &r);
   CountLabels(&r);
   return r;
 }

@@ -166,6 +166,28 @@ std::vector<Eigen::Vector2d> PlaceOnColumnSurfaces(const std::vector<Sample>& sa
   return placed;
 }
 
+Placement PlaceSamples(const CameraModel& camera, const std::vector<Sample>& samples,
+                       const std::vector<PixelLabel>& labels, const SampleGrid& grid,
+                       const ClassificationOptions& co) {
+  Placement placement;
+  placement.on_surface = SamplesOnSurfaces(camera, samples, labels, grid, co);
+  placement.footprint_known.assign(samples.size(), 0);
+  for (std::size_t k = 0; k < samples.size(); ++k) {
+    const Sample& s = samples[k];
+    placement.footprint_known[k] =
+        s.measured &&
+        s.footprint_sigma_m <= 0.05 + co.max_footprint_sigma_ratio * s.point_in_base2.norm();
+  }
+  if (co.column_min_samples > 0) {
+    std::vector<std::uint8_t> usable(samples.size(), 0);
+    for (std::size_t k = 0; k < samples.size(); ++k)
+      usable[k] = placement.footprint_known[k] && placement.on_surface[k];
+    placement.column_placed = PlaceOnColumnSurfaces(samples, labels, usable, grid.rows, grid.cols,
+                                                    camera.CameraCentreInBase(), co);
+  }
+  return placement;
+}
+
 void BuildTopView(const std::vector<Sample>& samples, const std::vector<PixelLabel>& labels,
                   const Placement& placement, const SampleGrid& grid, int edge_reach_samples,
                   const ClassificationOptions& co, OccupancyGrid* local_map,
