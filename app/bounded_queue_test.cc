@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <thread>
 #include <vector>
 
@@ -11,7 +12,7 @@ namespace {
 TEST(BoundedQueue, CarriesItemsInOrderBetweenThreads) {
   BoundedQueue<int> queue(2);
   std::thread producer([&] {
-    for (int i = 0; i < 1000; ++i) ASSERT_TRUE(queue.Push(i));
+    for (int i = 0; i < 1000; ++i) EXPECT_TRUE(queue.Push(i));
     queue.Close();
   });
   std::vector<int> got;
@@ -36,6 +37,8 @@ TEST(BoundedQueue, CloseReleasesABlockedPush) {
   ASSERT_TRUE(queue.Push(1));
   bool pushed = true;
   std::thread producer([&] { pushed = queue.Push(2); });  // blocks: the queue is full
+  // Most likely blocked by now; if not, the push finds the queue closed, with the same outcome.
+  std::this_thread::sleep_for(std::chrono::milliseconds(50));
   queue.Close();
   producer.join();
   EXPECT_FALSE(pushed);

@@ -91,7 +91,7 @@ struct MapSink::Impl {
       : calibration(c), request(r), recorded_input(recorded), summary(s) {}
 
   CameraCalibration calibration;
-  const RunRequest request;  // a copy: the caller's may not outlive the sink
+  RunRequest request;  // a copy: the caller's may not outlive the sink
   bool recorded_input;
   RunSummary* summary;
 

@@ -61,7 +61,9 @@ class RunPipelineTest : public ::testing::Test {
     std::unique_ptr<MapDatabase> db;
     std::vector<RunInfo> runs;
     EXPECT_TRUE(MapDatabase::Open(map_path, OpenMode::kReadOnly, &db).ok());
-    if (db) EXPECT_TRUE(db->ListRuns(&runs).ok());
+    if (db) {
+      EXPECT_TRUE(db->ListRuns(&runs).ok());
+    }
     return runs;
   }
 

@@ -9,17 +9,17 @@
 
 namespace monoplane {
 
-// When a keyframe shows a place an older keyframe already shows (Mapper::Options' cull_* keys;
-// the mapper checks them).
+// When a keyframe shows a place an older keyframe already shows. The values, their keys and
+// checks are the mapper's (Mapper::Options::ForCulling): cull_* and floor_match.
 struct CullOptions {
-  double distance_m = 0.15;  // estimates within this of each other...
-  double rotation_rad = 0.10;
-  double max_error_m = 0.10;  // ...and their floor match within this of the estimates
-  double max_error_rad = 0.05;
+  double distance_m = 0;  // estimates within this of each other...
+  double rotation_rad = 0;
+  double max_error_m = 0;  // ...and their floor match within this of the estimates
+  double max_error_rad = 0;
   // Only an older keyframe of an earlier visit: a saved one, or one of this run at least this much
   // path before.
-  double min_travel_m = 1.0;
-  int max_candidates = 3;  // nearest older keyframes whose floor is matched
+  double min_travel_m = 0;
+  int max_candidates = 0;  // nearest older keyframes whose floor is matched, in order of distance
   FloorMatchOptions floor_match;
 };
 

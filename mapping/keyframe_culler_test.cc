@@ -5,10 +5,13 @@
 #include <cmath>
 #include <random>
 
+#include "mapping/mapper.h"
 #include "mapping/testing/synthetic_world.h"
 
 namespace monoplane {
 namespace {
+
+CullOptions Defaults() { return Mapper::Options().ForCulling(); }
 
 Keyframe MakeKeyframe(int id, const Pose2& map_from_base, double path_length_m,
                       FloorFeatures floor_features) {
@@ -39,7 +42,7 @@ TEST(KeyframeCuller, MergesIntoAnEarlierVisitThatTheFloorConfirms) {
   std::mt19937 rng(3);
   const Pose2 truth{0.05, 0.03, 0.02};
   const std::vector<Keyframe> keyframes = Revisit(truth, {0.02, -0.01, 0.01}, 4.0, &rng);
-  const std::optional<MergeTarget> target = FindMergeTarget(keyframes, 2, CullOptions());
+  const std::optional<MergeTarget> target = FindMergeTarget(keyframes, 2, Defaults());
   ASSERT_TRUE(target.has_value());
   EXPECT_EQ(target->survivor_index, 0);
   EXPECT_NEAR(target->survivor_from_culled.x, truth.x, 0.002);
@@ -51,10 +54,10 @@ TEST(KeyframeCuller, OnlyIntoAnEarlierVisit) {
   std::mt19937 rng(5);
   std::vector<Keyframe> keyframes = Revisit({0.05, 0.03, 0.02}, Pose2(), 0.5, &rng);
   // 0.5 m of path since: the same pass, whose odometry is better than a floor match.
-  EXPECT_FALSE(FindMergeTarget(keyframes, 2, CullOptions()).has_value());
+  EXPECT_FALSE(FindMergeTarget(keyframes, 2, Defaults()).has_value());
   // A saved keyframe is an earlier visit whatever the path.
   keyframes[0].from_saved_map = true;
-  const std::optional<MergeTarget> target = FindMergeTarget(keyframes, 2, CullOptions());
+  const std::optional<MergeTarget> target = FindMergeTarget(keyframes, 2, Defaults());
   ASSERT_TRUE(target.has_value());
   EXPECT_EQ(target->survivor_index, 0);
 }
@@ -64,15 +67,15 @@ TEST(KeyframeCuller, KeepsWhatTheFloorOrTheEstimatesDoNotConfirm) {
   // The estimates 0.05 m apart, the floor 0.2 m: the estimate is off, a loop closure corrects it
   // first.
   EXPECT_FALSE(
-      FindMergeTarget(Revisit({0.2, 0.0, 0.0}, {-0.15, 0.0, 0.0}, 4.0, &rng), 2, CullOptions())
+      FindMergeTarget(Revisit({0.2, 0.0, 0.0}, {-0.15, 0.0, 0.0}, 4.0, &rng), 2, Defaults())
           .has_value());
   // Farther apart than cull_distance_m by the estimates: not a candidate.
   EXPECT_FALSE(
-      FindMergeTarget(Revisit({0.3, 0.0, 0.0}, Pose2(), 4.0, &rng), 2, CullOptions()).has_value());
+      FindMergeTarget(Revisit({0.3, 0.0, 0.0}, Pose2(), 4.0, &rng), 2, Defaults()).has_value());
   // Without floor features nothing is confirmed.
   std::vector<Keyframe> keyframes = Revisit({0.05, 0.0, 0.0}, Pose2(), 4.0, &rng);
   keyframes[2].floor_features = FloorFeatures();
-  EXPECT_FALSE(FindMergeTarget(keyframes, 2, CullOptions()).has_value());
+  EXPECT_FALSE(FindMergeTarget(keyframes, 2, Defaults()).has_value());
 }
 
 PoseGraphEdge Edge(int from, int to, const Pose2& from_T_to, double sigma_xy_m = 0.05,

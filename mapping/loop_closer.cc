@@ -50,7 +50,7 @@ std::optional<LoopSearchResult> SearchLoopClosure(const std::vector<Keyframe>& k
   // Floor features first: the candidate with the most inliers among the confident matches.
   std::optional<LoopSearchResult> floor;
   std::string floor_reason;
-  if (options.floor_first && !current.floor_features.empty()) {
+  if (options.use_floor_features && !current.floor_features.empty()) {
     std::pair<int, int> best_rejected(-1, -1);  // (inliers, matches) of the best rejected match
     for (const auto& [d, j] : candidates) {
       const Keyframe& k = keyframes[j];

@@ -11,25 +11,27 @@
 
 namespace monoplane {
 
-// Where and how a loop closure is searched for (Mapper::Options' loop_* and floor_loop_* keys;
-// the mapper checks them).
+// Where and how a loop closure is searched for. The values, their keys and checks are the
+// mapper's (Mapper::Options::ForLoopSearch): loop_*, floor_loop_*, floor_match, grid_resolution_m
+// and log_odds.
 struct LoopSearchOptions {
-  double min_travel_m = 5.0;        // path between a candidate of this run and the current one
-  double candidate_radius_m = 5.0;  // candidates within this of the current estimate
-  int max_candidates = 40;          // the nearest ones
-  // Floor features first: the candidate with the most inliers among the confident matches whose
-  // pose lies within max_correction_* of the estimate.
-  bool floor_first = true;
+  double min_travel_m = 0;        // path between a candidate of this run and the current one
+  double candidate_radius_m = 0;  // candidates within this of the current estimate
+  int max_candidates = 0;         // the nearest ones
+  // Floor features first (when on): the candidate with the most inliers among the confident
+  // matches whose pose lies within floor_max_correction_* of the estimate.
+  bool use_floor_features = false;
   FloorMatchOptions floor_match;
-  double floor_max_correction_m = 1.0;
-  double floor_max_correction_rad = 0.35;
-  double floor_sigma_xy_m = 0.02;  // noise of a floor loop constraint
-  double floor_sigma_yaw_rad = 0.01;
-  // Then the current local map matched against the candidates' local maps fused into one grid.
+  double floor_max_correction_m = 0;
+  double floor_max_correction_rad = 0;
+  double floor_sigma_xy_m = 0;  // noise of a floor loop constraint
+  double floor_sigma_yaw_rad = 0;
+  // Else the current local map matched against the candidates' local maps fused into one grid,
+  // anchored on the nearest candidate.
   ScanMatchOptions scan_match;
-  double scan_sigma_xy_m = 0.05;  // noise of a scan loop constraint
-  double scan_sigma_yaw_rad = 0.02;
-  double grid_resolution_m = 0.05;  // of the candidates' fused grid
+  double scan_sigma_xy_m = 0;  // noise of a scan loop constraint
+  double scan_sigma_yaw_rad = 0;
+  double grid_resolution_m = 0;  // of the candidates' fused grid
   LogOddsOptions log_odds;
 };
 

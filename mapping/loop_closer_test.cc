@@ -4,6 +4,7 @@
 
 #include <random>
 
+#include "mapping/mapper.h"
 #include "mapping/testing/synthetic_world.h"
 
 namespace monoplane {
@@ -18,7 +19,7 @@ Keyframe MakeKeyframe(int id, const Pose2& map_from_base, double path_length_m) 
 }
 
 TEST(LoopCloser, TriesOnlyEarlierVisitsNearby) {
-  const LoopSearchOptions options;
+  const LoopSearchOptions options = Mapper::Options().ForLoopSearch();
   // 1 m of path since the other keyframe: the same pass, no candidate.
   std::vector<Keyframe> keyframes = {MakeKeyframe(0, Pose2(), 0.0),
                                      MakeKeyframe(1, {0.1, 0.0, 0.0}, 1.0)};
@@ -58,7 +59,7 @@ std::vector<Keyframe> FloorRevisit(const Pose2& anchor_from_current, const Pose2
 TEST(LoopCloser, FloorFeaturesGiveTheConstraint) {
   std::mt19937 rng(11);
   const Pose2 truth{0.3, 0.1, 0.2};
-  const LoopSearchOptions options;
+  const LoopSearchOptions options = Mapper::Options().ForLoopSearch();
   const std::optional<LoopSearchResult> r =
       SearchLoopClosure(FloorRevisit(truth, {0.2, -0.1, 0.05}, &rng), 2, options);
   ASSERT_TRUE(r.has_value());
@@ -81,7 +82,7 @@ TEST(LoopCloser, FloorFeaturesGiveTheConstraint) {
 
 TEST(LoopCloser, AFloorMatchFarFromTheEstimateIsNotTaken) {
   std::mt19937 rng(13);
-  LoopSearchOptions options;
+  LoopSearchOptions options = Mapper::Options().ForLoopSearch();
   options.floor_max_correction_m = 0.1;
   const std::optional<LoopSearchResult> r =
       SearchLoopClosure(FloorRevisit({0.3, 0.1, 0.2}, {0.2, 0.0, 0.0}, &rng), 2, options);
@@ -107,10 +108,12 @@ TEST(LoopCloser, LocalMapsWhenTheFloorHasNoFeatures) {
   keyframes.push_back(
       MakeKeyframe(7, Pose2{truth.x + 0.15, truth.y - 0.1, truth.yaw + 0.03}, 16.0));
   keyframes.back().local_map = testing::RenderLocalMap(world, truth);
-  LoopSearchOptions options;
+  LoopSearchOptions options = Mapper::Options().ForLoopSearch();
   // Seven views near the start hold more near-alternatives than a whole loop (as in the scan
   // matcher's own test).
   options.scan_match.max_second_ratio = 0.9;
+  options.scan_sigma_xy_m = 0.07;
+  options.scan_sigma_yaw_rad = 0.03;
   const std::optional<LoopSearchResult> r = SearchLoopClosure(keyframes, 7, options);
   ASSERT_TRUE(r.has_value());
   ASSERT_TRUE(r->event.accepted) << r->event.reason;
@@ -121,7 +124,46 @@ TEST(LoopCloser, LocalMapsWhenTheFloorHasNoFeatures) {
   EXPECT_NEAR(r->edge->from_T_to.x, anchor_from_current.x, 0.06);
   EXPECT_NEAR(r->edge->from_T_to.y, anchor_from_current.y, 0.06);
   EXPECT_NEAR(r->edge->from_T_to.yaw, anchor_from_current.yaw, 0.02);
-  EXPECT_EQ(r->edge->sigma_xy_m, options.scan_sigma_xy_m);
+  EXPECT_EQ(r->edge->sigma_xy_m, 0.07);
+  EXPECT_EQ(r->edge->sigma_yaw_rad, 0.03);
+  EXPECT_TRUE(r->edge->robust);
+}
+
+// Two earlier keyframes whose floor the current one shares: the one with more inliers anchors the
+// constraint, though the other is nearer.
+TEST(LoopCloser, TheFloorMatchWithTheMostInliersWins) {
+  std::mt19937 rng(17);
+  const Pose2 near_anchor{1.0, 2.0, 0.5}, far_anchor{2.5, 2.0, 0.5};
+  const Pose2 current_estimate{1.3, 2.1, 0.6};
+  const Pose2 near_from_current = near_anchor.Inverse() * current_estimate;
+  const Pose2 far_from_current = far_anchor.Inverse() * current_estimate;
+  const testing::FloorFeaturePair few =
+      testing::MakeFloorFeaturePair(near_from_current, 40, 0, &rng);
+  const testing::FloorFeaturePair many =
+      testing::MakeFloorFeaturePair(far_from_current, 90, 0, &rng);
+  std::vector<Keyframe> keyframes = {MakeKeyframe(10, near_anchor, 0.0),
+                                     MakeKeyframe(11, far_anchor, 0.5),
+                                     MakeKeyframe(12, current_estimate, 8.0)};
+  keyframes[0].floor_features = few.target.Clone();
+  keyframes[1].floor_features = many.target.Clone();
+  FloorFeatures& current = keyframes[2].floor_features;
+  cv::vconcat(few.source.descriptors, many.source.descriptors, current.descriptors);
+  current.points_in_base = few.source.points_in_base;
+  current.points_in_base.insert(current.points_in_base.end(), many.source.points_in_base.begin(),
+                                many.source.points_in_base.end());
+  LoopSearchOptions options = Mapper::Options().ForLoopSearch();
+  std::optional<LoopSearchResult> r = SearchLoopClosure(keyframes, 2, options);
+  ASSERT_TRUE(r.has_value());
+  ASSERT_TRUE(r->event.accepted) << r->event.reason;
+  EXPECT_EQ(r->event.anchor_id, 11);
+  EXPECT_EQ(r->anchor_index, 1);
+  EXPECT_GE(r->event.num_inliers, 80);
+  // With only the nearer one within reach, it anchors.
+  options.candidate_radius_m = 1.0;
+  r = SearchLoopClosure(keyframes, 2, options);
+  ASSERT_TRUE(r.has_value());
+  ASSERT_TRUE(r->event.accepted) << r->event.reason;
+  EXPECT_EQ(r->event.anchor_id, 10);
 }
 
 }  // namespace

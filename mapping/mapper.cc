@@ -171,12 +171,12 @@ bool Mapper::Options::IsValid(std::string* error) const {
          nested(localization_match.IsValid(&sub));
 }
 
-LoopSearchOptions Mapper::Options::LoopSearch() const {
+LoopSearchOptions Mapper::Options::ForLoopSearch() const {
   LoopSearchOptions o;
   o.min_travel_m = loop_min_travel_m;
   o.candidate_radius_m = loop_candidate_radius_m;
   o.max_candidates = loop_max_candidates;
-  o.floor_first = floor_loop_closure;
+  o.use_floor_features = floor_loop_closure;
   o.floor_match = floor_match;
   o.floor_max_correction_m = floor_loop_max_correction_m;
   o.floor_max_correction_rad = floor_loop_max_correction_rad;
@@ -190,7 +190,7 @@ LoopSearchOptions Mapper::Options::LoopSearch() const {
   return o;
 }
 
-CullOptions Mapper::Options::Cull() const {
+CullOptions Mapper::Options::ForCulling() const {
   CullOptions o;
   o.distance_m = cull_distance_m;
   o.rotation_rad = cull_rotation_rad;

@@ -132,8 +132,8 @@ class Mapper {
     void Describe(OptionVisitor& v);
     bool IsValid(std::string* error) const;
     // The collaborators' options, from the fields above.
-    LoopSearchOptions LoopSearch() const;
-    CullOptions Cull() const;
+    LoopSearchOptions ForLoopSearch() const;
+    CullOptions ForCulling() const;
 
     static ScanMatchOptions WideMatch() {
       ScanMatchOptions o;
@@ -228,10 +228,12 @@ class Mapper {
   // `may_be_first`) into an older one showing the same place, if there is one (see
   // Options::cull_redundant_keyframes); true when it did.
   bool CullIfRedundant(int index, FrameUpdate* update, bool may_be_first = false);
-  // Removes keyframe `culled`: edges and frames move to `survivor` (< culled) through
-  // survivor_from_culled (measured, for the edges) and the current estimates (for the frames).
+  // Removes keyframe `culled`: its raw odometry edges are dropped, its refined and loop edges and
+  // its frames move to `survivor` (< culled) through survivor_from_culled (measured, for the edges)
+  // and the current estimates (for the frames).
   void MergeKeyframe(int culled, int survivor, const Pose2& survivor_from_culled);
-  // Clears the robot's footprint at a frame's map pose (Options::footprint_radius_m).
+  // The grid and the OctoMap again from the keyframes at their current poses, with the footprint
+  // swept free along this run's frames (after a correction moved keyframes).
   void Rebuild();
   int FirstRunIndex() const { return num_saved_; }
 

@@ -32,7 +32,8 @@ bool Mapper::CullIfRedundant(int index, FrameUpdate* update, bool may_be_first) 
   if (!options_.cull_redundant_keyframes || index < FirstRunIndex() ||
       (index == FirstRunIndex() && !may_be_first))
     return false;
-  const std::optional<MergeTarget> target = FindMergeTarget(keyframes_, index, options_.Cull());
+  const std::optional<MergeTarget> target =
+      FindMergeTarget(keyframes_, index, options_.ForCulling());
   if (!target) return false;
   update->culled_keyframe_ids.push_back(keyframes_[index].id);
   MergeKeyframe(index, target->survivor_index, target->survivor_from_culled);
@@ -41,9 +42,10 @@ bool Mapper::CullIfRedundant(int index, FrameUpdate* update, bool may_be_first) 
 }
 
 void Mapper::MergeKeyframe(int culled, int survivor, const Pose2& survivor_from_culled) {
-  // Edges: an edge to the culled keyframe becomes one to the survivor, measured through the floor
-  // match (so its noise grows by the floor-loop noise); odometry edges between culled and survivor
-  // vanish. The raw odometry edges serve windows only, and none holds the culled keyframe again.
+  // Edges: a refined or loop edge of the culled keyframe becomes one to the survivor, measured
+  // through the floor match (so its noise grows by the floor-loop noise); one between culled and
+  // survivor vanishes. The culled keyframe's raw odometry edges are dropped: they serve windows
+  // only, and none holds the culled keyframe again.
   DropEdgesOf(culled, &odometry_edges_);
   for (std::vector<PoseGraphEdge>* edges : {&refined_edges_, &loop_edges_}) {
     MoveEdgesToSurvivor(culled, survivor, survivor_from_culled, options_.floor_loop_sigma_xy_m,

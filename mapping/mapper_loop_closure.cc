@@ -22,7 +22,7 @@ bool Mapper::TryLoopClosure(int index) {
       current.id - last_closure_id_ <= options_.loop_min_interval_keyframes)
     return false;
   const std::optional<LoopSearchResult> r =
-      SearchLoopClosure(keyframes_, index, options_.LoopSearch());
+      SearchLoopClosure(keyframes_, index, options_.ForLoopSearch());
   if (!r) return false;
   ++counters_.loop_closure_attempts;
   loop_events_.push_back(r->event);

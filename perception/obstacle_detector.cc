@@ -249,7 +249,6 @@ void WriteSampleImages(const std::vector<Sample>& samples, const std::vector<Pix
   }
 }
 
-// The label counts of a result's image, from a histogram (no branch per pixel).
 // The current image as a camera at the reference's pitch would have taken it, and the moving
 // pixels with it; the image itself (shared) when the camera did not pitch.
 struct Levelled {
@@ -264,17 +263,19 @@ Levelled LevelToReference(const CameraModel& camera, const cv::Mat& current,
                           const std::vector<Eigen::Vector2d>& moving_pixels, double pitch_rad) {
   Levelled l;
   l.pitched = pitch_rad != 0.0;
-  l.image = current;
   l.moving_pixels = moving_pixels;
   l.pitch_h = PitchHomography(camera, pitch_rad);
   l.pitch_inverse = l.pitch_h.inverse();
-  if (l.pitched) {
-    cv::Mat pitch_cv;
-    cv::eigen2cv(l.pitch_h, pitch_cv);
-    cv::warpPerspective(current, l.image, pitch_cv, current.size(),
-                        cv::INTER_LINEAR | cv::WARP_INVERSE_MAP, cv::BORDER_REPLICATE);
-    for (Eigen::Vector2d& p : l.moving_pixels) p = ApplyHomography(l.pitch_inverse, p);
+  if (!l.pitched) {
+    l.image = current;
+    return l;
   }
+  // Into a new buffer: a warp into the image it reads would overwrite what it still reads.
+  cv::Mat pitch_cv;
+  cv::eigen2cv(l.pitch_h, pitch_cv);
+  cv::warpPerspective(current, l.image, pitch_cv, current.size(),
+                      cv::INTER_LINEAR | cv::WARP_INVERSE_MAP, cv::BORDER_REPLICATE);
+  for (Eigen::Vector2d& p : l.moving_pixels) p = ApplyHomography(l.pitch_inverse, p);
   return l;
 }
 
@@ -316,6 +317,7 @@ void BackToCurrentImage(const Eigen::Matrix3d& pitch_inverse, FrameResult* r) {
   }
 }
 
+// The label counts of a result's image, from a histogram (no branch per pixel).
 void CountLabels(FrameResult* r) {
   std::array<int, 256> count{};
   for (int y = 0; y < r->labels.rows; ++y) {

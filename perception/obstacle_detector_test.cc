@@ -41,7 +41,11 @@ TEST_F(DetectorOnSyntheticScene, RelativePitchIsEstimatedAndTheFloorStaysFloor) 
     return static_cast<double>(floor) / near;
   };
   int not_floor_with = 0, not_floor_without = 0;
+  const cv::Mat reference_before = a.image.clone(), current_before = b.image.clone();
   const double with_pitch = floor_share(ObstacleDetector(calib_, options_), &not_floor_with);
+  // Detect leaves its images as they were (the levelled image is its own).
+  EXPECT_EQ(cv::norm(a.image, reference_before, cv::NORM_INF), 0.0);
+  EXPECT_EQ(cv::norm(b.image, current_before, cv::NORM_INF), 0.0);
   options_.direct_alignment.estimate_pitch = false;
   const double without = floor_share(ObstacleDetector(calib_, options_), &not_floor_without);
   EXPECT_GT(with_pitch, 0.7);

@@ -116,8 +116,8 @@ double PathLength(const std::vector<Pose2>& poses);
 std::vector<Eigen::Vector2d> FloorPointsAhead(int n, std::mt19937* rng);
 
 // Floor features of two views: `shared` floor points seen by both (the target's at
-// target_from_source times the source's, each descriptor with 12 of its 256 bits flipped) and `own`
-// points each view has alone; random 32-byte descriptors.
+// target_from_source times the source's, each descriptor with up to 12 of its 256 bits flipped) and
+// `own` points each view has alone; random 32-byte descriptors.
 struct FloorFeaturePair {
   FloorFeatures source, target;
 };
