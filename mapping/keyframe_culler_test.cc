@@ -78,6 +78,39 @@ TEST(KeyframeCuller, KeepsWhatTheFloorOrTheEstimatesDoNotConfirm) {
   EXPECT_FALSE(FindMergeTarget(keyframes, 2, Defaults()).has_value());
 }
 
+// Three earlier keyframes near the current one: the nearest has no floor features, the other two
+// both confirm the place; the nearer of those is the survivor.
+TEST(KeyframeCuller, TheNearestConfirmedKeyframeSurvives) {
+  std::mt19937 rng(9);
+  const Pose2 current{2.0, 1.0, 0.1};
+  const Pose2 a = current * Pose2{-0.06, 0.0, 0.0}, b = current * Pose2{0.03, 0.0, 0.0};
+  const testing::FloorFeaturePair from_a =
+      testing::MakeFloorFeaturePair(a.Inverse() * current, 60, 0, &rng);
+  const testing::FloorFeaturePair from_b =
+      testing::MakeFloorFeaturePair(b.Inverse() * current, 60, 0, &rng);
+  FloorFeatures seen;
+  cv::vconcat(from_a.source.descriptors, from_b.source.descriptors, seen.descriptors);
+  seen.points_in_base = from_a.source.points_in_base;
+  seen.points_in_base.insert(seen.points_in_base.end(), from_b.source.points_in_base.begin(),
+                             from_b.source.points_in_base.end());
+  std::vector<Keyframe> keyframes = {MakeKeyframe(1, a, 0.0, from_a.target.Clone()),
+                                     MakeKeyframe(2, b, 0.2, from_b.target.Clone()),
+                                     MakeKeyframe(3, current * Pose2{0.01, 0.0, 0.0}, 0.4, {}),
+                                     MakeKeyframe(4, current, 4.0, seen.Clone())};
+  std::optional<MergeTarget> target = FindMergeTarget(keyframes, 3, Defaults());
+  ASSERT_TRUE(target.has_value());
+  EXPECT_EQ(target->survivor_index, 1);
+  // When the nearer one's floor does not confirm, the farther one does...
+  keyframes[1].floor_features = testing::MakeFloorFeaturePair(Pose2(), 0, 60, &rng).target.Clone();
+  target = FindMergeTarget(keyframes, 3, Defaults());
+  ASSERT_TRUE(target.has_value());
+  EXPECT_EQ(target->survivor_index, 0);
+  // ... unless only the nearest candidate is tried.
+  CullOptions nearest_only = Defaults();
+  nearest_only.max_candidates = 1;
+  EXPECT_FALSE(FindMergeTarget(keyframes, 3, nearest_only).has_value());
+}
+
 PoseGraphEdge Edge(int from, int to, const Pose2& from_T_to, double sigma_xy_m = 0.05,
                    double sigma_yaw_rad = 0.02, bool robust = false) {
   PoseGraphEdge e;
