@@ -9,6 +9,7 @@ FrameObservation MakeFrameObservation(const SequenceDetector::Output& output,
   frame.odom_from_base = output.odom_from_base;
   frame.step = output.step;
   frame.features = output.features;
+  if (output.result) frame.moving_objects = output.result->moving_objects;
   // A result carried from the last detected frame measured nothing new.
   if (output.result && output.result->status == PairStatus::kOk && !output.result->predicted) {
     frame.has_result = true;

@@ -1,5 +1,11 @@
 #include "mapping/map_fusion.h"
 
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "mapping/mapper_internal.h"
+
 namespace monoplane {
 
 MapFusion::MapFusion(const Options& options, const Eigen::Vector3d& camera_centre_in_base)
@@ -23,6 +29,51 @@ void MapFusion::InsertPoints(const Keyframe& keyframe) {
 }
 
 void MapFusion::FuseKeyframe(const Keyframe& keyframe) {
+  Fuse(keyframe);
+  if (mover_paths_.empty()) return;
+  const auto [lo, hi] =
+      mapper_internal::LocalMapBounds(keyframe.local_map, keyframe.map_from_base, 0.0);
+  ForgetMoverPathsIn(lo, hi);
+}
+
+void MapFusion::ForgetMoverPath(const Eigen::Vector2d& from_m, const Eigen::Vector2d& to_m,
+                                double radius_m) {
+  Capsule c{from_m, to_m, radius_m, from_m.cwiseMin(to_m).array() - radius_m,
+            from_m.cwiseMax(to_m).array() + radius_m};
+  Forget(c);
+  mover_paths_.push_back(c);
+}
+
+void MapFusion::Forget(const Capsule& c) {
+  const Eigen::Vector2i lo = grid_.CellOf(c.lo), hi = grid_.CellOf(c.hi);
+  const double res = grid_.resolution_m();
+  const Eigen::Vector2d ab = c.b - c.a;
+  const double ab2 = ab.squaredNorm();
+  for (int j = lo.y(); j <= hi.y(); ++j) {
+    for (int i = lo.x(); i <= hi.x(); ++i) {
+      const Eigen::Vector2i cell(i, j);
+      const TiledGrid::Tile* existing = grid_.FindTile(cell);
+      if (existing == nullptr) continue;
+      const int k = TiledGrid::IndexInTile(cell);
+      if (!(existing->log_odds[k] > 0.0f)) continue;
+      const Eigen::Vector2d centre((i + 0.5) * res, (j + 0.5) * res);
+      const double s = ab2 > 0 ? std::clamp((centre - c.a).dot(ab) / ab2, 0.0, 1.0) : 0.0;
+      if ((centre - (c.a + s * ab)).norm() > c.radius_m) continue;
+      TiledGrid::Tile& tile = grid_.TileAt(cell);
+      tile.log_odds[k] = 0.0f;
+      tile.height_m[k] = std::numeric_limits<float>::quiet_NaN();
+      changed_tiles_.insert(TiledGrid::TileOf(cell));
+    }
+  }
+}
+
+void MapFusion::ForgetMoverPathsIn(const Eigen::Vector2d& lo, const Eigen::Vector2d& hi) {
+  for (const Capsule& c : mover_paths_) {
+    if ((c.lo.array() <= hi.array()).all() && (lo.array() <= c.hi.array()).all()) Forget(c);
+  }
+}
+
+void MapFusion::Fuse(const Keyframe& keyframe) {
   const std::vector<Eigen::Vector3f> obstacle_points_in_base = keyframe.ObstaclePoints();
   FuseLocalMap(keyframe.LocalMap(), obstacle_points_in_base, keyframe.map_from_base,
                keyframe.stamp_ns, options_.log_odds, &grid_, &changed_tiles_);
@@ -50,9 +101,10 @@ void MapFusion::Rebuild(const std::vector<Keyframe>& keyframes,
     if (k.from_saved_map) {
       InsertPoints(k);
     } else {
-      FuseKeyframe(k);
+      Fuse(k);
     }
   }
+  for (const Capsule& c : mover_paths_) Forget(c);
   for (const auto& [map_from_base, stamp_ns] : footprint_poses)
     SweepFootprint(map_from_base, stamp_ns);
 }

@@ -45,11 +45,26 @@ class MapFusion {
   const TiledGrid& grid() const { return grid_; }
   const TiledGrid& saved_grid() const { return saved_grid_; }
   const ObstacleOctree& octree() const { return octree_; }
+  // Where a thing that moves on its own went: a capsule of the map frame (the segment from -> to,
+  // grown by radius_m) in which nothing static stands. Its cells that read occupied become unknown,
+  // now and after every later fusion and rebuild: the keyframes that saw the thing before it was
+  // known to move keep it in their local maps. Free cells stay free. The OctoMap keeps its points.
+  void ForgetMoverPath(const Eigen::Vector2d& from_m, const Eigen::Vector2d& to_m, double radius_m);
   // The tiles changed since the last call.
   std::set<TiledGrid::TileKey> TakeChangedTiles();
 
  private:
+  struct Capsule {
+    Eigen::Vector2d a, b;
+    double radius_m;
+    Eigen::Vector2d lo, hi;  // bounding box
+  };
   void InsertPoints(const Keyframe& keyframe);
+  void Fuse(const Keyframe& keyframe);
+  // Occupied cells of the capsule become unknown.
+  void Forget(const Capsule& capsule);
+  // Every capsule that overlaps the box again.
+  void ForgetMoverPathsIn(const Eigen::Vector2d& lo, const Eigen::Vector2d& hi);
 
   Options options_;
   Eigen::Vector3d camera_centre_in_base_;
@@ -58,6 +73,7 @@ class MapFusion {
   OccupancyGrid footprint_;  // base frame: free inside footprint_radius_m, else unknown
   std::set<TiledGrid::TileKey> changed_tiles_;
   ObstacleOctree octree_;
+  std::vector<Capsule> mover_paths_;
 };
 
 }  // namespace monoplane

@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 namespace monoplane {
 namespace {
 
@@ -87,6 +89,31 @@ TEST(MapFusion, RebuildingAtMovedPosesKeepsTheSavedGridAndFusesTheRunAgain) {
   EXPECT_EQ(grid.LogOdds(grid.CellOf({0.55, 0.05})), 0.0f);  // where the keyframe no longer is
   EXPECT_FALSE(fusion.TakeChangedTiles().empty());
   EXPECT_EQ(fusion.octree().ToBinary(), fresh.octree().ToBinary());
+}
+
+TEST(MapFusion, WhereAMoverWentNothingStaticStandsAndThatIsRemembered) {
+  MapFusion fusion(TestOptions(), {0.1, 0.0, 0.4});
+  // A keyframe that saw the thing (its occupied cell at (0.55, 0.05)) before it was known to move.
+  fusion.FuseKeyframe(TestKeyframe(0, Pose2::Identity()));
+  const TiledGrid& grid = fusion.grid();
+  const Eigen::Vector2i where = grid.CellOf({0.55, 0.05});
+  const float free_before = grid.LogOdds(grid.CellOf({0.25, -0.25}));
+  ASSERT_GT(grid.LogOdds(where), 0.0f);
+  fusion.TakeChangedTiles();
+  // It walked from (0.55, -0.5) to (0.55, 0.5), 0.1 m in radius: its cell is unknown now, the
+  // free floor beside it stays free, and the tile is reported changed.
+  fusion.ForgetMoverPath({0.55, -0.5}, {0.55, 0.5}, 0.1);
+  EXPECT_EQ(grid.LogOdds(where), 0.0f);
+  EXPECT_TRUE(std::isnan(grid.FindTile(where)->height_m[TiledGrid::IndexInTile(where)]));
+  EXPECT_EQ(grid.LogOdds(grid.CellOf({0.25, -0.25})), free_before);
+  EXPECT_FALSE(fusion.TakeChangedTiles().empty());
+  // A later keyframe that also saw it there (before the track) does not bring it back...
+  fusion.FuseKeyframe(TestKeyframe(1, Pose2::Identity()));
+  EXPECT_EQ(grid.LogOdds(where), 0.0f);
+  // ... nor does a rebuild; the same obstacle elsewhere stays.
+  fusion.Rebuild({TestKeyframe(0, Pose2::Identity()), TestKeyframe(1, Pose2{0.0, 2.0, 0.0})}, {});
+  EXPECT_EQ(grid.LogOdds(where), 0.0f);
+  EXPECT_GT(grid.LogOdds(grid.CellOf({0.55, 2.05})), 0.0f);
 }
 
 }  // namespace

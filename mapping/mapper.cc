@@ -144,6 +144,8 @@ void Mapper::Options::Describe(OptionVisitor& v) {
                                 {"max", "log_odds_max"}},
                                "");
   log_odds.Describe(log_odds_keys);
+  v.Flag("forget_mover_paths", &forget_mover_paths,
+         "occupied grid cells where a tracked moving thing went become unknown");
   v.Flag("build_octree", &build_octree, "build the 3-D OctoMap");
   RenamedOptions octree_keys(
       &v, {{"resolution_m", "octree_resolution_m"}, {"max_range_m", "octree_max_range_m"}}, "");
@@ -352,6 +354,15 @@ Mapper::FrameUpdate Mapper::AddFrame(const FrameObservation& frame) {
     since_keyframe_.push_back({frame.odom_from_base, frame.local_map});
   }
   update.map_from_base = CurrentPose();
+  if (options_.forget_mover_paths) {
+    for (const MovingObject& o : frame.moving_objects) {
+      if (o.coasting || !IsValidMovingObject(o)) continue;
+      const Eigen::Vector2d position = update.map_from_base * o.position_in_base;
+      const auto [last, first] = last_mover_position_.try_emplace(o.id, position);
+      fusion_.ForgetMoverPath(last->second, position, o.radius_m);
+      last->second = position;
+    }
+  }
   // Before this run's first keyframe the pose is a guess (a saved map localises that keyframe).
   if (frames_.back().keyframe_index >= 0)
     fusion_.SweepFootprint(update.map_from_base, frame.stamp_ns);

@@ -1,6 +1,7 @@
 #pragma once
 
 #include <functional>
+#include <map>
 #include <optional>
 #include <set>
 #include <string>
@@ -122,6 +123,10 @@ class Mapper {
     // pairs do not vote. 0 = off.
     int keyframe_free_min_frames = 4;
     LogOddsOptions log_odds;
+    // Where a tracked thing that moves on its own went (FrameObservation::moving_objects, its disc
+    // from one frame's position to the next), nothing static stands: the grid's occupied cells
+    // there become unknown, also those that keyframes fused before the thing was known to move.
+    bool forget_mover_paths = true;
     bool build_octree = true;
     ObstacleOctree::Options octree;
 
@@ -264,6 +269,7 @@ class Mapper {
   bool finished_ = false;     // FinishRun was called
 
   MapFusion fusion_;  // the grid, the footprint swept free and the OctoMap
+  std::map<int, Eigen::Vector2d> last_mover_position_;  // map frame, by track id
 
   MapperCounters counters_;
   std::vector<LoopClosureEvent> loop_events_;

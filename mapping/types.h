@@ -30,6 +30,9 @@ struct FrameObservation {
   std::vector<Eigen::Vector3f> obstacle_points_in_base;  // z = height above the floor, metres
   FloorFeatures
       floor_features;  // floor descriptors and points (base frame); empty without a result
+  // The tracked things that move on their own in this frame (FrameResult::moving_objects), base
+  // frame; also on frames without a result of their own.
+  std::vector<MovingObject> moving_objects;
   // When the detector deferred the floor features (DetectorOptions::defer_floor_features): what
   // they come from. The caller computes them (ObstacleDetector::ComputeFloorFeatures) for the
   // frames the mapper will keep (Mapper::WantsKeyframe) before AddFrame.
