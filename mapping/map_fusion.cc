@@ -25,7 +25,7 @@ void MapFusion::StartFromSavedMap(TiledGrid saved_grid,
 
 void MapFusion::InsertPoints(const Keyframe& keyframe) {
   if (options_.build_octree)
-    octree_.Insert(keyframe.ObstaclePoints(), keyframe.map_from_base, camera_centre_in_base_);
+    octree_.Insert(StaticPoints(keyframe), keyframe.map_from_base, camera_centre_in_base_);
 }
 
 void MapFusion::FuseKeyframe(const Keyframe& keyframe) {
@@ -67,6 +67,29 @@ void MapFusion::Forget(const Capsule& c) {
   }
 }
 
+bool MapFusion::OnMoverPath(const Eigen::Vector2d& point_m) const {
+  for (const Capsule& c : mover_paths_) {
+    if ((point_m.array() < c.lo.array()).any() || (point_m.array() > c.hi.array()).any()) continue;
+    const Eigen::Vector2d ab = c.b - c.a;
+    const double ab2 = ab.squaredNorm();
+    const double s = ab2 > 0 ? std::clamp((point_m - c.a).dot(ab) / ab2, 0.0, 1.0) : 0.0;
+    if ((point_m - (c.a + s * ab)).norm() <= c.radius_m) return true;
+  }
+  return false;
+}
+
+std::vector<Eigen::Vector3f> MapFusion::StaticPoints(const Keyframe& keyframe) const {
+  std::vector<Eigen::Vector3f> points = keyframe.ObstaclePoints();
+  if (mover_paths_.empty()) return points;
+  const Pose2& pose = keyframe.map_from_base;
+  points.erase(std::remove_if(points.begin(), points.end(),
+                              [&](const Eigen::Vector3f& p) {
+                                return OnMoverPath(pose * Eigen::Vector2d(p.x(), p.y()));
+                              }),
+               points.end());
+  return points;
+}
+
 void MapFusion::ForgetMoverPathsIn(const Eigen::Vector2d& lo, const Eigen::Vector2d& hi) {
   for (const Capsule& c : mover_paths_) {
     if ((c.lo.array() <= hi.array()).all() && (lo.array() <= c.hi.array()).all()) Forget(c);
@@ -74,7 +97,7 @@ void MapFusion::ForgetMoverPathsIn(const Eigen::Vector2d& lo, const Eigen::Vecto
 }
 
 void MapFusion::Fuse(const Keyframe& keyframe) {
-  const std::vector<Eigen::Vector3f> obstacle_points_in_base = keyframe.ObstaclePoints();
+  const std::vector<Eigen::Vector3f> obstacle_points_in_base = StaticPoints(keyframe);
   FuseLocalMap(keyframe.LocalMap(), obstacle_points_in_base, keyframe.map_from_base,
                keyframe.stamp_ns, options_.log_odds, &grid_, &changed_tiles_);
   if (options_.build_octree)

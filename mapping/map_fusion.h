@@ -48,7 +48,9 @@ class MapFusion {
   // Where a thing that moves on its own went: a capsule of the map frame (the segment from -> to,
   // grown by radius_m) in which nothing static stands. Its cells that read occupied become unknown,
   // now and after every later fusion and rebuild: the keyframes that saw the thing before it was
-  // known to move keep it in their local maps. Free cells stay free. The OctoMap keeps its points.
+  // known to move keep it in their local maps. Free cells stay free. No later obstacle point there
+  // enters the OctoMap; those already in it stay until a rebuild. (OctoMap's deleteNode, which
+  // could make them unknown now, aborts on a node it leaves without children: OctoMap issue 287.)
   void ForgetMoverPath(const Eigen::Vector2d& from_m, const Eigen::Vector2d& to_m, double radius_m);
   // The tiles changed since the last call.
   std::set<TiledGrid::TileKey> TakeChangedTiles();
@@ -63,6 +65,10 @@ class MapFusion {
   void Fuse(const Keyframe& keyframe);
   // Occupied cells of the capsule become unknown.
   void Forget(const Capsule& capsule);
+  // Whether a map point lies on a mover's path.
+  bool OnMoverPath(const Eigen::Vector2d& point_m) const;
+  // The keyframe's obstacle points not on a mover's path.
+  std::vector<Eigen::Vector3f> StaticPoints(const Keyframe& keyframe) const;
   // Every capsule that overlaps the box again.
   void ForgetMoverPathsIn(const Eigen::Vector2d& lo, const Eigen::Vector2d& hi);
 

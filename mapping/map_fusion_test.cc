@@ -99,6 +99,7 @@ TEST(MapFusion, WhereAMoverWentNothingStaticStandsAndThatIsRemembered) {
   const Eigen::Vector2i where = grid.CellOf({0.55, 0.05});
   const float free_before = grid.LogOdds(grid.CellOf({0.25, -0.25}));
   ASSERT_GT(grid.LogOdds(where), 0.0f);
+  ASSERT_EQ(fusion.octree().NumOccupiedLeaves(), 1u);
   fusion.TakeChangedTiles();
   // It walked from (0.55, -0.5) to (0.55, 0.5), 0.1 m in radius: its cell is unknown now, the
   // free floor beside it stays free, and the tile is reported changed.
@@ -110,10 +111,13 @@ TEST(MapFusion, WhereAMoverWentNothingStaticStandsAndThatIsRemembered) {
   // A later keyframe that also saw it there (before the track) does not bring it back...
   fusion.FuseKeyframe(TestKeyframe(1, Pose2::Identity()));
   EXPECT_EQ(grid.LogOdds(where), 0.0f);
+  // The OctoMap keeps the voxel the first keyframe put there; the second adds nothing.
+  EXPECT_EQ(fusion.octree().NumOccupiedLeaves(), 1u);
   // ... nor does a rebuild; the same obstacle elsewhere stays.
   fusion.Rebuild({TestKeyframe(0, Pose2::Identity()), TestKeyframe(1, Pose2{0.0, 2.0, 0.0})}, {});
   EXPECT_EQ(grid.LogOdds(where), 0.0f);
   EXPECT_GT(grid.LogOdds(grid.CellOf({0.55, 2.05})), 0.0f);
+  EXPECT_EQ(fusion.octree().NumOccupiedLeaves(), 1u);
 }
 
 }  // namespace
