@@ -36,29 +36,50 @@ void MapFusion::FuseKeyframe(const Keyframe& keyframe) {
   ForgetMoverPathsIn(lo, hi);
 }
 
+namespace {
+
+double DistanceToSegment(const Eigen::Vector2d& p, const Eigen::Vector2d& a,
+                         const Eigen::Vector2d& b) {
+  const Eigen::Vector2d ab = b - a;
+  const double ab2 = ab.squaredNorm();
+  const double s = ab2 > 0 ? std::clamp((p - a).dot(ab) / ab2, 0.0, 1.0) : 0.0;
+  return (p - (a + s * ab)).norm();
+}
+
+}  // namespace
+
+MapFusion::Capsule MapFusion::MakeCapsule(const Eigen::Vector2d& from_m,
+                                          const Eigen::Vector2d& to_m, double radius_m) {
+  return {from_m, to_m, radius_m, from_m.cwiseMin(to_m).array() - radius_m,
+          from_m.cwiseMax(to_m).array() + radius_m};
+}
+
 void MapFusion::ForgetMoverPath(const Eigen::Vector2d& from_m, const Eigen::Vector2d& to_m,
                                 double radius_m) {
-  Capsule c{from_m, to_m, radius_m, from_m.cwiseMin(to_m).array() - radius_m,
-            from_m.cwiseMax(to_m).array() + radius_m};
-  Forget(c);
-  mover_paths_.push_back(c);
+  mover_paths_.push_back(MakeCapsule(from_m, to_m, radius_m));
+  Forget(mover_paths_.back());
+}
+
+void MapFusion::SetMoverPaths(const std::vector<MoverPath>& paths) {
+  mover_paths_.clear();
+  for (const MoverPath& p : paths)
+    mover_paths_.push_back(MakeCapsule(p.from_m, p.to_m, p.radius_m));
 }
 
 void MapFusion::Forget(const Capsule& c) {
   const Eigen::Vector2i lo = grid_.CellOf(c.lo), hi = grid_.CellOf(c.hi);
-  const double res = grid_.resolution_m();
-  const Eigen::Vector2d ab = c.b - c.a;
-  const double ab2 = ab.squaredNorm();
   for (int j = lo.y(); j <= hi.y(); ++j) {
     for (int i = lo.x(); i <= hi.x(); ++i) {
       const Eigen::Vector2i cell(i, j);
       const TiledGrid::Tile* existing = grid_.FindTile(cell);
       if (existing == nullptr) continue;
       const int k = TiledGrid::IndexInTile(cell);
-      if (!(existing->log_odds[k] > 0.0f)) continue;
-      const Eigen::Vector2d centre((i + 0.5) * res, (j + 0.5) * res);
-      const double s = ab2 > 0 ? std::clamp((centre - c.a).dot(ab) / ab2, 0.0, 1.0) : 0.0;
-      if ((centre - (c.a + s * ab)).norm() > c.radius_m) continue;
+      // Occupied, and not known to be low (a threshold, a drop-off: a height below
+      // kMoverMinHeightM; NaN, no height, is not).
+      const float height = existing->height_m[k];
+      if (!(existing->log_odds[k] > 0.0f) || (std::isfinite(height) && height < kMoverMinHeightM))
+        continue;
+      if (DistanceToSegment(grid_.CellCenter(cell), c.a, c.b) > c.radius_m) continue;
       TiledGrid::Tile& tile = grid_.TileAt(cell);
       tile.log_odds[k] = 0.0f;
       tile.height_m[k] = std::numeric_limits<float>::quiet_NaN();
@@ -67,26 +88,38 @@ void MapFusion::Forget(const Capsule& c) {
   }
 }
 
-bool MapFusion::OnMoverPath(const Eigen::Vector2d& point_m) const {
-  for (const Capsule& c : mover_paths_) {
-    if ((point_m.array() < c.lo.array()).any() || (point_m.array() > c.hi.array()).any()) continue;
-    const Eigen::Vector2d ab = c.b - c.a;
-    const double ab2 = ab.squaredNorm();
-    const double s = ab2 > 0 ? std::clamp((point_m - c.a).dot(ab) / ab2, 0.0, 1.0) : 0.0;
-    if ((point_m - (c.a + s * ab)).norm() <= c.radius_m) return true;
-  }
-  return false;
-}
-
 std::vector<Eigen::Vector3f> MapFusion::StaticPoints(const Keyframe& keyframe) const {
   std::vector<Eigen::Vector3f> points = keyframe.ObstaclePoints();
-  if (mover_paths_.empty()) return points;
+  if (mover_paths_.empty() || points.empty()) return points;
   const Pose2& pose = keyframe.map_from_base;
-  points.erase(std::remove_if(points.begin(), points.end(),
-                              [&](const Eigen::Vector3f& p) {
-                                return OnMoverPath(pose * Eigen::Vector2d(p.x(), p.y()));
-                              }),
-               points.end());
+  // The paths near these points only.
+  Eigen::Vector2d lo(std::numeric_limits<double>::max(), std::numeric_limits<double>::max());
+  Eigen::Vector2d hi = -lo;
+  for (const Eigen::Vector3f& p : points) {
+    const Eigen::Vector2d m = pose * Eigen::Vector2d(p.x(), p.y());
+    lo = lo.cwiseMin(m);
+    hi = hi.cwiseMax(m);
+  }
+  const double res = grid_.resolution_m();
+  lo.array() -= res;
+  hi.array() += res;
+  std::vector<const Capsule*> near;
+  for (const Capsule& c : mover_paths_) {
+    if ((c.lo.array() <= hi.array()).all() && (lo.array() <= c.hi.array()).all())
+      near.push_back(&c);
+  }
+  if (near.empty()) return points;
+  // As Forget: a point as tall as a thing that walks, in a cell whose centre is on a path.
+  const auto on_path = [&](const Eigen::Vector3f& p) {
+    if (!(p.z() >= kMoverMinHeightM)) return false;
+    const Eigen::Vector2d centre =
+        grid_.CellCenter(grid_.CellOf(pose * Eigen::Vector2d(p.x(), p.y())));
+    for (const Capsule* c : near) {
+      if (DistanceToSegment(centre, c->a, c->b) <= c->radius_m) return true;
+    }
+    return false;
+  };
+  points.erase(std::remove_if(points.begin(), points.end(), on_path), points.end());
   return points;
 }
 
@@ -97,11 +130,12 @@ void MapFusion::ForgetMoverPathsIn(const Eigen::Vector2d& lo, const Eigen::Vecto
 }
 
 void MapFusion::Fuse(const Keyframe& keyframe) {
-  const std::vector<Eigen::Vector3f> obstacle_points_in_base = StaticPoints(keyframe);
-  FuseLocalMap(keyframe.LocalMap(), obstacle_points_in_base, keyframe.map_from_base,
+  // The grid takes every point's height (a mover's cells are then forgotten by it); the OctoMap
+  // only the points off the movers' paths.
+  FuseLocalMap(keyframe.LocalMap(), keyframe.ObstaclePoints(), keyframe.map_from_base,
                keyframe.stamp_ns, options_.log_odds, &grid_, &changed_tiles_);
   if (options_.build_octree)
-    octree_.Insert(obstacle_points_in_base, keyframe.map_from_base, camera_centre_in_base_);
+    octree_.Insert(StaticPoints(keyframe), keyframe.map_from_base, camera_centre_in_base_);
 }
 
 void MapFusion::SweepFootprint(const Pose2& map_from_base, TimestampNs stamp_ns) {

@@ -20,6 +20,7 @@ namespace monoplane {
 // whole is rebuilt from them. Records the tiles it changes until they are taken.
 class MapFusion {
  public:
+  static constexpr float kMoverMinHeightM = 0.06f;
   struct Options {
     double grid_resolution_m = 0.05;
     double footprint_radius_m = 0.15;  // 0: no footprint
@@ -46,12 +47,20 @@ class MapFusion {
   const TiledGrid& saved_grid() const { return saved_grid_; }
   const ObstacleOctree& octree() const { return octree_; }
   // Where a thing that moves on its own went: a capsule of the map frame (the segment from -> to,
-  // grown by radius_m) in which nothing static stands. Its cells that read occupied become unknown,
+  // grown by radius_m) in which nothing static stands. Its cells that read occupied become unknown
+  // unless their height is known to be below kMoverMinHeightM (a threshold, a drop-off: stay),
   // now and after every later fusion and rebuild: the keyframes that saw the thing before it was
   // known to move keep it in their local maps. Free cells stay free. No later obstacle point there
   // enters the OctoMap; those already in it stay until a rebuild. (OctoMap's deleteNode, which
-  // could make them unknown now, aborts on a node it leaves without children: OctoMap issue 287.)
+  // could make them unknown now, fails its own assertion on a node it leaves without children,
+  // OctoMap issue 287, and aborts where assertions are on.)
   void ForgetMoverPath(const Eigen::Vector2d& from_m, const Eigen::Vector2d& to_m, double radius_m);
+  // The paths anew (after a correction moved them), for the next Rebuild; applied by it.
+  struct MoverPath {
+    Eigen::Vector2d from_m, to_m;
+    double radius_m;
+  };
+  void SetMoverPaths(const std::vector<MoverPath>& paths);
   // The tiles changed since the last call.
   std::set<TiledGrid::TileKey> TakeChangedTiles();
 
@@ -65,9 +74,9 @@ class MapFusion {
   void Fuse(const Keyframe& keyframe);
   // Occupied cells of the capsule become unknown.
   void Forget(const Capsule& capsule);
-  // Whether a map point lies on a mover's path.
-  bool OnMoverPath(const Eigen::Vector2d& point_m) const;
-  // The keyframe's obstacle points not on a mover's path.
+  static Capsule MakeCapsule(const Eigen::Vector2d& from_m, const Eigen::Vector2d& to_m,
+                             double radius_m);
+  // The keyframe's obstacle points not on a mover's path (as Forget decides).
   std::vector<Eigen::Vector3f> StaticPoints(const Keyframe& keyframe) const;
   // Every capsule that overlaps the box again.
   void ForgetMoverPathsIn(const Eigen::Vector2d& lo, const Eigen::Vector2d& hi);

@@ -107,17 +107,32 @@ TEST(MapFusion, WhereAMoverWentNothingStaticStandsAndThatIsRemembered) {
   EXPECT_EQ(grid.LogOdds(where), 0.0f);
   EXPECT_TRUE(std::isnan(grid.FindTile(where)->height_m[TiledGrid::IndexInTile(where)]));
   EXPECT_EQ(grid.LogOdds(grid.CellOf({0.25, -0.25})), free_before);
+  EXPECT_EQ(grid.LogOdds(grid.CellOf({0.55, -0.25})), free_before);  // on the path, free, stays
   EXPECT_FALSE(fusion.TakeChangedTiles().empty());
-  // A later keyframe that also saw it there (before the track) does not bring it back...
+  // A later keyframe that also saw it there (before the track) does not bring it back, and adds
+  // nothing to the OctoMap (which keeps the voxel the first one put there)...
+  const std::string octree_before = fusion.octree().ToBinary();
   fusion.FuseKeyframe(TestKeyframe(1, Pose2::Identity()));
   EXPECT_EQ(grid.LogOdds(where), 0.0f);
-  // The OctoMap keeps the voxel the first keyframe put there; the second adds nothing.
+  EXPECT_EQ(fusion.octree().ToBinary(), octree_before);
   EXPECT_EQ(fusion.octree().NumOccupiedLeaves(), 1u);
   // ... nor does a rebuild; the same obstacle elsewhere stays.
   fusion.Rebuild({TestKeyframe(0, Pose2::Identity()), TestKeyframe(1, Pose2{0.0, 2.0, 0.0})}, {});
   EXPECT_EQ(grid.LogOdds(where), 0.0f);
   EXPECT_GT(grid.LogOdds(grid.CellOf({0.55, 2.05})), 0.0f);
   EXPECT_EQ(fusion.octree().NumOccupiedLeaves(), 1u);
+}
+
+TEST(MapFusion, WhatAMoverStepsOverStays) {
+  MapFusion fusion(TestOptions(), {0.1, 0.0, 0.4});
+  Keyframe threshold = TestKeyframe(0, Pose2::Identity());
+  threshold.obstacle_points_in_base = {{0.55f, 0.05f, 0.03f}};  // 3 cm high
+  fusion.FuseKeyframe(threshold);
+  const TiledGrid& grid = fusion.grid();
+  const float occupied = grid.LogOdds(grid.CellOf({0.55, 0.05}));
+  ASSERT_GT(occupied, 0.0f);
+  fusion.ForgetMoverPath({0.55, -0.5}, {0.55, 0.5}, 0.1);
+  EXPECT_EQ(grid.LogOdds(grid.CellOf({0.55, 0.05})), occupied);
 }
 
 }  // namespace

@@ -354,15 +354,9 @@ Mapper::FrameUpdate Mapper::AddFrame(const FrameObservation& frame) {
     since_keyframe_.push_back({frame.odom_from_base, frame.local_map});
   }
   update.map_from_base = CurrentPose();
-  if (options_.forget_mover_paths) {
-    for (const MovingObject& o : frame.moving_objects) {
-      if (o.coasting || !IsValidMovingObject(o)) continue;
-      const Eigen::Vector2d position = update.map_from_base * o.position_in_base;
-      const auto [last, first] = last_mover_position_.try_emplace(o.id, position);
-      fusion_.ForgetMoverPath(last->second, position, o.radius_m);
-      last->second = position;
-    }
-  }
+  // Before this run's first keyframe the pose is a guess, as for the footprint.
+  if (options_.forget_mover_paths && frames_.back().keyframe_index >= 0)
+    AddMoverSteps(frame, update.map_from_base);
   // Before this run's first keyframe the pose is a guess (a saved map localises that keyframe).
   if (frames_.back().keyframe_index >= 0)
     fusion_.SweepFootprint(update.map_from_base, frame.stamp_ns);
@@ -482,6 +476,14 @@ void Mapper::Rebuild() {
           keyframes_[f.keyframe_index].map_from_base * f.keyframe_from_base, f.stamp_ns);
     }
   }
+  // The movers' paths where the corrected frames put them now.
+  std::vector<MapFusion::MoverPath> mover_paths;
+  mover_paths.reserve(mover_steps_.size());
+  for (const MoverStep& s : mover_steps_) {
+    mover_paths.push_back({MapFromBaseOfFrame(s.frame_a) * s.a_in_base,
+                           MapFromBaseOfFrame(s.frame_b) * s.b_in_base, s.radius_m});
+  }
+  fusion_.SetMoverPaths(mover_paths);
   fusion_.Rebuild(keyframes_, footprint_poses);
 }
 
@@ -502,6 +504,41 @@ std::vector<FramePose> Mapper::Trajectory() const {
     out.push_back(p);
   }
   return out;
+}
+
+void Mapper::AddMoverSteps(const FrameObservation& frame, const Pose2& map_from_base) {
+  // A wider region is taken for a merge of several things, not one that moves.
+  constexpr double kMaxRadiusM = 0.5;
+  // A new step once the object moved this far from where the last one ended.
+  constexpr double kMinStepM = 0.05;
+  // Between two frames in a row a thing moves less than this beyond its radius (2 m at 0.1 s is
+  // 20 m/s); a longer jump is a new start (a track re-identified or merged).
+  constexpr double kMaxJumpM = 2.0;
+  const int now = static_cast<int>(frames_.size()) - 1;
+  for (const MovingObject& o : frame.moving_objects) {
+    if (o.coasting || !IsValidMovingObject(o)) continue;
+    const double radius_m = std::min(o.radius_m, kMaxRadiusM);
+    const Eigen::Vector2d in_map = map_from_base * o.position_in_base;
+    auto it = mover_anchors_.find(o.id);
+    const bool continues = it != mover_anchors_.end() && it->second.last_seen_frame == now - 1 &&
+                           (in_map - it->second.in_map).norm() <= radius_m + kMaxJumpM;
+    if (continues && (in_map - it->second.in_map).norm() < kMinStepM) {
+      it->second.last_seen_frame = now;
+      continue;
+    }
+    const MoverAnchor from =
+        continues ? it->second : MoverAnchor{now, now, o.position_in_base, in_map};
+    mover_steps_.push_back({from.frame, now, from.in_base, o.position_in_base, radius_m});
+    fusion_.ForgetMoverPath(from.in_map, in_map, radius_m);
+    mover_anchors_[o.id] = MoverAnchor{now, now, o.position_in_base, in_map};
+  }
+}
+
+Pose2 Mapper::MapFromBaseOfFrame(int frame_index) const {
+  const FrameRecord& f = frames_[frame_index];
+  if (f.keyframe_index >= 0)
+    return keyframes_[f.keyframe_index].map_from_base * f.keyframe_from_base;
+  return map_from_odom_.value_or(Pose2::Identity()) * f.odom_from_base;
 }
 
 Pose2 Mapper::CurrentPose() const {

@@ -123,9 +123,11 @@ class Mapper {
     // pairs do not vote. 0 = off.
     int keyframe_free_min_frames = 4;
     LogOddsOptions log_odds;
-    // Where a tracked thing that moves on its own went (FrameObservation::moving_objects, its disc
-    // from one frame's position to the next), nothing static stands: the grid's occupied cells
-    // there become unknown, also those that keyframes fused before the thing was known to move.
+    // Where a tracked thing that moves on its own went (FrameObservation::moving_objects that are
+    // not coasting: its disc, at most 0.5 m in radius, swept between the positions of frames in
+    // which it was seen in a row), nothing static stands: the grid's occupied cells there become
+    // unknown, also those that keyframes fused before the thing was known to move; cells known to
+    // hold only something lower than 6 cm (a threshold, a drop-off) stay.
     bool forget_mover_paths = true;
     bool build_octree = true;
     ObstacleOctree::Options octree;
@@ -269,7 +271,24 @@ class Mapper {
   bool finished_ = false;     // FinishRun was called
 
   MapFusion fusion_;  // the grid, the footprint swept free and the OctoMap
-  std::map<int, Eigen::Vector2d> last_mover_position_;  // map frame, by track id
+
+  // The tracked moving objects' paths (Options::forget_mover_paths): steps between two positions,
+  // each in the base frame of the frame it was seen in (indices into frames_), so that a
+  // correction moves them with the frames.
+  struct MoverStep {
+    int frame_a, frame_b;
+    Eigen::Vector2d a_in_base, b_in_base;
+    double radius_m;
+  };
+  struct MoverAnchor {
+    int last_seen_frame;  // the last frame it was reported in (not coasting)
+    int frame;            // where its path's last step ends
+    Eigen::Vector2d in_base, in_map;
+  };
+  void AddMoverSteps(const FrameObservation& frame, const Pose2& map_from_base);
+  Pose2 MapFromBaseOfFrame(int frame_index) const;  // latest correction applied
+  std::vector<MoverStep> mover_steps_;
+  std::map<int, MoverAnchor> mover_anchors_;  // by track id
 
   MapperCounters counters_;
   std::vector<LoopClosureEvent> loop_events_;
