@@ -34,7 +34,7 @@ TEST(LoopCloser, TriesOnlyEarlierVisitsNearby) {
   ASSERT_TRUE(r.has_value());
   EXPECT_FALSE(r->event.accepted);
   EXPECT_FALSE(r->edge.has_value());
-  EXPECT_EQ(r->event.source, "scan");
+  EXPECT_FALSE(r->event.reason.empty());  // the scan matcher's reason
   // A saved keyframe is an earlier visit whatever the path.
   keyframes[1].path_length_m = 1.0;
   keyframes[0].from_saved_map = true;
@@ -89,7 +89,6 @@ TEST(LoopCloser, AFloorMatchFarFromTheEstimateIsNotTaken) {
   ASSERT_TRUE(r.has_value());
   EXPECT_FALSE(r->event.accepted);
   EXPECT_FALSE(r->edge.has_value());
-  EXPECT_EQ(r->event.source, "scan");  // the scan matcher had its turn, with nothing to match
   EXPECT_NE(r->event.reason.find("; floor: floor match too far from the estimate"),
             std::string::npos)
       << r->event.reason;
@@ -117,7 +116,6 @@ TEST(LoopCloser, LocalMapsWhenTheFloorHasNoFeatures) {
   const std::optional<LoopSearchResult> r = SearchLoopClosure(keyframes, 7, options);
   ASSERT_TRUE(r.has_value());
   ASSERT_TRUE(r->event.accepted) << r->event.reason;
-  EXPECT_EQ(r->event.source, "scan");
   EXPECT_EQ(r->anchor_index, 1);  // the nearest candidate by the estimates
   ASSERT_TRUE(r->edge.has_value());
   const Pose2 anchor_from_current = earlier[1].Inverse() * truth;

@@ -46,6 +46,11 @@ double DistanceToSegment(const Eigen::Vector2d& p, const Eigen::Vector2d& a,
   return (p - (a + s * ab)).norm();
 }
 
+bool BoxesOverlap(const Eigen::Vector2d& lo_a, const Eigen::Vector2d& hi_a,
+                  const Eigen::Vector2d& lo_b, const Eigen::Vector2d& hi_b) {
+  return (lo_a.array() <= hi_b.array()).all() && (lo_b.array() <= hi_a.array()).all();
+}
+
 }  // namespace
 
 MapFusion::Capsule MapFusion::MakeCapsule(const Eigen::Vector2d& from_m,
@@ -105,8 +110,7 @@ std::vector<Eigen::Vector3f> MapFusion::StaticPoints(const Keyframe& keyframe) c
   hi.array() += res;
   std::vector<const Capsule*> near;
   for (const Capsule& c : mover_paths_) {
-    if ((c.lo.array() <= hi.array()).all() && (lo.array() <= c.hi.array()).all())
-      near.push_back(&c);
+    if (BoxesOverlap(c.lo, c.hi, lo, hi)) near.push_back(&c);
   }
   if (near.empty()) return points;
   // As Forget: a point as tall as a thing that walks, in a cell whose centre is on a path.
@@ -125,7 +129,7 @@ std::vector<Eigen::Vector3f> MapFusion::StaticPoints(const Keyframe& keyframe) c
 
 void MapFusion::ForgetMoverPathsIn(const Eigen::Vector2d& lo, const Eigen::Vector2d& hi) {
   for (const Capsule& c : mover_paths_) {
-    if ((c.lo.array() <= hi.array()).all() && (lo.array() <= c.hi.array()).all()) Forget(c);
+    if (BoxesOverlap(c.lo, c.hi, lo, hi)) Forget(c);
   }
 }
 

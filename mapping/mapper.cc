@@ -354,12 +354,11 @@ Mapper::FrameUpdate Mapper::AddFrame(const FrameObservation& frame) {
     since_keyframe_.push_back({frame.odom_from_base, frame.local_map});
   }
   update.map_from_base = CurrentPose();
-  // Before this run's first keyframe the pose is a guess, as for the footprint.
-  if (options_.forget_mover_paths && frames_.back().keyframe_index >= 0)
-    AddMoverSteps(frame, update.map_from_base);
   // Before this run's first keyframe the pose is a guess (a saved map localises that keyframe).
-  if (frames_.back().keyframe_index >= 0)
+  if (frames_.back().keyframe_index >= 0) {
+    if (options_.forget_mover_paths) AddMoverSteps(frame, update.map_from_base);
     fusion_.SweepFootprint(update.map_from_base, frame.stamp_ns);
+  }
   return update;
 }
 
@@ -470,11 +469,9 @@ void Mapper::OptimizeWindow() {
 void Mapper::Rebuild() {
   ++counters_.map_rebuilds;
   std::vector<std::pair<Pose2, TimestampNs>> footprint_poses;
-  for (const FrameRecord& f : frames_) {
-    if (f.keyframe_index >= 0) {
-      footprint_poses.emplace_back(
-          keyframes_[f.keyframe_index].map_from_base * f.keyframe_from_base, f.stamp_ns);
-    }
+  for (std::size_t i = 0; i < frames_.size(); ++i) {
+    if (frames_[i].keyframe_index >= 0)
+      footprint_poses.emplace_back(MapFromBaseOfFrame(static_cast<int>(i)), frames_[i].stamp_ns);
   }
   // The movers' paths where the corrected frames put them now.
   std::vector<MapFusion::MoverPath> mover_paths;
@@ -490,17 +487,13 @@ void Mapper::Rebuild() {
 std::vector<FramePose> Mapper::Trajectory() const {
   std::vector<FramePose> out;
   out.reserve(frames_.size());
-  for (const FrameRecord& f : frames_) {
+  for (std::size_t i = 0; i < frames_.size(); ++i) {
+    const FrameRecord& f = frames_[i];
     FramePose p;
     p.stamp_ns = f.stamp_ns;
     p.odom_from_base = f.odom_from_base;
-    if (f.keyframe_index >= 0) {
-      const Keyframe& k = keyframes_[f.keyframe_index];
-      p.keyframe_id = k.id;
-      p.map_from_base = k.map_from_base * f.keyframe_from_base;
-    } else {
-      p.map_from_base = map_from_odom_.value_or(Pose2::Identity()) * f.odom_from_base;
-    }
+    if (f.keyframe_index >= 0) p.keyframe_id = keyframes_[f.keyframe_index].id;
+    p.map_from_base = MapFromBaseOfFrame(static_cast<int>(i));
     out.push_back(p);
   }
   return out;
@@ -543,10 +536,7 @@ Pose2 Mapper::MapFromBaseOfFrame(int frame_index) const {
 
 Pose2 Mapper::CurrentPose() const {
   if (frames_.empty()) return initial_map_from_base_;
-  const FrameRecord& f = frames_.back();
-  if (f.keyframe_index >= 0)
-    return keyframes_[f.keyframe_index].map_from_base * f.keyframe_from_base;
-  return map_from_odom_.value_or(Pose2::Identity()) * f.odom_from_base;
+  return MapFromBaseOfFrame(static_cast<int>(frames_.size()) - 1);
 }
 
 std::set<TiledGrid::TileKey> Mapper::TakeChangedTiles() { return fusion_.TakeChangedTiles(); }
