@@ -41,13 +41,16 @@ void FuzzTile(const std::uint8_t* data, std::size_t size) {
     data += sizeof(base_ns);
     size -= sizeof(base_ns);
   }
+  // Buffers of a tile's size kept from one input to the next: under ASan each fresh one is a new
+  // mapping whose pages fault in, which took most of each input's time.
+  static TiledGrid::Tile tile, again;
+  static std::vector<std::uint8_t> planes(8 * TiledGrid::kTileSize * TiledGrid::kTileSize);
+  static std::vector<std::uint8_t> deflated(compressBound(static_cast<uLong>(planes.size())));
   std::string error;
-  TiledGrid::Tile tile;
   if (!DecodeTile(data, size, base_ns, &tile, &error)) FuzzCheck(!error.empty(), "says why");
   if (size == 0) return;
   // The bytes repeated (planes[i] = data[i % size]) by doubling copies: a loop over the 512 KiB,
   // instrumented for coverage, took most of each run's time.
-  std::vector<std::uint8_t> planes(8 * TiledGrid::kTileSize * TiledGrid::kTileSize);
   std::size_t filled = std::min(size, planes.size());
   std::memcpy(planes.data(), data, filled);
   while (filled < planes.size()) {  // filled stays a multiple of size
@@ -55,8 +58,7 @@ void FuzzTile(const std::uint8_t* data, std::size_t size) {
     std::memcpy(planes.data() + filled, planes.data(), n);
     filled += n;
   }
-  uLongf deflated_size = compressBound(static_cast<uLong>(planes.size()));
-  std::vector<std::uint8_t> deflated(deflated_size);
+  uLongf deflated_size = static_cast<uLongf>(deflated.size());
   FuzzCheck(compress2(deflated.data(), &deflated_size, planes.data(),
                       static_cast<uLong>(planes.size()), 1) == Z_OK,
             "zlib compresses");
@@ -67,7 +69,6 @@ void FuzzTile(const std::uint8_t* data, std::size_t size) {
   EncodedTile encoded;
   if (!EncodeTile(tile, 1, &encoded, &error)) return;  // e.g. stamps out of the encodable range
   if (!encoded.has_data) return;
-  TiledGrid::Tile again;
   FuzzCheck(DecodeTile(encoded.data.data(), encoded.data.size(), encoded.base_ns, &again, &error),
             "an encoded tile decodes");
   FuzzCheck(SameTile(tile, again), "a tile decodes to what was encoded");
