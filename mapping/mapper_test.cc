@@ -205,6 +205,44 @@ TEST(Mapper, AKeyframeKeepsTheFloorItsFramesSawFree) {
   EXPECT_EQ(second_keyframe_cell(1, b), kCellFree);
 }
 
+// Where a tracked moving object went, the grid keeps nothing static, also what keyframes fused
+// before it was known to move; an object only predicted (coasting) or the option off change
+// nothing. The "mover" is a box the local maps see as an obstacle, walking across the path ahead.
+TEST(Mapper, NothingStaticStandsWhereATrackedMoverWent) {
+  const testing::SyntheticWorld world({{2.0, -0.15, 2.3, 0.15, 1.7}});
+  const std::vector<Pose2> path = testing::PathThrough({{0, 0, 0}, {1, 0, 0}}, 0.05, 0.1);
+  testing::RunOptions run_options;
+  run_options.features = false;  // odometry alone
+  const testing::SyntheticRun run =
+      testing::MakeRun(world, path, testing::TestCamera(), run_options);
+  const auto box_cells_after = [&](bool forget, bool coasting) {
+    Mapper::Options options;
+    options.forget_mover_paths = forget;
+    Mapper mapper(options, testing::TestCamera());
+    for (std::size_t k = 0; k < run.frames.size(); ++k) {
+      FrameObservation frame = run.frames[k];
+      if (k >= 10) {  // from y = -0.3 to +0.3 m over the box, 6 cm a frame
+        MovingObject mover;
+        mover.id = 1;
+        mover.position_in_base =
+            path[k].Inverse() * Eigen::Vector2d(2.15, -0.3 + 0.06 * static_cast<double>(k - 10));
+        mover.radius_m = 0.25;
+        mover.updates = static_cast<int>(k) - 9;
+        mover.coasting = coasting;
+        frame.moving_objects.push_back(mover);
+      }
+      mapper.AddFrame(frame);
+    }
+    std::vector<float> log_odds;
+    for (const double y : {-0.1, 0.0, 0.1})
+      log_odds.push_back(mapper.grid().LogOdds(mapper.grid().CellOf({2.01, y})));
+    return log_odds;
+  };
+  for (const float l : box_cells_after(false, false)) EXPECT_GT(l, 0.0f);  // the box as seen
+  for (const float l : box_cells_after(true, true)) EXPECT_GT(l, 0.0f);
+  for (const float l : box_cells_after(true, false)) EXPECT_EQ(l, 0.0f);  // unknown, not free
+}
+
 TEST(Mapper, OptionsNameTheKey) {
   Mapper::Options o;
   std::string error;
