@@ -63,9 +63,8 @@ cv::Mat MotionEvidence::Compute(const cv::Mat& previous, const cv::Mat& current,
   }
   previous_image_ = current;
   previous_small_ = cur_small;
-  cv::Mat backward, forward;  // current -> previous, previous -> current (CV_32FC2)
+  cv::Mat backward;  // current -> previous (CV_32FC2)
   flow_->calc(cur_small, prev_small, backward);
-  flow_->calc(prev_small, cur_small, forward);
   if (backward_flow) *backward_flow = backward;
 
   // Pixels of the shrunk images: K scaled.
@@ -102,24 +101,19 @@ cv::Mat MotionEvidence::Compute(const cv::Mat& previous, const cv::Mat& current,
   const Eigen::Vector3f offset =
       (-(k * (c2_from_c1.linear().transpose() * c2_from_c1.translation()))).cast<float>();
 
+  // Pass 1: the pixels whose flow leaves the static world (`off_line`).
   const float min_offset2 = static_cast<float>(options_.min_offset_px * options_.min_offset_px) /
                             static_cast<float>(s * s);
-  const float max_error2 =
-      static_cast<float>(options_.max_flow_error_px * options_.max_flow_error_px) /
-      static_cast<float>(s * s);
   const int margin = std::max(2, 8 / s);
-  cv::Mat raw(cur_small.size(), CV_8U, cv::Scalar(0));
-  for (int y = margin; y < raw.rows - margin; ++y) {
+  cv::Mat off_line(cur_small.size(), CV_8U, cv::Scalar(0));
+  for (int y = margin; y < off_line.rows - margin; ++y) {
     const auto* b = backward.ptr<cv::Vec2f>(y);
     const auto* r = rays_.ptr<cv::Vec4f>(y);
-    auto* out = raw.ptr<std::uint8_t>(y);
-    for (int x = margin; x < raw.cols - margin; ++x) {
+    auto* out = off_line.ptr<std::uint8_t>(y);
+    for (int x = margin; x < off_line.cols - margin; ++x) {
       const float x1 = static_cast<float>(x) + b[x][0], y1 = static_cast<float>(y) + b[x][1];
       const int xi = static_cast<int>(x1 + 0.5f), yi = static_cast<int>(y1 + 0.5f);
-      if (x1 < 0 || y1 < 0 || xi >= raw.cols || yi >= raw.rows) continue;
-      const cv::Vec2f f = forward.at<cv::Vec2f>(yi, xi);
-      const float ex = b[x][0] + f[0], ey = b[x][1] + f[1];
-      if (ex * ex + ey * ey > max_error2) continue;
+      if (x1 < 0 || y1 < 0 || xi >= off_line.cols || yi >= off_line.rows) continue;
       // Where a static point seen at (x, y) can have been: the segment of its epipolar line
       // between depth kNearestM and the farthest it can lie (twice the floor's depth below the
       // horizon, a drop-off down to the camera's height; infinity above it).
@@ -137,56 +131,121 @@ cv::Mat MotionEvidence::Compute(const cv::Mat& previous, const cv::Mat& current,
       if (dx * dx + dy * dy >= min_offset2) out[x] = 255;
     }
   }
-  // Isolated pixels go; what is left is grouped into regions of a least the minimum size.
-  // (Opened with a 5x5 disc: the flow of a moving thing spreads a few pixels onto what is around
-  // it.)
-  cv::morphologyEx(raw, raw, cv::MORPH_OPEN,
-                   cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(5, 5)));
+  // Isolated pixels go (opened with a 5x5 disc: the flow of a moving thing spreads a few pixels
+  // onto what is around it); what is left is grouped into regions of a least the minimum size.
+  const cv::Mat disc = cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(5, 5));
+  const double min_area = options_.min_region_fraction * off_line.rows * off_line.cols;
   cv::Mat components, stats, centroids;
-  const int n = cv::connectedComponentsWithStats(raw, components, stats, centroids, 8, CV_32S);
-  const double min_area = options_.min_region_fraction * raw.rows * raw.cols;
-  cv::Mat previous_dilated;
-  if (!previous_regions_.empty()) {
-    cv::dilate(previous_regions_, previous_dilated,
-               cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(9, 9)));
-  }
-  // Texture: the mean squared gradient over 5 x 5 pixels of the shrunk image (grey levels^2 per
-  // input pixel^2). Flow over a textureless patch is whatever the smoothing made of it: a region
-  // needs textured pixels for at least min_textured_fraction of its area.
-  cv::Mat gx, gy, texture;
-  cv::Sobel(cur_small, gx, CV_32F, 1, 0, 3, 1.0 / (8.0 * s));
-  cv::Sobel(cur_small, gy, CV_32F, 0, 1, 3, 1.0 / (8.0 * s));
-  cv::blur(gx.mul(gx) + gy.mul(gy), texture, cv::Size(5, 5));
-  const float min_texture = static_cast<float>(options_.min_texture);
-  std::vector<int> textured(n, 0);
-  for (int y = 0; y < raw.rows; ++y) {
+  cv::Mat candidates;
+  cv::morphologyEx(off_line, candidates, cv::MORPH_OPEN, disc);
+  int n = cv::connectedComponentsWithStats(candidates, components, stats, centroids, 8, CV_32S);
+  // Pass 2, the forward-backward check, only where a region can come from: a pixel whose flow
+  // both ways disagrees is not trusted. A region of pixels passing both tests lies inside a large
+  // enough region of pass 1's (opening and area only grow with the mask), so the forward flow is
+  // computed over the box those regions came from in the previous frame, with room around it.
+  std::vector<std::uint8_t> large(n, 0);
+  for (int c = 1; c < n; ++c) large[c] = stats.at<int>(c, cv::CC_STAT_AREA) >= min_area;
+  int x0 = off_line.cols, y0 = off_line.rows, x1 = -1, y1 = -1;
+  for (int y = 0; y < off_line.rows; ++y) {
     const int* c = components.ptr<int>(y);
-    const float* t = texture.ptr<float>(y);
-    for (int x = 0; x < raw.cols; ++x) textured[c[x]] += c[x] > 0 && t[x] >= min_texture;
+    const auto* b = backward.ptr<cv::Vec2f>(y);
+    for (int x = 0; x < off_line.cols; ++x) {
+      if (!large[c[x]]) continue;
+      const int xs = static_cast<int>(static_cast<float>(x) + b[x][0] + 0.5f);
+      const int ys = static_cast<int>(static_cast<float>(y) + b[x][1] + 0.5f);
+      x0 = std::min({x0, x, xs});
+      y0 = std::min({y0, y, ys});
+      x1 = std::max({x1, x, xs});
+      y1 = std::max({y1, y, ys});
+    }
   }
-  std::vector<std::uint8_t> region(n, 0), confirmed(n, 0);
-  for (int c = 1; c < n; ++c) {
-    const int area = stats.at<int>(c, cv::CC_STAT_AREA);
-    region[c] = area >= min_area && textured[c] >= options_.min_textured_fraction * area ? 1 : 0;
-  }
-  cv::Mat regions(raw.size(), CV_8U, cv::Scalar(0));
-  for (int y = 0; y < raw.rows; ++y) {
-    const int* c = components.ptr<int>(y);
-    auto* out = regions.ptr<std::uint8_t>(y);
-    const auto* before = previous_dilated.empty() ? nullptr : previous_dilated.ptr<std::uint8_t>(y);
-    for (int x = 0; x < raw.cols; ++x) {
-      if (!region[c[x]]) continue;
-      out[x] = 255;
-      if (before && before[x]) confirmed[c[x]] = 1;
+  cv::Mat regions(cur_small.size(), CV_8U, cv::Scalar(0));
+  cv::Mat moving(cur_small.size(), CV_8U, cv::Scalar(0));
+  if (x1 >= 0) {
+    // Room around the regions for the flow's context, and at least 0.6 of the image's width and
+    // 0.3 of its height: DIS builds its pyramid as deep as the sides allow, and a box as deep as
+    // the whole image's finds motions as large as it does.
+    const int pad = 16;  // shrunk pixels
+    const int min_width = (off_line.cols * 6 + 9) / 10, min_height = (off_line.rows * 3 + 9) / 10;
+    cv::Rect box(x0 - pad, y0 - pad, x1 - x0 + 1 + 2 * pad, y1 - y0 + 1 + 2 * pad);
+    box.x -= std::max(0, min_width - box.width) / 2;
+    box.y -= std::max(0, min_height - box.height) / 2;
+    box.width = std::max(box.width, min_width);
+    box.height = std::max(box.height, min_height);
+    box.x = std::clamp(box.x, 0, std::max(0, off_line.cols - box.width));
+    box.y = std::clamp(box.y, 0, std::max(0, off_line.rows - box.height));
+    box &= cv::Rect(0, 0, off_line.cols, off_line.rows);
+    // A solver of its own for each box: OpenCV's DIS reuses its buffers across calls and
+    // corrupts memory when a call's pyramid is deeper than the last one's (opencv_contrib issue
+    // 1355; a box after a whole image is shallower, the next whole image deeper).
+    cv::Mat forward;  // previous -> current over the box (CV_32FC2)
+    cv::DISOpticalFlow::create(cv::DISOpticalFlow::PRESET_FAST)
+        ->calc(prev_small(box).clone(), cur_small(box).clone(), forward);
+    const float max_error2 =
+        static_cast<float>(options_.max_flow_error_px * options_.max_flow_error_px) /
+        static_cast<float>(s * s);
+    // From here on only the box: the pixels of pass 1's large regions lie at least `pad` inside
+    // it (or at the image's edge), and nothing outside them can be part of a region.
+    cv::Mat raw(box.size(), CV_8U, cv::Scalar(0));
+    for (int y = 0; y < box.height; ++y) {
+      const auto* b = backward.ptr<cv::Vec2f>(box.y + y) + box.x;
+      const int* c = components.ptr<int>(box.y + y) + box.x;
+      auto* out = raw.ptr<std::uint8_t>(y);
+      for (int x = 0; x < box.width; ++x) {
+        if (!large[c[x]]) continue;
+        const int xs = static_cast<int>(static_cast<float>(box.x + x) + b[x][0] + 0.5f);
+        const int ys = static_cast<int>(static_cast<float>(box.y + y) + b[x][1] + 0.5f);
+        const cv::Vec2f f = forward.at<cv::Vec2f>(ys - box.y, xs - box.x);
+        const float ex = b[x][0] + f[0], ey = b[x][1] + f[1];
+        if (ex * ex + ey * ey <= max_error2) out[x] = 255;
+      }
+    }
+    cv::morphologyEx(raw, raw, cv::MORPH_OPEN, disc);
+    cv::Mat box_components;
+    n = cv::connectedComponentsWithStats(raw, box_components, stats, centroids, 8, CV_32S);
+    cv::Mat previous_dilated;
+    if (!previous_regions_.empty()) {
+      cv::dilate(previous_regions_(box), previous_dilated,
+                 cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(9, 9)));
+    }
+    // Texture: the mean squared gradient over 5 x 5 pixels of the shrunk image (grey levels^2
+    // per input pixel^2). Flow over a textureless patch is whatever the smoothing made of it: a
+    // region needs textured pixels for at least min_textured_fraction of its area.
+    cv::Mat gx, gy, texture;
+    cv::Sobel(cur_small(box), gx, CV_32F, 1, 0, 3, 1.0 / (8.0 * s));
+    cv::Sobel(cur_small(box), gy, CV_32F, 0, 1, 3, 1.0 / (8.0 * s));
+    cv::blur(gx.mul(gx) + gy.mul(gy), texture, cv::Size(5, 5));
+    const float min_texture = static_cast<float>(options_.min_texture);
+    std::vector<int> textured(n, 0);
+    for (int y = 0; y < raw.rows; ++y) {
+      const int* c = box_components.ptr<int>(y);
+      const float* t = texture.ptr<float>(y);
+      for (int x = 0; x < raw.cols; ++x) textured[c[x]] += c[x] > 0 && t[x] >= min_texture;
+    }
+    std::vector<std::uint8_t> region(n, 0), confirmed(n, 0);
+    for (int c = 1; c < n; ++c) {
+      const int area = stats.at<int>(c, cv::CC_STAT_AREA);
+      region[c] = area >= min_area && textured[c] >= options_.min_textured_fraction * area ? 1 : 0;
+    }
+    cv::Mat regions_box = regions(box), moving_box = moving(box);
+    for (int y = 0; y < raw.rows; ++y) {
+      const int* c = box_components.ptr<int>(y);
+      auto* out = regions_box.ptr<std::uint8_t>(y);
+      const auto* before =
+          previous_dilated.empty() ? nullptr : previous_dilated.ptr<std::uint8_t>(y);
+      for (int x = 0; x < raw.cols; ++x) {
+        if (!region[c[x]]) continue;
+        out[x] = 255;
+        if (before && before[x]) confirmed[c[x]] = 1;
+      }
+    }
+    for (int y = 0; y < raw.rows; ++y) {
+      const int* c = box_components.ptr<int>(y);
+      auto* out = moving_box.ptr<std::uint8_t>(y);
+      for (int x = 0; x < raw.cols; ++x) out[x] = confirmed[c[x]] && region[c[x]] ? 255 : 0;
     }
   }
   previous_regions_ = regions;
-  cv::Mat moving(raw.size(), CV_8U, cv::Scalar(0));
-  for (int y = 0; y < raw.rows; ++y) {
-    const int* c = components.ptr<int>(y);
-    auto* out = moving.ptr<std::uint8_t>(y);
-    for (int x = 0; x < raw.cols; ++x) out[x] = confirmed[c[x]] && region[c[x]] ? 255 : 0;
-  }
   if (s == 1) return moving;
   cv::Mat full;
   cv::resize(moving, full, current.size(), 0, 0, cv::INTER_NEAREST);
