@@ -120,7 +120,8 @@ void AggregateBySegment(const cv::Mat& segments, const std::vector<Sample>& samp
 // is not floor around them moves.
 // Samples whose centre falls on the moving mask (over the current image; level_to_current maps
 // the chain's pixels to it when the frame was unpitched) are labelled moving, unless they are
-// floor (the flow of a moving thing spreads onto the floor it walks on).
+// floor (the flow of a moving thing spreads onto the floor it walks on); where the mask was only
+// grown into (kGrownRegion), only samples without a label.
 void LabelMovingMask(const cv::Mat& mask, const SampleGrid& grid,
                      const Eigen::Matrix3d* level_to_current, std::vector<PixelLabel>* labels);
 

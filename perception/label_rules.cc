@@ -143,7 +143,8 @@ void LabelMovingMask(const cv::Mat& mask, const SampleGrid& grid,
       const int x = static_cast<int>(p.x()), y = static_cast<int>(p.y());
       if (!(p.allFinite()) || x < 0 || y < 0 || x >= mask.cols || y >= mask.rows) continue;
       PixelLabel& label = (*labels)[grid.Index(i, j)];
-      if (mask.at<std::uint8_t>(y, x) != 0 && label != PixelLabel::kFloor)
+      const std::uint8_t m = mask.at<std::uint8_t>(y, x);
+      if ((m == 255 && label != PixelLabel::kFloor) || (m != 0 && label == PixelLabel::kUnknown))
         label = PixelLabel::kMoving;
     }
   }

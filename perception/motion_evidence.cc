@@ -29,6 +29,9 @@ void MotionEvidenceOptions::Describe(OptionVisitor& v) {
          "texture a pixel needs to count as evidence, grey levels^2 per px^2");
   v.Real("min_textured_fraction", &min_textured_fraction, R::Closed(0, 1),
          "share of a moving region's pixels that must be textured");
+  v.Flag("grow_regions", &grow_regions,
+         "a moving region takes the pixels around it whose flow leaves the static world but "
+         "fails the forward-backward check");
 }
 
 bool MotionEvidenceOptions::IsValid(std::string* error) const {
@@ -239,10 +242,29 @@ cv::Mat MotionEvidence::Compute(const cv::Mat& previous, const cv::Mat& current,
         if (before && before[x]) confirmed[c[x]] = 1;
       }
     }
+    // Grown (options_.grow_regions): a confirmed region takes the whole region of pass 1 it lies
+    // in, the pixels whose flow leaves the static world but fails the forward-backward check
+    // (the plain inside of a thing, where the flow is smoothed from its edges). Like hysteresis
+    // thresholding: the weak evidence counts only where it touches strong evidence.
+    std::vector<std::uint8_t> grown(options_.grow_regions ? large.size() : 0, 0);
     for (int y = 0; y < raw.rows; ++y) {
       const int* c = box_components.ptr<int>(y);
+      const int* first = components.ptr<int>(box.y + y) + box.x;
       auto* out = moving_box.ptr<std::uint8_t>(y);
-      for (int x = 0; x < raw.cols; ++x) out[x] = confirmed[c[x]] && region[c[x]] ? 255 : 0;
+      for (int x = 0; x < raw.cols; ++x) {
+        const bool moves = confirmed[c[x]] && region[c[x]];
+        out[x] = moves ? 255 : 0;
+        if (moves && !grown.empty()) grown[first[x]] = 1;
+      }
+    }
+    if (!grown.empty()) {
+      for (int y = 0; y < raw.rows; ++y) {
+        const int* first = components.ptr<int>(box.y + y) + box.x;
+        auto* out = moving_box.ptr<std::uint8_t>(y);
+        for (int x = 0; x < raw.cols; ++x) {
+          if (first[x] > 0 && grown[first[x]] && !out[x]) out[x] = kGrownRegion;
+        }
+      }
     }
   }
   previous_regions_ = regions;

@@ -1,5 +1,6 @@
 #pragma once
 
+#include <cstdint>
 #include <opencv2/core.hpp>
 #include <string>
 
@@ -38,23 +39,30 @@ struct MotionEvidenceOptions {
   // Flow over a textureless floor is what the smoothing made of it.
   double min_texture = 1.0;
   double min_textured_fraction = 0.3;
+  // A moving region takes the connected pixels around it whose flow leaves the static world but
+  // fails the forward-backward check (the plain inside of a moving thing).
+  bool grow_regions = true;
 
   // Every field's key, range and meaning (the checks, the config file and --dump use it).
   void Describe(OptionVisitor& v);
   bool IsValid(std::string* error) const;
 };
 
+// The moving mask's value for pixels grown into around a moving region.
+constexpr std::uint8_t kGrownRegion = 128;
+
 // Holds the flow solver and the previous frame's evidence; no files, threads or clocks.
 class MotionEvidence {
  public:
   MotionEvidence(const CameraModel& camera, const MotionEvidenceOptions& options);
 
-  // The moving mask (CV_8U, 255 = moves on its own) of `current` (prepared grey image), given the
-  // previous prepared frame and the floor motion of the step base2_from_base1 (previous ->
-  // current). Empty when off. Call once per consecutive pair, in order; Reset() when the chain of
-  // steps breaks (an unusable frame, no motion).
-  // With `backward_flow`: also the flow from `current` to `previous` (CV_32FC2 over the shrunk
-  // image, in shrunk pixels; empty when off): where each pixel of `current` was in `previous`.
+  // The moving mask (CV_8U: 255 = moves on its own, kGrownRegion = grown into around it, see
+  // MotionEvidenceOptions::grow_regions; 0 = not known to move) of `current` (prepared grey image),
+  // given the previous prepared frame and the floor motion of the step base2_from_base1 (previous
+  // -> current). Empty when off. Call once per consecutive pair, in order; Reset() when the chain
+  // of steps breaks (an unusable frame, no motion). With `backward_flow`: also the flow from
+  // `current` to `previous` (CV_32FC2 over the shrunk image, in shrunk pixels; empty when off):
+  // where each pixel of `current` was in `previous`.
   cv::Mat Compute(const cv::Mat& previous, const cv::Mat& current, const Pose2& base2_from_base1,
                   cv::Mat* backward_flow = nullptr);
   void Reset() {

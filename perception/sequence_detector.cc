@@ -97,7 +97,9 @@ FrameResult CarryResult(const CameraModel& camera, const ClassificationOptions& 
   // detection; the floor label stays, as in the detector (LabelMovingMask).
   if (moving_mask.size() == r.labels.size() && moving_mask.type() == CV_8U) {
     const cv::Mat not_floor = r.labels != static_cast<int>(PixelLabel::kFloor);
-    r.labels.setTo(static_cast<int>(PixelLabel::kMoving), moving_mask & not_floor);
+    const cv::Mat unknown = r.labels == static_cast<int>(PixelLabel::kUnknown);
+    r.labels.setTo(static_cast<int>(PixelLabel::kMoving),
+                   ((moving_mask == 255) & not_floor) | ((moving_mask != 0) & unknown));
   }
   // The top view in this frame's base frame: each cell takes the last map's cell it was (an
   // affine map of the cell indices).
@@ -221,6 +223,10 @@ void SequenceDetector::TrackMovingObjects(Output& output) {
   cv::Mat moving;
   if (output.result && !output.result->labels.empty())
     moving = output.result->labels == static_cast<int>(PixelLabel::kMoving);
+  // Objects only from the regions' own evidence: the pixels grown into around them (the flow
+  // smoothed onto the floor at a thing's feet among them) would put it where it does not stand.
+  if (!moving.empty() && output.moving_mask.size() == moving.size())
+    moving &= output.moving_mask == 255;
   MovingRegionFlow flow;
   if (!output.moving_flow.empty() && output.step.status != GroundMotion::Status::kFailed) {
     flow.backward = output.moving_flow;
