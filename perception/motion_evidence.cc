@@ -29,6 +29,10 @@ void MotionEvidenceOptions::Describe(OptionVisitor& v) {
          "texture a pixel needs to count as evidence, grey levels^2 per px^2");
   v.Real("min_textured_fraction", &min_textured_fraction, R::Closed(0, 1),
          "share of a moving region's pixels that must be textured");
+  v.Real("floor_like_ratio", &floor_like_ratio, R::AtLeast(0),
+         "a region the floor's motion explains within this factor of its flow is not moving");
+  v.Real("floor_like_margin", &floor_like_margin, R::AtLeast(0),
+         "... plus this mean residual, grey levels");
   v.Flag("grow_regions", &grow_regions,
          "a moving region takes the pixels around it whose flow leaves the static world but "
          "fails the forward-backward check");
@@ -36,6 +40,25 @@ void MotionEvidenceOptions::Describe(OptionVisitor& v) {
 
 bool MotionEvidenceOptions::IsValid(std::string* error) const {
   return CheckOptions(*this, "motion_evidence", error);
+}
+
+cv::Mat FloorMotionResidual(const Eigen::Matrix3d& previous_from_current, const cv::Mat& previous,
+                            const cv::Mat& current, const cv::Rect& area) {
+  // The homography from the area's own pixel coordinates.
+  Eigen::Matrix3d from_area = Eigen::Matrix3d::Identity();
+  from_area(0, 2) = area.x;
+  from_area(1, 2) = area.y;
+  const Eigen::Matrix3d previous_from_area = previous_from_current * from_area;
+  cv::Matx33d h;
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) h(r, c) = previous_from_area(r, c);
+  }
+  cv::Mat warped, residual;
+  cv::warpPerspective(previous, warped, h, area.size(), cv::INTER_LINEAR | cv::WARP_INVERSE_MAP,
+                      cv::BORDER_CONSTANT, cv::Scalar(0));
+  cv::absdiff(current(area), warped, residual);
+  cv::blur(residual, residual, cv::Size(5, 5));
+  return residual;
 }
 
 MotionEvidence::MotionEvidence(const CameraModel& camera, const MotionEvidenceOptions& options)
@@ -218,17 +241,52 @@ cv::Mat MotionEvidence::Compute(const cv::Mat& previous, const cv::Mat& current,
     cv::Sobel(cur_small(box), gx, CV_32F, 1, 0, 3, 1.0 / (8.0 * s));
     cv::Sobel(cur_small(box), gy, CV_32F, 0, 1, 3, 1.0 / (8.0 * s));
     cv::blur(gx.mul(gx) + gy.mul(gy), texture, cv::Size(5, 5));
+    // How well the floor's motion of the step explains the image, against the flow: the
+    // residuals of the previous image moved by each (absolute differences, blurred over 5 x 5
+    // pixels). A floor whose texture repeats (print, tiles) gives flow that jumps a period off
+    // the static world, both ways alike, and the floor's motion explains it as well as the flow;
+    // a moving thing's textured pixels it explains worse.
+    const cv::Mat residual = FloorMotionResidual(scale * camera_.pixel_from_floor() *
+                                                     base2_from_base1.Inverse().Matrix() *
+                                                     camera_.floor_from_pixel() * scale.inverse(),
+                                                 prev_small, cur_small, box);
+    // ...as well as the flow does (the previous image moved by the flow).
+    cv::Mat map(box.size(), CV_32FC2);
+    for (int y = 0; y < box.height; ++y) {
+      const auto* b = backward.ptr<cv::Vec2f>(box.y + y) + box.x;
+      auto* m = map.ptr<cv::Vec2f>(y);
+      for (int x = 0; x < box.width; ++x)
+        m[x] = cv::Vec2f(static_cast<float>(box.x + x) + b[x][0],
+                         static_cast<float>(box.y + y) + b[x][1]);
+    }
+    cv::Mat flowed, flow_residual;
+    cv::remap(prev_small, flowed, map, cv::noArray(), cv::INTER_LINEAR, cv::BORDER_CONSTANT,
+              cv::Scalar(0));
+    cv::absdiff(cur_small(box), flowed, flow_residual);
+    cv::blur(flow_residual, flow_residual, cv::Size(5, 5));
     const float min_texture = static_cast<float>(options_.min_texture);
     std::vector<int> textured(n, 0);
+    std::vector<double> floor_sum(n, 0.0), flow_sum(n, 0.0);
     for (int y = 0; y < raw.rows; ++y) {
       const int* c = box_components.ptr<int>(y);
       const float* t = texture.ptr<float>(y);
-      for (int x = 0; x < raw.cols; ++x) textured[c[x]] += c[x] > 0 && t[x] >= min_texture;
+      const std::uint8_t* e = residual.ptr<std::uint8_t>(y);
+      const std::uint8_t* ef = flow_residual.ptr<std::uint8_t>(y);
+      for (int x = 0; x < raw.cols; ++x) {
+        if (c[x] == 0 || t[x] < min_texture) continue;
+        ++textured[c[x]];
+        floor_sum[c[x]] += e[x];
+        flow_sum[c[x]] += ef[x];
+      }
     }
     std::vector<std::uint8_t> region(n, 0), confirmed(n, 0);
     for (int c = 1; c < n; ++c) {
       const int area = stats.at<int>(c, cv::CC_STAT_AREA);
-      region[c] = area >= min_area && textured[c] >= options_.min_textured_fraction * area ? 1 : 0;
+      region[c] = area >= min_area && textured[c] >= options_.min_textured_fraction * area &&
+                          floor_sum[c] > options_.floor_like_ratio * flow_sum[c] +
+                                             options_.floor_like_margin * textured[c]
+                      ? 1
+                      : 0;
     }
     cv::Mat regions_box = regions(box), moving_box = moving(box);
     for (int y = 0; y < raw.rows; ++y) {

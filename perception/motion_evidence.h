@@ -1,5 +1,6 @@
 #pragma once
 
+#include <Eigen/Core>
 #include <cstdint>
 #include <opencv2/core.hpp>
 #include <string>
@@ -39,6 +40,12 @@ struct MotionEvidenceOptions {
   // Flow over a textureless floor is what the smoothing made of it.
   double min_texture = 1.0;
   double min_textured_fraction = 0.3;
+  // A region is not moving when the floor's motion of the step explains it about as well as the
+  // flow does: the mean residual of its textured pixels under the floor's motion (the previous
+  // image moved by it) at most floor_like_ratio times that under the flow plus floor_like_margin
+  // grey levels. A floor whose texture repeats gives flow a period off the static world.
+  double floor_like_ratio = 1.5;
+  double floor_like_margin = 1.0;
   // A moving region takes the connected pixels around it whose flow leaves the static world but
   // fails the forward-backward check (the plain inside of a moving thing).
   bool grow_regions = true;
@@ -47,6 +54,13 @@ struct MotionEvidenceOptions {
   void Describe(OptionVisitor& v);
   bool IsValid(std::string* error) const;
 };
+
+// How well a homography of the step (previous_from_current: current pixel -> previous pixel, e.g.
+// the floor's motion) explains `current` within `area` (inside both images, same size and type
+// CV_8U): the absolute difference to `previous` moved by it, blurred over 5 x 5 pixels (CV_8U,
+// area's size).
+cv::Mat FloorMotionResidual(const Eigen::Matrix3d& previous_from_current, const cv::Mat& previous,
+                            const cv::Mat& current, const cv::Rect& area);
 
 // The moving mask's value for pixels grown into around a moving region.
 constexpr std::uint8_t kGrownRegion = 128;

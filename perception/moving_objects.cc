@@ -6,6 +6,8 @@
 #include <opencv2/imgproc.hpp>
 #include <tuple>
 
+#include "perception/motion_evidence.h"
+
 namespace monoplane {
 
 void MovingObjectOptions::Describe(OptionVisitor& v) {
@@ -55,23 +57,10 @@ cv::Mat FloorMatchingPixels(const CameraModel& camera, const cv::Mat& previous,
                                        : cv::Rect(cv::Point(0, 0), current.size());
   cv::Mat matching(current.size(), CV_8U, cv::Scalar(0));
   if (area.empty()) return matching;
-  // Previous pixel of a current floor pixel: to the floor, into the previous base frame, back
-  // (from the area's own pixel coordinates).
-  Eigen::Matrix3d from_area = Eigen::Matrix3d::Identity();
-  from_area(0, 2) = area.x;
-  from_area(1, 2) = area.y;
-  const Eigen::Matrix3d previous_from_area = camera.pixel_from_floor() *
-                                             base2_from_base1.Inverse().Matrix() *
-                                             camera.floor_from_pixel() * from_area;
-  cv::Matx33d h;
-  for (int r = 0; r < 3; ++r) {
-    for (int c = 0; c < 3; ++c) h(r, c) = previous_from_area(r, c);
-  }
-  cv::Mat warped, residual;
-  cv::warpPerspective(previous, warped, h, area.size(), cv::INTER_LINEAR | cv::WARP_INVERSE_MAP,
-                      cv::BORDER_CONSTANT, cv::Scalar(0));
-  cv::absdiff(current(area), warped, residual);
-  cv::blur(residual, residual, cv::Size(5, 5));
+  // Previous pixel of a current floor pixel: to the floor, into the previous base frame, back.
+  const cv::Mat residual = FloorMotionResidual(
+      camera.pixel_from_floor() * base2_from_base1.Inverse().Matrix() * camera.floor_from_pixel(),
+      previous, current, area);
   matching(area).setTo(cv::Scalar(255), residual <= max_residual);
   return matching;
 }

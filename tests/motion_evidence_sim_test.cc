@@ -22,7 +22,8 @@ struct Counts {
 };
 
 // Runs frames [first, last] of the scene through MotionEvidence; counts from frame first + 2 on.
-Counts RunScene(const std::string& name, int first, int last, int* first_pair_pixels = nullptr) {
+Counts RunScene(const std::string& name, int first, int last, int* first_pair_pixels = nullptr,
+                MotionEvidenceOptions options = MotionEvidenceOptions()) {
   sim::Scene scene;
   std::string error;
   EXPECT_TRUE(sim::LoadSceneFile(
@@ -30,7 +31,6 @@ Counts RunScene(const std::string& name, int first, int last, int* first_pair_pi
       << error;
   const sim::SceneRenderer renderer(scene, scene.calibration);
   const ObstacleDetector detector(scene.calibration, DetectorOptions());
-  MotionEvidenceOptions options;
   options.enabled = true;
   MotionEvidence evidence(detector.camera(), options);
   Counts counts;
@@ -99,6 +99,20 @@ TEST(MotionEvidence, FindsAPersonCrossingAfterTwoPairs) {
       << c.moving_grown << " of " << c.moving << " moving pixels with the grown ones";
   EXPECT_LE(static_cast<double>(c.static_grown), 0.08 * static_cast<double>(c.static_pixels))
       << c.static_grown << " of " << c.static_pixels << " static pixels with the grown ones";
+}
+
+// A newspaper's print repeats: the flow jumps a line of text off the static world, both ways
+// alike; the floor's motion explains it as well as the flow does.
+TEST(MotionEvidence, ARepeatingPrintOnTheFloorIsNotMoving) {
+  const Counts c = RunScene("newspaper_on_carpet", 22, 34);
+  ASSERT_GT(c.static_pixels, 0);
+  EXPECT_LE(static_cast<double>(c.static_grown), 0.001 * static_cast<double>(c.static_pixels))
+      << c.static_grown << " of " << c.static_pixels << " static pixels";
+  MotionEvidenceOptions off;
+  off.floor_like_ratio = 0.0;
+  off.floor_like_margin = 0.0;
+  const Counts without = RunScene("newspaper_on_carpet", 22, 34, nullptr, off);
+  EXPECT_GT(without.static_grown, 5 * c.static_grown + 1000) << "without the floor's check";
 }
 
 TEST(MotionEvidence, RefusesBadOptions) {
