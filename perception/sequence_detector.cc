@@ -223,8 +223,10 @@ void SequenceDetector::TrackMovingObjects(Output& output) {
   cv::Mat moving;
   if (output.result && !output.result->labels.empty())
     moving = output.result->labels == static_cast<int>(PixelLabel::kMoving);
-  // Objects only from the regions' own evidence: the pixels grown into around them (the flow
-  // smoothed onto the floor at a thing's feet among them) would put it where it does not stand.
+  // Objects only from this frame's own evidence of the regions (255): not from the pixels grown
+  // into around them (the flow smoothed onto the floor at a thing's feet among them would put it
+  // where it does not stand), nor from moving labels carried from the last detection or around
+  // tracked corners.
   if (!moving.empty() && output.moving_mask.size() == moving.size())
     moving &= output.moving_mask == 255;
   MovingRegionFlow flow;
@@ -322,7 +324,7 @@ SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, Timesta
     // Only around what moves: the lowest rows of its regions are all that is asked of it (with
     // room for the labels' sample blocks, which reach a little beyond the evidence).
     const cv::Rect moving = options.moving_objects.enabled && !out.moving_mask.empty()
-                                ? cv::boundingRect(out.moving_mask)
+                                ? cv::boundingRect(out.moving_mask == 255)
                                 : cv::Rect();
     if (moving.area() > 0) {
       out.floor_matching = FloorMatchingPixels(
