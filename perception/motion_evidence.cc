@@ -11,6 +11,20 @@ namespace {
 
 constexpr double kNearestM = 0.2;  // nothing static is nearer the camera than this, m
 
+// The box [x0, x1] x [y0, y1] with `pad` pixels around it, at least min_width x min_height
+// (centred on it where it is smaller), inside an image of `size`.
+cv::Rect PaddedBox(int x0, int y0, int x1, int y1, int pad, int min_width, int min_height,
+                   const cv::Size& size) {
+  cv::Rect box(x0 - pad, y0 - pad, x1 - x0 + 1 + 2 * pad, y1 - y0 + 1 + 2 * pad);
+  box.x -= std::max(0, min_width - box.width) / 2;
+  box.y -= std::max(0, min_height - box.height) / 2;
+  box.width = std::max(box.width, min_width);
+  box.height = std::max(box.height, min_height);
+  box.x = std::clamp(box.x, 0, std::max(0, size.width - box.width));
+  box.y = std::clamp(box.y, 0, std::max(0, size.height - box.height));
+  return box & cv::Rect(cv::Point(0, 0), size);
+}
+
 }  // namespace
 
 void MotionEvidenceOptions::Describe(OptionVisitor& v) {
@@ -92,6 +106,14 @@ cv::Mat MotionEvidence::Compute(const cv::Mat& previous, const cv::Mat& current,
   cv::Mat backward;  // current -> previous (CV_32FC2)
   flow_->calc(cur_small, prev_small, backward);
   if (backward_flow) *backward_flow = backward;
+  // Where each pixel of the current image was in the previous one, by the flow.
+  cv::Mat2f source(backward.size());
+  for (int y = 0; y < source.rows; ++y) {
+    const auto* b = backward.ptr<cv::Vec2f>(y);
+    auto* m = source.ptr<cv::Vec2f>(y);
+    for (int x = 0; x < source.cols; ++x)
+      m[x] = cv::Vec2f(static_cast<float>(x) + b[x][0], static_cast<float>(y) + b[x][1]);
+  }
 
   // Pixels of the shrunk images: K scaled.
   Eigen::Matrix3d scale = Eigen::Matrix3d::Identity();
@@ -133,11 +155,11 @@ cv::Mat MotionEvidence::Compute(const cv::Mat& previous, const cv::Mat& current,
   const int margin = std::max(2, 8 / s);
   cv::Mat off_line(cur_small.size(), CV_8U, cv::Scalar(0));
   for (int y = margin; y < off_line.rows - margin; ++y) {
-    const auto* b = backward.ptr<cv::Vec2f>(y);
+    const auto* src = source.ptr<cv::Vec2f>(y);
     const auto* r = rays_.ptr<cv::Vec4f>(y);
     auto* out = off_line.ptr<std::uint8_t>(y);
     for (int x = margin; x < off_line.cols - margin; ++x) {
-      const float x1 = static_cast<float>(x) + b[x][0], y1 = static_cast<float>(y) + b[x][1];
+      const float x1 = src[x][0], y1 = src[x][1];
       const int xi = static_cast<int>(x1 + 0.5f), yi = static_cast<int>(y1 + 0.5f);
       if (x1 < 0 || y1 < 0 || xi >= off_line.cols || yi >= off_line.rows) continue;
       // Where a static point seen at (x, y) can have been: the segment of its epipolar line
@@ -174,11 +196,10 @@ cv::Mat MotionEvidence::Compute(const cv::Mat& previous, const cv::Mat& current,
   int x0 = off_line.cols, y0 = off_line.rows, x1 = -1, y1 = -1;
   for (int y = 0; y < off_line.rows; ++y) {
     const int* c = components.ptr<int>(y);
-    const auto* b = backward.ptr<cv::Vec2f>(y);
+    const auto* src = source.ptr<cv::Vec2f>(y);
     for (int x = 0; x < off_line.cols; ++x) {
       if (!large[c[x]]) continue;
-      const int xs = static_cast<int>(static_cast<float>(x) + b[x][0] + 0.5f);
-      const int ys = static_cast<int>(static_cast<float>(y) + b[x][1] + 0.5f);
+      const int xs = static_cast<int>(src[x][0] + 0.5f), ys = static_cast<int>(src[x][1] + 0.5f);
       x0 = std::min({x0, x, xs});
       y0 = std::min({y0, y, ys});
       x1 = std::max({x1, x, xs});
@@ -191,16 +212,8 @@ cv::Mat MotionEvidence::Compute(const cv::Mat& previous, const cv::Mat& current,
     // Room around the regions for the flow's context, and at least 0.6 of the image's width and
     // 0.3 of its height: DIS builds its pyramid as deep as the sides allow, and a box as deep as
     // the whole image's finds motions as large as it does.
-    const int pad = 16;  // shrunk pixels
-    const int min_width = (off_line.cols * 6 + 9) / 10, min_height = (off_line.rows * 3 + 9) / 10;
-    cv::Rect box(x0 - pad, y0 - pad, x1 - x0 + 1 + 2 * pad, y1 - y0 + 1 + 2 * pad);
-    box.x -= std::max(0, min_width - box.width) / 2;
-    box.y -= std::max(0, min_height - box.height) / 2;
-    box.width = std::max(box.width, min_width);
-    box.height = std::max(box.height, min_height);
-    box.x = std::clamp(box.x, 0, std::max(0, off_line.cols - box.width));
-    box.y = std::clamp(box.y, 0, std::max(0, off_line.rows - box.height));
-    box &= cv::Rect(0, 0, off_line.cols, off_line.rows);
+    const cv::Rect box = PaddedBox(x0, y0, x1, y1, 16, (off_line.cols * 6 + 9) / 10,
+                                   (off_line.rows * 3 + 9) / 10, off_line.size());
     // A solver of its own for each box: OpenCV's DIS reuses its buffers across calls and
     // corrupts memory when a call's pyramid is deeper than the last one's (opencv_contrib issue
     // 1355; a box after a whole image is shallower, the next whole image deeper).
@@ -215,12 +228,12 @@ cv::Mat MotionEvidence::Compute(const cv::Mat& previous, const cv::Mat& current,
     cv::Mat raw(box.size(), CV_8U, cv::Scalar(0));
     for (int y = 0; y < box.height; ++y) {
       const auto* b = backward.ptr<cv::Vec2f>(box.y + y) + box.x;
+      const auto* src = source.ptr<cv::Vec2f>(box.y + y) + box.x;
       const int* c = components.ptr<int>(box.y + y) + box.x;
       auto* out = raw.ptr<std::uint8_t>(y);
       for (int x = 0; x < box.width; ++x) {
         if (!large[c[x]]) continue;
-        const int xs = static_cast<int>(static_cast<float>(box.x + x) + b[x][0] + 0.5f);
-        const int ys = static_cast<int>(static_cast<float>(box.y + y) + b[x][1] + 0.5f);
+        const int xs = static_cast<int>(src[x][0] + 0.5f), ys = static_cast<int>(src[x][1] + 0.5f);
         const cv::Vec2f f = forward.at<cv::Vec2f>(ys - box.y, xs - box.x);
         const float ex = b[x][0] + f[0], ey = b[x][1] + f[1];
         if (ex * ex + ey * ey <= max_error2) out[x] = 255;
@@ -251,16 +264,8 @@ cv::Mat MotionEvidence::Compute(const cv::Mat& previous, const cv::Mat& current,
                                                      camera_.floor_from_pixel() * scale.inverse(),
                                                  prev_small, cur_small, box);
     // ...as well as the flow does (the previous image moved by the flow).
-    cv::Mat map(box.size(), CV_32FC2);
-    for (int y = 0; y < box.height; ++y) {
-      const auto* b = backward.ptr<cv::Vec2f>(box.y + y) + box.x;
-      auto* m = map.ptr<cv::Vec2f>(y);
-      for (int x = 0; x < box.width; ++x)
-        m[x] = cv::Vec2f(static_cast<float>(box.x + x) + b[x][0],
-                         static_cast<float>(box.y + y) + b[x][1]);
-    }
     cv::Mat flowed, flow_residual;
-    cv::remap(prev_small, flowed, map, cv::noArray(), cv::INTER_LINEAR, cv::BORDER_CONSTANT,
+    cv::remap(prev_small, flowed, source(box), cv::noArray(), cv::INTER_LINEAR, cv::BORDER_CONSTANT,
               cv::Scalar(0));
     cv::absdiff(cur_small(box), flowed, flow_residual);
     cv::blur(flow_residual, flow_residual, cv::Size(5, 5));
