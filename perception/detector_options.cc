@@ -28,6 +28,9 @@ void ClassificationOptions::Describe(OptionVisitor& v) {
          "a tracked corner this far off its epipolar line moves, px");
   v.Real("moving_track_radius_px", &moving_track_radius_px, R::AtLeast(0).Note("0 = off"),
          "around two such corners, what is not floor is moving, px");
+  v.Integer("moving_carried_max_measurements", &moving_carried_max_measurements, R::AtLeast(0),
+            "moving pixels carried from earlier frames take an obstacle sample whose height "
+            "estimate has at most this many measurements");
   v.Real("max_range_m", &max_range_m, R::Above(0), "farther points are unknown, m");
   v.Real("max_footprint_sigma_ratio", &max_footprint_sigma_ratio, R::AtLeast(0),
          "obstacle points enter the top view when placed within 0.05 m + this x range");

@@ -54,6 +54,13 @@ struct ClassificationOptions {
   // disc around a corner also takes the static obstacles next to a moving one.
   double moving_track_min_px = 4.0;
   double moving_track_radius_px = 0.0;
+  // Pixels carried along the flow from earlier frames' moving regions
+  // (MotionEvidenceOptions::carry_frames) label an obstacle sample moving only when its height
+  // estimate holds at most this many measurements: a thing that moves puts a new point under the
+  // sample every frame, while a static one behind a passing thing (onto which the flow at the
+  // thing's border spreads) is measured at one height pair after pair. Samples without a label
+  // take it always, floor samples never.
+  int moving_carried_max_measurements = 2;
   // Points farther than this from the robot (metres) are unknown: not reliable.
   double max_range_m = 6.0;
   // An obstacle or drop-off point goes into the top view (local map, obstacle points) only when

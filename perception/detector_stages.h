@@ -121,9 +121,12 @@ void AggregateBySegment(const cv::Mat& segments, const std::vector<Sample>& samp
 // Samples whose centre falls on the moving mask (over the current image; level_to_current maps
 // the chain's pixels to it when the frame was unpitched) are labelled moving, unless they are
 // floor (the flow of a moving thing spreads onto the floor it walks on); where the mask was only
-// grown into (kGrownRegion), only samples without a label.
+// grown into (kGrownRegion), only samples without a label; where it was carried from earlier
+// frames (kCarriedRegion), also obstacle samples whose height estimate (`samples`, one per
+// sample of `grid`) holds at most carried_max_measurements measurements.
 void LabelMovingMask(const cv::Mat& mask, const SampleGrid& grid,
-                     const Eigen::Matrix3d* level_to_current, std::vector<PixelLabel>* labels);
+                     const Eigen::Matrix3d* level_to_current, const std::vector<Sample>& samples,
+                     int carried_max_measurements, std::vector<PixelLabel>* labels);
 
 void LabelAroundMovingCorners(const std::vector<Eigen::Vector2d>& moving, const SampleGrid& grid,
                               double radius_px, std::vector<PixelLabel>* labels);

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "perception/detector_stages.h"
+#include "perception/motion_evidence.h"
 
 namespace monoplane::detector_stages {
 
@@ -134,7 +135,8 @@ void AggregateBySegment(const cv::Mat& segments, const std::vector<Sample>& samp
 }
 
 void LabelMovingMask(const cv::Mat& mask, const SampleGrid& grid,
-                     const Eigen::Matrix3d* level_to_current, std::vector<PixelLabel>* labels) {
+                     const Eigen::Matrix3d* level_to_current, const std::vector<Sample>& samples,
+                     int carried_max_measurements, std::vector<PixelLabel>* labels) {
   const double sample_px = grid.SamplePx();
   for (int i = 0; i < grid.rows; ++i) {
     for (int j = 0; j < grid.cols; ++j) {
@@ -144,7 +146,11 @@ void LabelMovingMask(const cv::Mat& mask, const SampleGrid& grid,
       if (!(p.allFinite()) || x < 0 || y < 0 || x >= mask.cols || y >= mask.rows) continue;
       PixelLabel& label = (*labels)[grid.Index(i, j)];
       const std::uint8_t m = mask.at<std::uint8_t>(y, x);
-      if ((m == 255 && label != PixelLabel::kFloor) || (m != 0 && label == PixelLabel::kUnknown))
+      if (m == 0 || label == PixelLabel::kFloor) continue;
+      const std::size_t k = grid.Index(i, j);
+      const bool converged =
+          k < samples.size() && samples[k].measurements > carried_max_measurements;
+      if (label == PixelLabel::kUnknown || m == 255 || (m == kCarriedRegion && !converged))
         label = PixelLabel::kMoving;
     }
   }

@@ -1,5 +1,6 @@
 // The moving mask onto the labels: the regions' own evidence over anything but floor, the pixels
-// grown into around them only over samples without a label.
+// grown into around them only over samples without a label, the pixels carried from earlier
+// frames over obstacles whose height is not known from several pairs.
 #include <gtest/gtest.h>
 
 #include <opencv2/core.hpp>
@@ -23,7 +24,7 @@ TEST(LabelMovingMask, GrownPixelsLabelOnlyWhatHadNoLabel) {
                                           PixelLabel::kUnknown,  PixelLabel::kObstacle,
                                           PixelLabel::kFloor,    PixelLabel::kUnknown};
   std::vector<PixelLabel> labels = before;
-  detector_stages::LabelMovingMask(mask, grid, nullptr, &labels);
+  detector_stages::LabelMovingMask(mask, grid, nullptr, {}, 2, &labels);
   EXPECT_EQ(labels[0], PixelLabel::kMoving);
   EXPECT_EQ(labels[1], PixelLabel::kFloor);  // the floor under a moving thing's feet stays
   EXPECT_EQ(labels[2], PixelLabel::kMoving);
@@ -31,8 +32,34 @@ TEST(LabelMovingMask, GrownPixelsLabelOnlyWhatHadNoLabel) {
   EXPECT_EQ(labels[4], PixelLabel::kFloor);
   EXPECT_EQ(labels[5], PixelLabel::kMoving);
   labels = before;
-  detector_stages::LabelMovingMask(cv::Mat(8, 48, CV_8U, cv::Scalar(0)), grid, nullptr, &labels);
+  detector_stages::LabelMovingMask(cv::Mat(8, 48, CV_8U, cv::Scalar(0)), grid, nullptr, {}, 2,
+                                   &labels);
   EXPECT_EQ(labels, before);
+}
+
+// Carried from earlier frames' moving regions (kCarriedRegion): obstacle samples whose height
+// estimate has been measured over several pairs (a static thing behind a passing one) stay.
+TEST(LabelMovingMask, CarriedPixelsSpareConvergedObstacles) {
+  detector_stages::SampleGrid grid;
+  grid.rows = 1;
+  grid.cols = 4;
+  grid.stride = 8;
+  const cv::Mat mask(8, 32, CV_8U, cv::Scalar(kCarriedRegion));
+  std::vector<detector_stages::Sample> samples(4);
+  samples[0].measurements = 1;  // a new point under the sample: a thing that moved there
+  samples[1].measurements = 5;  // one height over five pairs: static
+  std::vector<PixelLabel> labels = {PixelLabel::kObstacle, PixelLabel::kObstacle,
+                                    PixelLabel::kFloor, PixelLabel::kUnknown};
+  detector_stages::LabelMovingMask(mask, grid, nullptr, samples, 2, &labels);
+  EXPECT_EQ(labels[0], PixelLabel::kMoving);
+  EXPECT_EQ(labels[1], PixelLabel::kObstacle);
+  EXPECT_EQ(labels[2], PixelLabel::kFloor);
+  EXPECT_EQ(labels[3], PixelLabel::kMoving);
+  // The regions' own evidence (255) takes both obstacle samples.
+  labels = {PixelLabel::kObstacle, PixelLabel::kObstacle, PixelLabel::kFloor, PixelLabel::kUnknown};
+  detector_stages::LabelMovingMask(cv::Mat(8, 32, CV_8U, cv::Scalar(255)), grid, nullptr, samples,
+                                   2, &labels);
+  EXPECT_EQ(labels[1], PixelLabel::kMoving);
 }
 
 }  // namespace

@@ -47,6 +47,9 @@ void MotionEvidenceOptions::Describe(OptionVisitor& v) {
          "a region the floor's motion explains within this factor of its flow is not moving");
   v.Real("floor_like_margin", &floor_like_margin, R::AtLeast(0),
          "... plus this mean residual, grey levels");
+  v.Integer("carry_frames", &carry_frames, R::Closed(0, 255).Note("0 = off"),
+            "a moving region's pixels stay moving along the flow for this many frames without "
+            "evidence of their own");
   v.Flag("grow_regions", &grow_regions,
          "a moving region takes the pixels around it whose flow leaves the static world but "
          "fails the forward-backward check");
@@ -208,21 +211,34 @@ cv::Mat MotionEvidence::Compute(const cv::Mat& previous, const cv::Mat& current,
   }
   cv::Mat regions(cur_small.size(), CV_8U, cv::Scalar(0));
   cv::Mat moving(cur_small.size(), CV_8U, cv::Scalar(0));
+  // What may be carried from the last frame (options_.carry_frames) lies around where it was.
+  const cv::Rect carry_box = options_.carry_frames > 0 && previous_hold_.size() == cur_small.size()
+                                 ? cv::boundingRect(previous_hold_ > 1)
+                                 : cv::Rect();
+  if (carry_box.area() > 0) {
+    x0 = std::min(x0, carry_box.x);
+    y0 = std::min(y0, carry_box.y);
+    x1 = std::max(x1, carry_box.br().x - 1);
+    y1 = std::max(y1, carry_box.br().y - 1);
+  }
+  cv::Rect box;
+  cv::Mat forward;  // previous -> current over the box (CV_32FC2)
   if (x1 >= 0) {
     // Room around the regions for the flow's context, and at least 0.6 of the image's width and
     // 0.3 of its height: DIS builds its pyramid as deep as the sides allow, and a box as deep as
     // the whole image's finds motions as large as it does.
-    const cv::Rect box = PaddedBox(x0, y0, x1, y1, 16, (off_line.cols * 6 + 9) / 10,
-                                   (off_line.rows * 3 + 9) / 10, off_line.size());
+    box = PaddedBox(x0, y0, x1, y1, 16, (off_line.cols * 6 + 9) / 10, (off_line.rows * 3 + 9) / 10,
+                    off_line.size());
     // A solver of its own for each box: OpenCV's DIS reuses its buffers across calls and
     // corrupts memory when a call's pyramid is deeper than the last one's (opencv_contrib issue
     // 1355; a box after a whole image is shallower, the next whole image deeper).
-    cv::Mat forward;  // previous -> current over the box (CV_32FC2)
     cv::DISOpticalFlow::create(cv::DISOpticalFlow::PRESET_FAST)
         ->calc(prev_small(box).clone(), cur_small(box).clone(), forward);
-    const float max_error2 =
-        static_cast<float>(options_.max_flow_error_px * options_.max_flow_error_px) /
-        static_cast<float>(s * s);
+  }
+  const float max_error2 =
+      static_cast<float>(options_.max_flow_error_px * options_.max_flow_error_px) /
+      static_cast<float>(s * s);
+  if (std::any_of(large.begin(), large.end(), [](std::uint8_t l) { return l != 0; })) {
     // From here on only the box: the pixels of pass 1's large regions lie at least `pad` inside
     // it (or at the image's edge), and nothing outside them can be part of a region.
     cv::Mat raw(box.size(), CV_8U, cv::Scalar(0));
@@ -331,10 +347,72 @@ cv::Mat MotionEvidence::Compute(const cv::Mat& previous, const cv::Mat& current,
     }
   }
   previous_regions_ = regions;
+  CarryAlongTheFlow(source, backward, forward, box, max_error2, disc, min_area, &moving);
   if (s == 1) return moving;
   cv::Mat full;
   cv::resize(moving, full, current.size(), 0, 0, cv::INTER_NEAREST);
   return full;
+}
+
+void MotionEvidence::CarryAlongTheFlow(const cv::Mat2f& source, const cv::Mat& backward,
+                                       const cv::Mat& forward, const cv::Rect& box,
+                                       float max_error2, const cv::Mat& disc, double min_area,
+                                       cv::Mat* moving) {
+  if (options_.carry_frames <= 0) return;
+  // Frames left to carry each pixel: a region's own pixels (and those grown into around it)
+  // start over; a carried pixel takes what is left at where it came from, less one.
+  cv::Mat hold(moving->size(), CV_8U, cv::Scalar(0));
+  cv::Mat carried(moving->size(), CV_8U, cv::Scalar(0));
+  const bool have_previous = previous_hold_.size() == moving->size();
+  const auto frames = static_cast<std::uint8_t>(std::min(options_.carry_frames, 255));
+  for (int y = 0; y < moving->rows; ++y) {
+    const auto* m = moving->ptr<std::uint8_t>(y);
+    const auto* src = source.ptr<cv::Vec2f>(y);
+    auto* h = hold.ptr<std::uint8_t>(y);
+    auto* c = carried.ptr<std::uint8_t>(y);
+    for (int x = 0; x < moving->cols; ++x) {
+      const int xs = static_cast<int>(src[x][0] + 0.5f), ys = static_cast<int>(src[x][1] + 0.5f);
+      const bool inside = have_previous && src[x][0] >= 0 && src[x][1] >= 0 && xs < moving->cols &&
+                          ys < moving->rows;
+      const std::uint8_t left = inside ? previous_hold_.at<std::uint8_t>(ys, xs) : 0;
+      // Only a region's own evidence starts the count (not the pixels grown into around it), and
+      // only where it was moving in the last frame too: a region found in one pair alone (the
+      // overlap test already asks for two) is not carried.
+      if (m[x] == 255) h[x] = left > 0 ? frames : 1;
+      if (m[x] != 0 || left <= 1) continue;
+      // Only where the flow agrees both ways: a pixel just uncovered behind a thing (or on a
+      // plain patch beside it) takes some of the thing's flow one way, not the other.
+      if (!box.contains(cv::Point(x, y)) || !box.contains(cv::Point(xs, ys))) continue;
+      const cv::Vec2f f = forward.at<cv::Vec2f>(ys - box.y, xs - box.x);
+      const cv::Vec2f b = backward.at<cv::Vec2f>(y, x);
+      if ((b[0] + f[0]) * (b[0] + f[0]) + (b[1] + f[1]) * (b[1] + f[1]) > max_error2) continue;
+      {
+        c[x] = 255;
+        h[x] = static_cast<std::uint8_t>(left - 1);
+      }
+    }
+  }
+  // The flow at a thing's border drags a few pixels of what is around it along: opened as pass
+  // 1's evidence is, and only regions of the minimum size are carried.
+  cv::morphologyEx(carried, carried, cv::MORPH_OPEN, disc);
+  cv::Mat components, stats, centroids;
+  const int n = cv::connectedComponentsWithStats(carried, components, stats, centroids, 8, CV_32S);
+  std::vector<std::uint8_t> kept(n, 0);
+  for (int k = 1; k < n; ++k) kept[k] = stats.at<int>(k, cv::CC_STAT_AREA) >= min_area ? 1 : 0;
+  for (int y = 0; y < moving->rows; ++y) {
+    const int* k = components.ptr<int>(y);
+    auto* m = moving->ptr<std::uint8_t>(y);
+    auto* h = hold.ptr<std::uint8_t>(y);
+    for (int x = 0; x < moving->cols; ++x) {
+      if (m[x] != 0) continue;
+      if (kept[k[x]]) {
+        m[x] = kCarriedRegion;
+      } else {
+        h[x] = 0;
+      }
+    }
+  }
+  previous_hold_ = hold;
 }
 
 }  // namespace monoplane

@@ -49,6 +49,14 @@ struct MotionEvidenceOptions {
   // A moving region takes the connected pixels around it whose flow leaves the static world but
   // fails the forward-backward check (the plain inside of a moving thing).
   bool grow_regions = true;
+  // A moving region's pixels stay moving for carry_frames frames without evidence of their own,
+  // following the flow (where each pixel was in the previous frame): a thing whose motion runs
+  // along its epipolar lines for a while (crossing off to the side of the direction of travel)
+  // shows none, and one frame of evidence does not end either. Only samples that are not floor
+  // take it (ClassificationOptions::moving_carried_max_measurements), only where a tracked object
+  // is predicted (SequenceDetector), and objects are made only from the regions' own evidence.
+  // 0 = off.
+  int carry_frames = 15;
 
   // Every field's key, range and meaning (the checks, the config file and --dump use it).
   void Describe(OptionVisitor& v);
@@ -62,8 +70,10 @@ struct MotionEvidenceOptions {
 cv::Mat FloorMotionResidual(const Eigen::Matrix3d& previous_from_current, const cv::Mat& previous,
                             const cv::Mat& current, const cv::Rect& area);
 
-// The moving mask's value for pixels grown into around a moving region.
+// The moving mask's values for pixels grown into around a moving region, and for pixels carried
+// along the flow from earlier frames' regions (MotionEvidenceOptions::carry_frames).
 constexpr std::uint8_t kGrownRegion = 128;
+constexpr std::uint8_t kCarriedRegion = 192;
 
 // Holds the flow solver and the previous frame's evidence; no files, threads or clocks.
 class MotionEvidence {
@@ -71,7 +81,8 @@ class MotionEvidence {
   MotionEvidence(const CameraModel& camera, const MotionEvidenceOptions& options);
 
   // The moving mask (CV_8U: 255 = moves on its own, kGrownRegion = grown into around it, see
-  // MotionEvidenceOptions::grow_regions; 0 = not known to move) of `current` (prepared grey image),
+  // MotionEvidenceOptions::grow_regions, kCarriedRegion = carried from earlier frames, see
+  // carry_frames; 0 = not known to move) of `current` (prepared grey image),
   // given the previous prepared frame and the floor motion of the step base2_from_base1 (previous
   // -> current). Empty when off. Call once per consecutive pair, in order; Reset() when the chain
   // of steps breaks (an unusable frame, no motion). With `backward_flow`: also the flow from
@@ -82,13 +93,23 @@ class MotionEvidence {
   void Reset() {
     previous_regions_.release();
     previous_small_.release();
+    previous_hold_.release();
   }
 
  private:
   CameraModel camera_;
   MotionEvidenceOptions options_;
   cv::Ptr<cv::DenseOpticalFlow> flow_;
+  // Adds to `moving` (flow scale) the pixels carried along the flow (`source`: where each pixel
+  // was in the previous frame) from earlier frames' moving pixels, as kCarriedRegion.
+  // `backward` (current -> previous) and `forward` (previous -> current, over `box`) flows
+  // check each carried pixel both ways.
+  void CarryAlongTheFlow(const cv::Mat2f& source, const cv::Mat& backward, const cv::Mat& forward,
+                         const cv::Rect& box, float max_error2, const cv::Mat& disc,
+                         double min_area, cv::Mat* moving);
+
   cv::Mat previous_regions_;  // the last pair's regions (before the overlap test), flow scale
+  cv::Mat previous_hold_;     // frames each pixel of the last moving mask may still be carried
   cv::Mat previous_image_, previous_small_;  // the last current frame, and shrunk
   cv::Mat4f rays_;  // per shrunk pixel: its ray at depth 1 (camera) and the floor's depth, or 0
 };

@@ -489,4 +489,72 @@ std::vector<MovingObject> MovingObjectTracker::Update(const std::vector<MovingRe
   return out;
 }
 
+std::vector<MovingObject> MovingObjectTracker::Predict(const Pose2& odom_from_base,
+                                                       TimestampNs stamp_ns) const {
+  std::vector<MovingObject> out;
+  if (!options_.enabled) return out;
+  const double dt = has_stamp_ ? std::max(0.0, NsToSeconds(stamp_ns - last_stamp_ns_)) : 0.0;
+  const Pose2 base_from_odom = odom_from_base.Inverse();
+  for (const Track& t : tracks_) {
+    if (t.lost || t.updates < options_.confirm_updates) continue;
+    MovingObject o;
+    o.id = t.id;
+    o.position_in_base =
+        base_from_odom * Eigen::Vector2d(t.state.head<2>() + dt * t.state.tail<2>());
+    o.velocity_in_base_mps = base_from_odom.Rotation() * t.state.tail<2>();
+    o.radius_m = t.radius_m;
+    o.updates = t.updates;
+    o.coasting = true;
+    out.push_back(o);
+  }
+  return out;
+}
+
+void KeepCarriedWhereObjectsAre(const CameraModel& camera,
+                                const std::vector<MovingObject>& predicted, double margin_m,
+                                cv::Mat* moving_mask) {
+  if (moving_mask->empty() || moving_mask->type() != CV_8U) return;
+  const cv::Mat carried = *moving_mask == kCarriedRegion;
+  if (cv::countNonZero(carried) == 0) return;
+  // Where each object stands in the image: the box around its widened footprint's corners at the
+  // floor and at 2 m.
+  std::vector<cv::Rect> areas;
+  const cv::Rect image(0, 0, moving_mask->cols, moving_mask->rows);
+  for (const MovingObject& o : predicted) {
+    const double r = o.radius_m + margin_m;
+    double x0 = 1e9, y0 = 1e9, x1 = -1e9, y1 = -1e9;
+    // Up its height in steps: the points above the image's top row (a near thing seen from a
+    // camera pitched down) only say that it reaches the top; their columns, far out by
+    // perspective, are not where it is seen.
+    for (int step = 0; step <= 8; ++step) {
+      for (int corner = 0; corner < 4; ++corner) {
+        const Eigen::Vector3d p(o.position_in_base.x() + ((corner & 1) ? r : -r),
+                                o.position_in_base.y() + ((corner & 2) ? r : -r), 0.25 * step);
+        const auto pixel = camera.ProjectToPixel(p);
+        if (!pixel) continue;
+        if (pixel->y() < 0) {
+          y0 = std::min(y0, 0.0);
+          continue;
+        }
+        x0 = std::min(x0, pixel->x());
+        y0 = std::min(y0, pixel->y());
+        x1 = std::max(x1, pixel->x());
+        y1 = std::max(y1, pixel->y());
+      }
+    }
+    if (x1 < x0) continue;
+    x0 = std::clamp(x0, -1.0, static_cast<double>(image.width));
+    x1 = std::clamp(x1, -1.0, static_cast<double>(image.width));
+    y0 = std::clamp(y0, -1.0, static_cast<double>(image.height));
+    y1 = std::clamp(y1, -1.0, static_cast<double>(image.height));
+    const cv::Rect area = cv::Rect(cv::Point(static_cast<int>(x0), static_cast<int>(y0)),
+                                   cv::Point(static_cast<int>(x1) + 1, static_cast<int>(y1) + 1)) &
+                          image;
+    if (area.area() > 0) areas.push_back(area);
+  }
+  cv::Mat inside(moving_mask->size(), CV_8U, cv::Scalar(0));
+  for (const cv::Rect& area : areas) inside(area).setTo(255);
+  moving_mask->setTo(0, carried & ~inside);
+}
+
 }  // namespace monoplane

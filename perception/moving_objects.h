@@ -115,6 +115,15 @@ std::vector<MovingRegion> PlaceMovingRegions(const CameraModel& camera, const cv
 void ForgetMovingFootprints(const std::vector<MovingObject>& objects,
                             const MovingObjectOptions& options, OccupancyGrid* local_map_in_base);
 
+// Keeps the pixels of `moving_mask` (CV_8U over the camera's image) carried from earlier frames
+// (kCarriedRegion) only where an object of `predicted` stands (base frame: the box around its
+// footprint widened by margin_m, from the floor to 2 m, as seen in the image); the others
+// become 0. What was carried from a thing that is now followed somewhere else is what the flow
+// at its border left behind on what it passed.
+void KeepCarriedWhereObjectsAre(const CameraModel& camera,
+                                const std::vector<MovingObject>& predicted, double margin_m,
+                                cv::Mat* moving_mask);
+
 // Follows the regions over frames. No files, threads or clocks: the caller gives each frame's
 // stamp and odometry pose.
 class MovingObjectTracker {
@@ -126,6 +135,9 @@ class MovingObjectTracker {
   // than the last one's). Returns the confirmed tracks in this frame's base frame.
   std::vector<MovingObject> Update(const std::vector<MovingRegion>& regions,
                                    const Pose2& odom_from_base, TimestampNs stamp_ns);
+  // The confirmed tracks (coasting ones too) where they are predicted to be at stamp_ns, in the
+  // base frame of a frame at odom_from_base; nothing is updated.
+  std::vector<MovingObject> Predict(const Pose2& odom_from_base, TimestampNs stamp_ns) const;
 
  private:
   struct Track {

@@ -5,6 +5,8 @@
 #include <cmath>
 #include <opencv2/imgproc.hpp>
 
+#include "perception/motion_evidence.h"
+
 namespace monoplane {
 namespace {
 
@@ -270,6 +272,59 @@ TEST(MovingObjects, ALostTrackCoastsThenIsDropped) {
   lost_and_found(options, &id, &found);  // without: a new one
   ASSERT_EQ(found.size(), 1u);
   EXPECT_NE(found[0].id, id);
+}
+
+// Where the tracks are now, without a region for them: moved on by their velocity, in the asking
+// frame's base frame; only confirmed tracks, and the tracker is not changed by asking.
+TEST(MovingObjects, TracksArePredictedWithoutBeingUpdated) {
+  MovingObjectTracker tracker{MovingObjectOptions()};
+  MovingRegion region;
+  region.range_m = 2.0;
+  region.radius_m = 0.2;
+  for (int k = 0; k < 5; ++k) {
+    region.position_in_base = Eigen::Vector2d(2.0, -0.5 + 0.05 * k);  // 0.5 m/s to the left
+    tracker.Update({region}, Pose2{}, SecondsToNs(0.1 * k));
+  }
+  // 0.2 s after the last region, seen from a robot 0.5 m further on.
+  const std::vector<MovingObject> predicted =
+      tracker.Predict(Pose2{0.5, 0.0, 0.0}, SecondsToNs(0.6));
+  ASSERT_EQ(predicted.size(), 1u);
+  EXPECT_NEAR(predicted[0].position_in_base.x(), 1.5, 0.05);
+  EXPECT_NEAR(predicted[0].position_in_base.y(), -0.3 + 0.1, 0.05);
+  EXPECT_EQ(tracker.Predict(Pose2{}, SecondsToNs(0.6)).size(), 1u);
+  // A region where the prediction said keeps the same track.
+  region.position_in_base = Eigen::Vector2d(2.0, -0.2);
+  const auto out = tracker.Update({region}, Pose2{}, SecondsToNs(0.6));
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_EQ(out[0].id, predicted[0].id);
+}
+
+// Moving pixels carried from earlier frames count only where a followed thing is predicted to
+// stand: what the flow at a passing thing's border left behind elsewhere is dropped; the regions'
+// own evidence stays everywhere.
+TEST(MovingObjects, CarriedPixelsStayOnlyWhereAnObjectIsPredicted) {
+  const CameraModel camera = MakeCamera();
+  cv::Mat mask(480, 640, CV_8U, cv::Scalar(0));
+  MovingObject person;
+  person.position_in_base = {2.0, 0.5};
+  person.radius_m = 0.25;
+  const auto pixel_of = [&](double x, double y, double z) {
+    const auto p = camera.ProjectToPixel(Eigen::Vector3d(x, y, z));
+    EXPECT_TRUE(p && p->x() >= 0 && p->y() >= 0 && p->x() < 640 && p->y() < 400);
+    return p ? cv::Point(static_cast<int>(p->x()), static_cast<int>(p->y())) : cv::Point(0, 0);
+  };
+  const cv::Point on_person = pixel_of(2.0, 0.5, 0.2), elsewhere = pixel_of(2.5, -0.8, 0.2);
+  cv::circle(mask, on_person, 10, cv::Scalar(kCarriedRegion), cv::FILLED);
+  cv::circle(mask, elsewhere, 10, cv::Scalar(kCarriedRegion), cv::FILLED);
+  cv::circle(mask, elsewhere + cv::Point(0, 40), 10, cv::Scalar(255), cv::FILLED);
+  KeepCarriedWhereObjectsAre(camera, {person}, 0.15, &mask);
+  EXPECT_EQ(mask.at<std::uint8_t>(on_person), kCarriedRegion);
+  EXPECT_EQ(mask.at<std::uint8_t>(elsewhere), 0);
+  EXPECT_EQ(mask.at<std::uint8_t>(elsewhere + cv::Point(0, 40)), 255);
+  // Without any object nothing carried stays.
+  cv::circle(mask, on_person, 10, cv::Scalar(kCarriedRegion), cv::FILLED);
+  KeepCarriedWhereObjectsAre(camera, {}, 0.15, &mask);
+  EXPECT_EQ(cv::countNonZero(mask == kCarriedRegion), 0);
 }
 
 // Where a tracked object stands (and a margin around it) the frame's local map knows nothing:

@@ -424,7 +424,8 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
     LabelAroundMovingCorners(moving_level, grid, co.moving_track_radius_px, &labels);
   }
   if (moving_mask.size() == size && moving_mask.type() == CV_8U) {
-    LabelMovingMask(moving_mask, grid, pitched ? &level.pitch_h : nullptr, &labels);
+    LabelMovingMask(moving_mask, grid, pitched ? &level.pitch_h : nullptr, samples,
+                    co.moving_carried_max_measurements, &labels);
   }
   if (co.fill_max_gap_samples > 0) {
     FillColumnGaps(camera_, co, grid.rows, grid.cols, grid.SamplePx(), &samples, &labels);

@@ -64,7 +64,9 @@ class ObstacleDetector {
   // nearest the camera into it, and the labels come from the fused estimates. The result's
   // height_seeds are the estimates after this frame (null or empty prior: from this pair alone).
   // moving_mask: CV_8U over `current` (MotionEvidence): 255 where things move on their own, those
-  // samples (but floor) labelled moving; kGrownRegion around them, only samples without a label.
+  // samples (but floor) labelled moving; kGrownRegion around them, only samples without a label;
+  // kCarriedRegion (carried from earlier frames), samples without a label and obstacle samples
+  // with few measurements (ClassificationOptions::moving_carried_max_measurements).
   // Moving samples give the local map neither obstacle nor free floor.
   // far_pair: `current` against an older frame with a longer baseline
   // (PairSelectionOptions::far_min_baseline_m); each sample keeps the more precise of the two
@@ -125,9 +127,9 @@ class SequenceDetector {
       std::optional<FarPair> far_pair;  // PairSelectionOptions::far_min_baseline_m
     };
     std::optional<PendingDetection> pending;
-    // Where things move on their own in this frame (MotionEvidence; CV_8U, 255 or kGrownRegion,
-    // empty when off or without a step). Finish labels them moving in a carried result too, and
-    // tracks the 255 ones as objects (FrameResult::moving_objects).
+    // Where things move on their own in this frame (MotionEvidence; CV_8U, 255, kGrownRegion or
+    // kCarriedRegion, empty when off or without a step). Finish labels them moving in a carried
+    // result too, and tracks the 255 ones as objects (FrameResult::moving_objects).
     cv::Mat moving_mask;
     // With moving_mask: the dense flow from this image to the previous one (CV_32FC2 at
     // 1 / motion_evidence.downscale of the image, in those pixels).

@@ -99,7 +99,8 @@ FrameResult CarryResult(const CameraModel& camera, const ClassificationOptions& 
     const cv::Mat not_floor = r.labels != static_cast<int>(PixelLabel::kFloor);
     const cv::Mat unknown = r.labels == static_cast<int>(PixelLabel::kUnknown);
     r.labels.setTo(static_cast<int>(PixelLabel::kMoving),
-                   ((moving_mask == 255) & not_floor) | ((moving_mask != 0) & unknown));
+                   ((moving_mask == 255 | moving_mask == kCarriedRegion) & not_floor) |
+                       ((moving_mask != 0) & unknown));
   }
   // The top view in this frame's base frame: each cell takes the last map's cell it was (an
   // affine map of the cell indices).
@@ -150,6 +151,13 @@ bool WithinCarryReach(const Pose2& now_from_last, const PairSelectionOptions& ps
 }  // namespace
 
 void SequenceDetector::Finish(Output* output) {
+  // Pixels carried from earlier frames' moving regions count only where a followed thing is
+  // predicted to be now (the tracks as of the last frame: Finish runs in frame order).
+  if (output->image_ok && detector_.options().moving_objects.enabled) {
+    KeepCarriedWhereObjectsAre(
+        detector_.camera(), moving_objects_.Predict(output->odom_from_base, output->stamp_ns),
+        detector_.options().moving_objects.footprint_margin_m, &output->moving_mask);
+  }
   if (!output->pending) {
     // Tracked only, or standing still / turning without a pair: what was seen is kept.
     // Only across a step whose floor motion was fitted: a guessed step (kFallback) would carry

@@ -1,6 +1,7 @@
 // MotionEvidence on rendered frames with the true motion of each step: a static scene gives no
 // moving region, a person crossing is found once two consecutive pairs show it (and the regions
-// grown into its plain inside), and one pair of evidence is not enough.
+// grown into its plain inside), one pair of evidence is not enough, and a thing found moving stays
+// moving along the flow when its evidence fails for a while.
 #include <gtest/gtest.h>
 
 #include <cstdio>
@@ -113,6 +114,23 @@ TEST(MotionEvidence, ARepeatingPrintOnTheFloorIsNotMoving) {
   off.floor_like_margin = 0.0;
   const Counts without = RunScene("newspaper_on_carpet", 22, 34, nullptr, off);
   EXPECT_GT(without.static_grown, 5 * c.static_grown + 1000) << "without the floor's check";
+}
+
+// The box walking back and forth in person_crossing, crossing off to the side of the robot's
+// direction of travel: there its flow runs along its epipolar lines (it looks like a static thing
+// nearer or farther) and it shows no evidence of its own for a second or more. Once found, its
+// pixels stay moving along the flow for carry_frames frames.
+TEST(MotionEvidence, AThingFoundMovingStaysMovingAlongTheFlow) {
+  const Counts c = RunScene("person_crossing", 82, 100);
+  MotionEvidenceOptions off;
+  off.carry_frames = 0;
+  const Counts without = RunScene("person_crossing", 82, 100, nullptr, off);
+  ASSERT_GT(c.moving, 10000);
+  EXPECT_GT(static_cast<double>(c.moving_grown), 1.5 * static_cast<double>(without.moving_grown))
+      << c.moving_grown << " of " << c.moving << " moving pixels, " << without.moving_grown
+      << " without carrying";
+  EXPECT_LE(static_cast<double>(c.static_grown), 0.01 * static_cast<double>(c.static_pixels))
+      << c.static_grown << " of " << c.static_pixels << " static pixels";
 }
 
 TEST(MotionEvidence, RefusesBadOptions) {
