@@ -49,14 +49,16 @@ struct MotionEvidenceOptions {
   // A moving region takes the connected pixels around it whose flow leaves the static world but
   // fails the forward-backward check (the plain inside of a moving thing).
   bool grow_regions = true;
-  // A moving region's pixels stay moving for carry_frames frames without evidence of their own,
-  // following the flow (where each pixel was in the previous frame): a thing whose motion runs
-  // along its epipolar lines for a while (crossing off to the side of the direction of travel)
-  // shows none, and one frame of evidence does not end either. Only samples that are not floor
-  // take it (ClassificationOptions::moving_carried_max_measurements), only where a tracked object
-  // is predicted (SequenceDetector), and objects are made only from the regions' own evidence.
+  // A moving region's pixels stay moving for up to carry_frames frames without evidence of their
+  // own, following the flow (where each pixel was in the previous frame): a thing whose motion
+  // runs along its epipolar lines for a while (crossing off to the side of the direction of
+  // travel) shows none, and one frame of evidence does not end either. Only samples that are not
+  // floor take it (ClassificationOptions::moving_carried_max_measurements), and objects are made
+  // only from the regions' own evidence. With moving objects on, carried pixels stay only where a
+  // tracked object is predicted (SequenceDetector): the tracker, not this count, ends the carry
+  // there (it coasts MovingObjectOptions::max_coast_s); the count bounds it when objects are off.
   // 0 = off.
-  int carry_frames = 15;
+  int carry_frames = 30;
 
   // Every field's key, range and meaning (the checks, the config file and --dump use it).
   void Describe(OptionVisitor& v);
