@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
+#include <functional>
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 #include <string>
@@ -72,9 +73,10 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   // The pipeline is deterministic (one thread, fixed frames): a set of options it has run with
   // already (most inputs differ from an earlier one in text the options do not keep: comments,
   // spacing, order, number spelling) would only repeat that run.
-  static std::unordered_set<std::string> already_run;
-  if (!already_run.insert(dump).second) return 0;
-  if (already_run.size() > 200000) already_run.clear();  // bounded memory over long runs
+  // Hashes, not the dumps (several KB each): a million inputs would otherwise hold gigabytes.
+  static std::unordered_set<std::size_t> already_run;
+  if (!already_run.insert(std::hash<std::string>{}(dump)).second) return 0;
+  if (already_run.size() > 1000000) already_run.clear();  // bounded memory over long runs
   RunPipeline(config);
   return 0;
 }
