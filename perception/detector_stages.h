@@ -118,12 +118,17 @@ void AggregateBySegment(const cv::Mat& segments, const std::vector<Sample>& samp
 
 // Corners that move on their own (level pixels), confirmed by a second one within radius_px: what
 // is not floor around them moves.
+// Whether a sample (or a carried frame's pixel) labelled `label` becomes moving under the moving
+// mask's value m: never floor (the flow of a moving thing spreads onto the floor it walks on);
+// the regions' own evidence (255) anything else; pixels grown into (kGrownRegion) only what has
+// no label; pixels carried from earlier frames (kCarriedRegion) also an obstacle whose height
+// estimate is young (few measurements: a thing that moves puts a new point under it every frame).
+bool TakesMovingLabel(std::uint8_t m, PixelLabel label, bool young_estimate);
+
 // Samples whose centre falls on the moving mask (over the current image; level_to_current maps
-// the chain's pixels to it when the frame was unpitched) are labelled moving, unless they are
-// floor (the flow of a moving thing spreads onto the floor it walks on); where the mask was only
-// grown into (kGrownRegion), only samples without a label; where it was carried from earlier
-// frames (kCarriedRegion), also obstacle samples whose height estimate (`samples`, one per
-// sample of `grid`) holds at most carried_max_measurements measurements.
+// the chain's pixels to it when the frame was unpitched) are labelled moving by TakesMovingLabel,
+// an estimate young when it holds at most carried_max_measurements measurements (`samples`, one
+// per sample of `grid`).
 void LabelMovingMask(const cv::Mat& mask, const SampleGrid& grid,
                      const Eigen::Matrix3d* level_to_current, const std::vector<Sample>& samples,
                      int carried_max_measurements, std::vector<PixelLabel>* labels);

@@ -134,6 +134,12 @@ void AggregateBySegment(const cv::Mat& segments, const std::vector<Sample>& samp
   }
 }
 
+bool TakesMovingLabel(std::uint8_t m, PixelLabel label, bool young_estimate) {
+  if (m == 0 || label == PixelLabel::kFloor) return false;
+  return m == 255 || label == PixelLabel::kUnknown ||
+         (m == kCarriedRegion && label == PixelLabel::kObstacle && young_estimate);
+}
+
 void LabelMovingMask(const cv::Mat& mask, const SampleGrid& grid,
                      const Eigen::Matrix3d* level_to_current, const std::vector<Sample>& samples,
                      int carried_max_measurements, std::vector<PixelLabel>* labels) {
@@ -145,13 +151,9 @@ void LabelMovingMask(const cv::Mat& mask, const SampleGrid& grid,
       const int x = static_cast<int>(p.x()), y = static_cast<int>(p.y());
       if (!(p.allFinite()) || x < 0 || y < 0 || x >= mask.cols || y >= mask.rows) continue;
       PixelLabel& label = (*labels)[grid.Index(i, j)];
-      const std::uint8_t m = mask.at<std::uint8_t>(y, x);
-      if (m == 0 || label == PixelLabel::kFloor) continue;
       const std::size_t k = grid.Index(i, j);
-      const bool converged =
-          k < samples.size() && samples[k].measurements > carried_max_measurements;
-      if (label == PixelLabel::kUnknown || m == 255 || (m == kCarriedRegion && !converged))
-        label = PixelLabel::kMoving;
+      const bool young = k >= samples.size() || samples[k].measurements <= carried_max_measurements;
+      if (TakesMovingLabel(mask.at<std::uint8_t>(y, x), label, young)) label = PixelLabel::kMoving;
     }
   }
 }

@@ -62,5 +62,21 @@ TEST(LabelMovingMask, CarriedPixelsSpareConvergedObstacles) {
   EXPECT_EQ(labels[1], PixelLabel::kMoving);
 }
 
+// The rule itself, as carried frames use it too: a drop-off under carried pixels stays (only an
+// obstacle's young estimate can be a thing that moved there).
+TEST(LabelMovingMask, TheRuleForEachMaskValue) {
+  using detector_stages::TakesMovingLabel;
+  for (const bool young : {false, true}) {
+    EXPECT_FALSE(TakesMovingLabel(0, PixelLabel::kUnknown, young));
+    EXPECT_FALSE(TakesMovingLabel(255, PixelLabel::kFloor, young));
+    EXPECT_TRUE(TakesMovingLabel(255, PixelLabel::kDropOff, young));
+    EXPECT_TRUE(TakesMovingLabel(kGrownRegion, PixelLabel::kUnknown, young));
+    EXPECT_FALSE(TakesMovingLabel(kGrownRegion, PixelLabel::kObstacle, young));
+    EXPECT_TRUE(TakesMovingLabel(kCarriedRegion, PixelLabel::kUnknown, young));
+    EXPECT_FALSE(TakesMovingLabel(kCarriedRegion, PixelLabel::kDropOff, young));
+    EXPECT_EQ(TakesMovingLabel(kCarriedRegion, PixelLabel::kObstacle, young), young);
+  }
+}
+
 }  // namespace
 }  // namespace monoplane

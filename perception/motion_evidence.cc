@@ -25,6 +25,29 @@ cv::Rect PaddedBox(int x0, int y0, int x1, int y1, int pad, int min_width, int m
   return box & cv::Rect(cv::Point(0, 0), size);
 }
 
+// `mask` opened with `disc` (the flow of a moving thing spreads a few pixels onto what is around
+// it) and grouped into 8-connected components; returns per component whether it covers at least
+// min_area pixels (component 0, the background, never).
+std::vector<std::uint8_t> LargeComponents(const cv::Mat& mask, const cv::Mat& disc, double min_area,
+                                          cv::Mat* components) {
+  cv::Mat opened, stats, centroids;
+  cv::morphologyEx(mask, opened, cv::MORPH_OPEN, disc);
+  const int n = cv::connectedComponentsWithStats(opened, *components, stats, centroids, 8, CV_32S);
+  std::vector<std::uint8_t> large(n, 0);
+  for (int c = 1; c < n; ++c) large[c] = stats.at<int>(c, cv::CC_STAT_AREA) >= min_area;
+  return large;
+}
+
+// Whether the flow agrees both ways at a pixel whose backward flow is `b` and whose source
+// (where it was in the previous frame, rounded) is (xs, ys), inside `box`, over which `forward`
+// (previous -> current) was computed: the two flows cancel to within max_error2 (squared).
+bool FlowAgreesBothWays(const cv::Vec2f& b, int xs, int ys, const cv::Mat& forward,
+                        const cv::Rect& box, float max_error2) {
+  const cv::Vec2f f = forward.at<cv::Vec2f>(ys - box.y, xs - box.x);
+  const float ex = b[0] + f[0], ey = b[1] + f[1];
+  return ex * ex + ey * ey <= max_error2;
+}
+
 }  // namespace
 
 void MotionEvidenceOptions::Describe(OptionVisitor& v) {
@@ -182,20 +205,16 @@ cv::Mat MotionEvidence::Compute(const cv::Mat& previous, const cv::Mat& current,
       if (dx * dx + dy * dy >= min_offset2) out[x] = 255;
     }
   }
-  // Isolated pixels go (opened with a 5x5 disc: the flow of a moving thing spreads a few pixels
-  // onto what is around it); what is left is grouped into regions of a least the minimum size.
+  // Isolated pixels go (opened with a 5x5 disc); what is left is grouped into regions of a least
+  // the minimum size.
   const cv::Mat disc = cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(5, 5));
   const double min_area = options_.min_region_fraction * off_line.rows * off_line.cols;
-  cv::Mat components, stats, centroids;
-  cv::Mat candidates;
-  cv::morphologyEx(off_line, candidates, cv::MORPH_OPEN, disc);
-  int n = cv::connectedComponentsWithStats(candidates, components, stats, centroids, 8, CV_32S);
+  cv::Mat components;
+  const std::vector<std::uint8_t> large = LargeComponents(off_line, disc, min_area, &components);
   // Pass 2, the forward-backward check, only where a region can come from: a pixel whose flow
   // both ways disagrees is not trusted. A region of pixels passing both tests lies inside a large
   // enough region of pass 1's (opening and area only grow with the mask), so the forward flow is
   // computed over the box those regions came from in the previous frame, with room around it.
-  std::vector<std::uint8_t> large(n, 0);
-  for (int c = 1; c < n; ++c) large[c] = stats.at<int>(c, cv::CC_STAT_AREA) >= min_area;
   int x0 = off_line.cols, y0 = off_line.rows, x1 = -1, y1 = -1;
   for (int y = 0; y < off_line.rows; ++y) {
     const int* c = components.ptr<int>(y);
@@ -250,14 +269,13 @@ cv::Mat MotionEvidence::Compute(const cv::Mat& previous, const cv::Mat& current,
       for (int x = 0; x < box.width; ++x) {
         if (!large[c[x]]) continue;
         const int xs = static_cast<int>(src[x][0] + 0.5f), ys = static_cast<int>(src[x][1] + 0.5f);
-        const cv::Vec2f f = forward.at<cv::Vec2f>(ys - box.y, xs - box.x);
-        const float ex = b[x][0] + f[0], ey = b[x][1] + f[1];
-        if (ex * ex + ey * ey <= max_error2) out[x] = 255;
+        if (FlowAgreesBothWays(b[x], xs, ys, forward, box, max_error2)) out[x] = 255;
       }
     }
     cv::morphologyEx(raw, raw, cv::MORPH_OPEN, disc);
-    cv::Mat box_components;
-    n = cv::connectedComponentsWithStats(raw, box_components, stats, centroids, 8, CV_32S);
+    cv::Mat box_components, stats, centroids;
+    const int n =
+        cv::connectedComponentsWithStats(raw, box_components, stats, centroids, 8, CV_32S);
     cv::Mat previous_dilated;
     if (!previous_regions_.empty()) {
       cv::dilate(previous_regions_(box), previous_dilated,
@@ -359,8 +377,8 @@ void MotionEvidence::CarryAlongTheFlow(const cv::Mat2f& source, const cv::Mat& b
                                        float max_error2, const cv::Mat& disc, double min_area,
                                        cv::Mat* moving) {
   if (options_.carry_frames <= 0) return;
-  // Frames left to carry each pixel: a region's own pixels (and those grown into around it)
-  // start over; a carried pixel takes what is left at where it came from, less one.
+  // Frames left to carry each pixel: a region's own pixels start over; a carried pixel takes what
+  // is left at where it came from, less one.
   cv::Mat hold(moving->size(), CV_8U, cv::Scalar(0));
   cv::Mat carried(moving->size(), CV_8U, cv::Scalar(0));
   const bool have_previous = previous_hold_.size() == moving->size();
@@ -368,6 +386,7 @@ void MotionEvidence::CarryAlongTheFlow(const cv::Mat2f& source, const cv::Mat& b
   for (int y = 0; y < moving->rows; ++y) {
     const auto* m = moving->ptr<std::uint8_t>(y);
     const auto* src = source.ptr<cv::Vec2f>(y);
+    const auto* b = backward.ptr<cv::Vec2f>(y);
     auto* h = hold.ptr<std::uint8_t>(y);
     auto* c = carried.ptr<std::uint8_t>(y);
     for (int x = 0; x < moving->cols; ++x) {
@@ -382,23 +401,16 @@ void MotionEvidence::CarryAlongTheFlow(const cv::Mat2f& source, const cv::Mat& b
       if (m[x] != 0 || left <= 1) continue;
       // Only where the flow agrees both ways: a pixel just uncovered behind a thing (or on a
       // plain patch beside it) takes some of the thing's flow one way, not the other.
-      if (!box.contains(cv::Point(x, y)) || !box.contains(cv::Point(xs, ys))) continue;
-      const cv::Vec2f f = forward.at<cv::Vec2f>(ys - box.y, xs - box.x);
-      const cv::Vec2f b = backward.at<cv::Vec2f>(y, x);
-      if ((b[0] + f[0]) * (b[0] + f[0]) + (b[1] + f[1]) * (b[1] + f[1]) > max_error2) continue;
-      {
-        c[x] = 255;
-        h[x] = static_cast<std::uint8_t>(left - 1);
-      }
+      if (!box.contains(cv::Point(x, y)) || !box.contains(cv::Point(xs, ys)) ||
+          !FlowAgreesBothWays(b[x], xs, ys, forward, box, max_error2))
+        continue;
+      c[x] = 255;
+      h[x] = static_cast<std::uint8_t>(left - 1);
     }
   }
-  // The flow at a thing's border drags a few pixels of what is around it along: opened as pass
-  // 1's evidence is, and only regions of the minimum size are carried.
-  cv::morphologyEx(carried, carried, cv::MORPH_OPEN, disc);
-  cv::Mat components, stats, centroids;
-  const int n = cv::connectedComponentsWithStats(carried, components, stats, centroids, 8, CV_32S);
-  std::vector<std::uint8_t> kept(n, 0);
-  for (int k = 1; k < n; ++k) kept[k] = stats.at<int>(k, cv::CC_STAT_AREA) >= min_area ? 1 : 0;
+  // Opened as pass 1's evidence is, and only regions of the minimum size are carried.
+  cv::Mat components;
+  const std::vector<std::uint8_t> kept = LargeComponents(carried, disc, min_area, &components);
   for (int y = 0; y < moving->rows; ++y) {
     const int* k = components.ptr<int>(y);
     auto* m = moving->ptr<std::uint8_t>(y);

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <vector>
 
+#include "perception/detector_stages.h"
 #include "perception/obstacle_detector.h"
 // After Eigen (via the header above): OpenCV's Eigen bridge needs it first.
 #include <opencv2/core/eigen.hpp>
@@ -93,14 +94,18 @@ FrameResult CarryResult(const CameraModel& camera, const ClassificationOptions& 
              cv::INTER_NEAREST);
   r.labels = labels_full(roi).clone();
   r.height_mm = heights_full(roi).clone();
-  // What moves on its own now (MotionEvidence) is moving, whatever stood there at the last
-  // detection; the floor label stays, as in the detector (LabelMovingMask).
+  // What moves on its own now (MotionEvidence) is moving, by the detector's rule: the labels
+  // carried here were judged by the last detection, with their height estimates, so none counts
+  // as a young estimate.
   if (moving_mask.size() == r.labels.size() && moving_mask.type() == CV_8U) {
-    const cv::Mat not_floor = r.labels != static_cast<int>(PixelLabel::kFloor);
-    const cv::Mat unknown = r.labels == static_cast<int>(PixelLabel::kUnknown);
-    r.labels.setTo(static_cast<int>(PixelLabel::kMoving),
-                   ((moving_mask == 255 | moving_mask == kCarriedRegion) & not_floor) |
-                       ((moving_mask != 0) & unknown));
+    for (int y = 0; y < r.labels.rows; ++y) {
+      const auto* m = moving_mask.ptr<std::uint8_t>(y);
+      auto* l = r.labels.ptr<std::uint8_t>(y);
+      for (int x = 0; x < r.labels.cols; ++x) {
+        if (detector_stages::TakesMovingLabel(m[x], static_cast<PixelLabel>(l[x]), false))
+          l[x] = static_cast<std::uint8_t>(PixelLabel::kMoving);
+      }
+    }
   }
   // The top view in this frame's base frame: each cell takes the last map's cell it was (an
   // affine map of the cell indices).
