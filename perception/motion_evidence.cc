@@ -27,14 +27,22 @@ cv::Rect PaddedBox(int x0, int y0, int x1, int y1, int pad, int min_width, int m
 
 // `mask` opened with `disc` (the flow of a moving thing spreads a few pixels onto what is around
 // it) and grouped into 8-connected components; returns per component whether it covers at least
-// min_area pixels (component 0, the background, never).
+// min_area pixels (component 0, the background, never), and in `large_box` (when given) the box
+// around those that do.
 std::vector<std::uint8_t> LargeComponents(const cv::Mat& mask, const cv::Mat& disc, double min_area,
-                                          cv::Mat* components) {
+                                          cv::Mat* components, cv::Rect* large_box = nullptr) {
   cv::Mat opened, stats, centroids;
   cv::morphologyEx(mask, opened, cv::MORPH_OPEN, disc);
   const int n = cv::connectedComponentsWithStats(opened, *components, stats, centroids, 8, CV_32S);
   std::vector<std::uint8_t> large(n, 0);
-  for (int c = 1; c < n; ++c) large[c] = stats.at<int>(c, cv::CC_STAT_AREA) >= min_area;
+  if (large_box) *large_box = cv::Rect();
+  for (int c = 1; c < n; ++c) {
+    large[c] = stats.at<int>(c, cv::CC_STAT_AREA) >= min_area;
+    if (!large[c] || !large_box) continue;
+    const cv::Rect r(stats.at<int>(c, cv::CC_STAT_LEFT), stats.at<int>(c, cv::CC_STAT_TOP),
+                     stats.at<int>(c, cv::CC_STAT_WIDTH), stats.at<int>(c, cv::CC_STAT_HEIGHT));
+    *large_box = large_box->area() > 0 ? (*large_box | r) : r;
+  }
   return large;
 }
 
@@ -210,16 +218,18 @@ cv::Mat MotionEvidence::Compute(const cv::Mat& previous, const cv::Mat& current,
   const cv::Mat disc = cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(5, 5));
   const double min_area = options_.min_region_fraction * off_line.rows * off_line.cols;
   cv::Mat components;
-  const std::vector<std::uint8_t> large = LargeComponents(off_line, disc, min_area, &components);
+  cv::Rect large_box;
+  const std::vector<std::uint8_t> large =
+      LargeComponents(off_line, disc, min_area, &components, &large_box);
   // Pass 2, the forward-backward check, only where a region can come from: a pixel whose flow
   // both ways disagrees is not trusted. A region of pixels passing both tests lies inside a large
   // enough region of pass 1's (opening and area only grow with the mask), so the forward flow is
   // computed over the box those regions came from in the previous frame, with room around it.
   int x0 = off_line.cols, y0 = off_line.rows, x1 = -1, y1 = -1;
-  for (int y = 0; y < off_line.rows; ++y) {
+  for (int y = large_box.y; y < large_box.br().y; ++y) {
     const int* c = components.ptr<int>(y);
     const auto* src = source.ptr<cv::Vec2f>(y);
-    for (int x = 0; x < off_line.cols; ++x) {
+    for (int x = large_box.x; x < large_box.br().x; ++x) {
       if (!large[c[x]]) continue;
       const int xs = static_cast<int>(src[x][0] + 0.5f), ys = static_cast<int>(src[x][1] + 0.5f);
       x0 = std::min({x0, x, xs});
@@ -378,49 +388,54 @@ void MotionEvidence::CarryAlongTheFlow(const cv::Mat2f& source, const cv::Mat& b
                                        cv::Mat* moving) {
   if (options_.carry_frames <= 0) return;
   // Frames left to carry each pixel: a region's own pixels start over; a carried pixel takes what
-  // is left at where it came from, less one.
+  // is left at where it came from, less one. Both lie inside `box` (a region's pixels, and a
+  // carried pixel and where it came from), so nothing outside it is visited.
   cv::Mat hold(moving->size(), CV_8U, cv::Scalar(0));
-  cv::Mat carried(moving->size(), CV_8U, cv::Scalar(0));
-  const bool have_previous = previous_hold_.size() == moving->size();
-  const auto frames = static_cast<std::uint8_t>(std::min(options_.carry_frames, 255));
-  for (int y = 0; y < moving->rows; ++y) {
-    const auto* m = moving->ptr<std::uint8_t>(y);
-    const auto* src = source.ptr<cv::Vec2f>(y);
-    const auto* b = backward.ptr<cv::Vec2f>(y);
-    auto* h = hold.ptr<std::uint8_t>(y);
-    auto* c = carried.ptr<std::uint8_t>(y);
-    for (int x = 0; x < moving->cols; ++x) {
-      const int xs = static_cast<int>(src[x][0] + 0.5f), ys = static_cast<int>(src[x][1] + 0.5f);
-      const bool inside = have_previous && src[x][0] >= 0 && src[x][1] >= 0 && xs < moving->cols &&
-                          ys < moving->rows;
-      const std::uint8_t left = inside ? previous_hold_.at<std::uint8_t>(ys, xs) : 0;
-      // Only a region's own evidence starts the count (not the pixels grown into around it), and
-      // only where it was moving in the last frame too: a region found in one pair alone (the
-      // overlap test already asks for two) is not carried.
-      if (m[x] == 255) h[x] = left > 0 ? frames : 1;
-      if (m[x] != 0 || left <= 1) continue;
-      // Only where the flow agrees both ways: a pixel just uncovered behind a thing (or on a
-      // plain patch beside it) takes some of the thing's flow one way, not the other.
-      if (!box.contains(cv::Point(x, y)) || !box.contains(cv::Point(xs, ys)) ||
-          !FlowAgreesBothWays(b[x], xs, ys, forward, box, max_error2))
-        continue;
-      c[x] = 255;
-      h[x] = static_cast<std::uint8_t>(left - 1);
+  if (box.area() > 0) {
+    // The box of a mask of the whole image: the opening below sees the zeros around it.
+    cv::Mat carried = cv::Mat(moving->size(), CV_8U, cv::Scalar(0))(box);
+    const bool have_previous = previous_hold_.size() == moving->size();
+    const auto frames = static_cast<std::uint8_t>(std::min(options_.carry_frames, 255));
+    for (int y = 0; y < box.height; ++y) {
+      const auto* m = moving->ptr<std::uint8_t>(box.y + y) + box.x;
+      const auto* src = source.ptr<cv::Vec2f>(box.y + y) + box.x;
+      const auto* b = backward.ptr<cv::Vec2f>(box.y + y) + box.x;
+      auto* h = hold.ptr<std::uint8_t>(box.y + y) + box.x;
+      auto* c = carried.ptr<std::uint8_t>(y);
+      for (int x = 0; x < box.width; ++x) {
+        const int xs = static_cast<int>(src[x][0] + 0.5f), ys = static_cast<int>(src[x][1] + 0.5f);
+        const bool inside = have_previous && src[x][0] >= 0 && src[x][1] >= 0 &&
+                            xs < moving->cols && ys < moving->rows;
+        const std::uint8_t left = inside ? previous_hold_.at<std::uint8_t>(ys, xs) : 0;
+        // Only a region's own evidence starts the count (not the pixels grown into around it),
+        // and only where it was moving in the last frame too: a region found in one pair alone
+        // (the overlap test already asks for two) is not carried.
+        if (m[x] == 255) h[x] = left > 0 ? frames : 1;
+        if (m[x] != 0 || left <= 1) continue;
+        // Only where the flow agrees both ways: a pixel just uncovered behind a thing (or on a
+        // plain patch beside it) takes some of the thing's flow one way, not the other.
+        if (!box.contains(cv::Point(xs, ys)) ||
+            !FlowAgreesBothWays(b[x], xs, ys, forward, box, max_error2))
+          continue;
+        c[x] = 255;
+        h[x] = static_cast<std::uint8_t>(left - 1);
+      }
     }
-  }
-  // Opened as pass 1's evidence is, and only regions of the minimum size are carried.
-  cv::Mat components;
-  const std::vector<std::uint8_t> kept = LargeComponents(carried, disc, min_area, &components);
-  for (int y = 0; y < moving->rows; ++y) {
-    const int* k = components.ptr<int>(y);
-    auto* m = moving->ptr<std::uint8_t>(y);
-    auto* h = hold.ptr<std::uint8_t>(y);
-    for (int x = 0; x < moving->cols; ++x) {
-      if (m[x] != 0) continue;
-      if (kept[k[x]]) {
-        m[x] = kCarriedRegion;
-      } else {
-        h[x] = 0;
+    // Opened as pass 1's evidence is, and only regions of the minimum size are carried (the
+    // opening only removes pixels: nothing outside the box joins them).
+    cv::Mat components;
+    const std::vector<std::uint8_t> kept = LargeComponents(carried, disc, min_area, &components);
+    for (int y = 0; y < box.height; ++y) {
+      const int* k = components.ptr<int>(y);
+      auto* m = moving->ptr<std::uint8_t>(box.y + y) + box.x;
+      auto* h = hold.ptr<std::uint8_t>(box.y + y) + box.x;
+      for (int x = 0; x < box.width; ++x) {
+        if (m[x] != 0) continue;
+        if (kept[k[x]]) {
+          m[x] = kCarriedRegion;
+        } else {
+          h[x] = 0;
+        }
       }
     }
   }
