@@ -31,6 +31,9 @@ void ClassificationOptions::Describe(OptionVisitor& v) {
   v.Integer("moving_carried_max_measurements", &moving_carried_max_measurements, R::AtLeast(0),
             "moving pixels carried from earlier frames take an obstacle sample whose height "
             "estimate has at most this many measurements");
+  v.Real("moving_segment_fraction", &moving_segment_fraction, R::Closed(0, 1).Note("0 = off"),
+         "a superpixel whose samples the moving mask covers this fraction of moves whole; one "
+         "it covers less does not move");
   v.Real("max_range_m", &max_range_m, R::Above(0), "farther points are unknown, m");
   v.Real("max_footprint_sigma_ratio", &max_footprint_sigma_ratio, R::AtLeast(0),
          "obstacle points enter the top view when placed within 0.05 m + this x range");

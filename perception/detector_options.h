@@ -61,6 +61,11 @@ struct ClassificationOptions {
   // thing's border spreads) is measured at one height pair after pair. Samples without a label
   // take it always, floor samples never.
   int moving_carried_max_measurements = 2;
+  // The moving mask is taken per superpixel (with Aggregation::kSegments): a segment whose
+  // samples it covers at least this fraction of moves whole (its samples without a label), one it
+  // covers less loses them. The flow's regions follow the image's edges only to a few pixels;
+  // the segments follow them better. 0 = off.
+  double moving_segment_fraction = 0.5;
   // Points farther than this from the robot (metres) are unknown: not reliable.
   double max_range_m = 6.0;
   // An obstacle or drop-off point goes into the top view (local map, obstacle points) only when

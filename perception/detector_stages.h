@@ -128,10 +128,14 @@ bool TakesMovingLabel(std::uint8_t m, PixelLabel label, bool young_estimate);
 // Samples whose centre falls on the moving mask (over the current image; level_to_current maps
 // the chain's pixels to it when the frame was unpitched) are labelled moving by TakesMovingLabel,
 // an estimate young when it holds at most carried_max_measurements measurements (`samples`, one
-// per sample of `grid`).
+// per sample of `grid`). With `segments` (CV_32S ids over the chain's pixels; empty = off) and
+// segment_fraction > 0, the mask is first taken per segment: a segment whose samples it covers
+// less than segment_fraction of loses them, one it covers at least that much is covered whole
+// (the samples it missed as kGrownRegion).
 void LabelMovingMask(const cv::Mat& mask, const SampleGrid& grid,
                      const Eigen::Matrix3d* level_to_current, const std::vector<Sample>& samples,
-                     int carried_max_measurements, std::vector<PixelLabel>* labels);
+                     int carried_max_measurements, const cv::Mat& segments, double segment_fraction,
+                     std::vector<PixelLabel>* labels);
 
 void LabelAroundMovingCorners(const std::vector<Eigen::Vector2d>& moving, const SampleGrid& grid,
                               double radius_px, std::vector<PixelLabel>* labels);

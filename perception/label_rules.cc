@@ -142,19 +142,53 @@ bool TakesMovingLabel(std::uint8_t m, PixelLabel label, bool young_estimate) {
 
 void LabelMovingMask(const cv::Mat& mask, const SampleGrid& grid,
                      const Eigen::Matrix3d* level_to_current, const std::vector<Sample>& samples,
-                     int carried_max_measurements, std::vector<PixelLabel>* labels) {
+                     int carried_max_measurements, const cv::Mat& segments, double segment_fraction,
+                     std::vector<PixelLabel>* labels) {
   const double sample_px = grid.SamplePx();
+  const bool by_segment = segment_fraction > 0 && !segments.empty();
+  std::vector<std::uint8_t> value(static_cast<std::size_t>(grid.rows) * grid.cols, 0);
+  std::vector<int> segment_of(by_segment ? value.size() : 0, -1);
   for (int i = 0; i < grid.rows; ++i) {
     for (int j = 0; j < grid.cols; ++j) {
       Eigen::Vector2d p((j + 0.5) * sample_px, (i + 0.5) * sample_px);
+      if (by_segment) {
+        // The segments lie over the chain's pixels, as the samples do.
+        const int sx = std::clamp(static_cast<int>(p.x()), 0, segments.cols - 1);
+        const int sy = std::clamp(static_cast<int>(p.y()), 0, segments.rows - 1);
+        segment_of[grid.Index(i, j)] = segments.at<int>(sy, sx);
+      }
       if (level_to_current) p = ApplyHomography(*level_to_current, p);
       const int x = static_cast<int>(p.x()), y = static_cast<int>(p.y());
       if (!(p.allFinite()) || x < 0 || y < 0 || x >= mask.cols || y >= mask.rows) continue;
-      PixelLabel& label = (*labels)[grid.Index(i, j)];
-      const std::size_t k = grid.Index(i, j);
-      const bool young = k >= samples.size() || samples[k].measurements <= carried_max_measurements;
-      if (TakesMovingLabel(mask.at<std::uint8_t>(y, x), label, young)) label = PixelLabel::kMoving;
+      value[grid.Index(i, j)] = mask.at<std::uint8_t>(y, x);
     }
+  }
+  if (by_segment) {
+    // A segment moves as a whole or not at all: the mask's samples in a segment it covers less
+    // than segment_fraction of go, and the rest of a segment it covers at least that much is
+    // taken as pixels grown into (only what has no label).
+    double max_id = 0;
+    cv::minMaxLoc(segments, nullptr, &max_id);
+    std::vector<int> total(static_cast<std::size_t>(max_id) + 1, 0), covered(total.size(), 0);
+    for (std::size_t k = 0; k < value.size(); ++k) {
+      const int c = segment_of[k];
+      if (c < 0) continue;
+      ++total[c];
+      if (value[k] != 0) ++covered[c];
+    }
+    for (std::size_t k = 0; k < value.size(); ++k) {
+      const int c = segment_of[k];
+      if (c < 0) continue;
+      if (covered[c] < segment_fraction * total[c]) {
+        value[k] = 0;
+      } else if (value[k] == 0) {
+        value[k] = kGrownRegion;
+      }
+    }
+  }
+  for (std::size_t k = 0; k < value.size(); ++k) {
+    const bool young = k >= samples.size() || samples[k].measurements <= carried_max_measurements;
+    if (TakesMovingLabel(value[k], (*labels)[k], young)) (*labels)[k] = PixelLabel::kMoving;
   }
 }
 

@@ -24,7 +24,7 @@ TEST(LabelMovingMask, GrownPixelsLabelOnlyWhatHadNoLabel) {
                                           PixelLabel::kUnknown,  PixelLabel::kObstacle,
                                           PixelLabel::kFloor,    PixelLabel::kUnknown};
   std::vector<PixelLabel> labels = before;
-  detector_stages::LabelMovingMask(mask, grid, nullptr, {}, 2, &labels);
+  detector_stages::LabelMovingMask(mask, grid, nullptr, {}, 2, cv::Mat(), 0.0, &labels);
   EXPECT_EQ(labels[0], PixelLabel::kMoving);
   EXPECT_EQ(labels[1], PixelLabel::kFloor);  // the floor under a moving thing's feet stays
   EXPECT_EQ(labels[2], PixelLabel::kMoving);
@@ -33,7 +33,7 @@ TEST(LabelMovingMask, GrownPixelsLabelOnlyWhatHadNoLabel) {
   EXPECT_EQ(labels[5], PixelLabel::kMoving);
   labels = before;
   detector_stages::LabelMovingMask(cv::Mat(8, 48, CV_8U, cv::Scalar(0)), grid, nullptr, {}, 2,
-                                   &labels);
+                                   cv::Mat(), 0.0, &labels);
   EXPECT_EQ(labels, before);
 }
 
@@ -50,7 +50,7 @@ TEST(LabelMovingMask, CarriedPixelsSpareConvergedObstacles) {
   samples[1].measurements = 5;  // one height over five pairs: static
   std::vector<PixelLabel> labels = {PixelLabel::kObstacle, PixelLabel::kObstacle,
                                     PixelLabel::kFloor, PixelLabel::kUnknown};
-  detector_stages::LabelMovingMask(mask, grid, nullptr, samples, 2, &labels);
+  detector_stages::LabelMovingMask(mask, grid, nullptr, samples, 2, cv::Mat(), 0.0, &labels);
   EXPECT_EQ(labels[0], PixelLabel::kMoving);
   EXPECT_EQ(labels[1], PixelLabel::kObstacle);
   EXPECT_EQ(labels[2], PixelLabel::kFloor);
@@ -58,8 +58,38 @@ TEST(LabelMovingMask, CarriedPixelsSpareConvergedObstacles) {
   // The regions' own evidence (255) takes both obstacle samples.
   labels = {PixelLabel::kObstacle, PixelLabel::kObstacle, PixelLabel::kFloor, PixelLabel::kUnknown};
   detector_stages::LabelMovingMask(cv::Mat(8, 32, CV_8U, cv::Scalar(255)), grid, nullptr, samples,
-                                   2, &labels);
+                                   2, cv::Mat(), 0.0, &labels);
   EXPECT_EQ(labels[1], PixelLabel::kMoving);
+}
+
+// Per superpixel: a segment the mask covers mostly moves whole (the samples it missed take the
+// grown pixels' rule), one it touches only at its edge does not move at all.
+TEST(LabelMovingMask, SegmentsMoveWholeOrNotAtAll) {
+  detector_stages::SampleGrid grid;
+  grid.rows = 1;
+  grid.cols = 8;
+  grid.stride = 8;
+  cv::Mat segments(8, 64, CV_32S, cv::Scalar(0));
+  segments.colRange(32, 64).setTo(1);  // samples 0-3: segment 0; samples 4-7: segment 1
+  cv::Mat mask(8, 64, CV_8U, cv::Scalar(0));
+  mask.colRange(0, 24).setTo(255);   // three of segment 0's four samples
+  mask.colRange(32, 40).setTo(255);  // one of segment 1's four: the flow spread past its edge
+  const std::vector<PixelLabel> before(8, PixelLabel::kUnknown);
+  std::vector<PixelLabel> labels = before;
+  detector_stages::LabelMovingMask(mask, grid, nullptr, {}, 2, segments, 0.5, &labels);
+  const std::vector<PixelLabel> moving(4, PixelLabel::kMoving), unknown(4, PixelLabel::kUnknown);
+  EXPECT_EQ(std::vector<PixelLabel>(labels.begin(), labels.begin() + 4), moving);
+  EXPECT_EQ(std::vector<PixelLabel>(labels.begin() + 4, labels.end()), unknown);
+  // A sample of a moving segment that the mask missed and that is measured keeps its label.
+  labels = before;
+  labels[3] = PixelLabel::kObstacle;
+  detector_stages::LabelMovingMask(mask, grid, nullptr, {}, 2, segments, 0.5, &labels);
+  EXPECT_EQ(labels[3], PixelLabel::kObstacle);
+  // Off (fraction 0): the mask's samples as they are.
+  labels = before;
+  detector_stages::LabelMovingMask(mask, grid, nullptr, {}, 2, segments, 0.0, &labels);
+  EXPECT_EQ(labels[3], PixelLabel::kUnknown);
+  EXPECT_EQ(labels[4], PixelLabel::kMoving);
 }
 
 // The rule itself, as carried frames use it too: a drop-off under carried pixels stays (only an

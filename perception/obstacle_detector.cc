@@ -425,7 +425,8 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
   }
   if (moving_mask.size() == size && moving_mask.type() == CV_8U) {
     LabelMovingMask(moving_mask, grid, pitched ? &level.pitch_h : nullptr, samples,
-                    co.moving_carried_max_measurements, &labels);
+                    co.moving_carried_max_measurements, r.segments, co.moving_segment_fraction,
+                    &labels);
   }
   if (co.fill_max_gap_samples > 0) {
     FillColumnGaps(camera_, co, grid.rows, grid.cols, grid.SamplePx(), &samples, &labels);
