@@ -147,7 +147,7 @@ void LabelMovingMask(const cv::Mat& mask, const SampleGrid& grid,
   const double sample_px = grid.SamplePx();
   const bool by_segment = segment_fraction > 0 && !segments.empty();
   std::vector<std::uint8_t> value(static_cast<std::size_t>(grid.rows) * grid.cols, 0);
-  std::vector<int> segment_of(by_segment ? value.size() : 0, -1);
+  std::vector<int> segment_of(by_segment ? value.size() : 0);
   for (int i = 0; i < grid.rows; ++i) {
     for (int j = 0; j < grid.cols; ++j) {
       Eigen::Vector2d p((j + 0.5) * sample_px, (i + 0.5) * sample_px);
@@ -171,14 +171,11 @@ void LabelMovingMask(const cv::Mat& mask, const SampleGrid& grid,
     cv::minMaxLoc(segments, nullptr, &max_id);
     std::vector<int> total(static_cast<std::size_t>(max_id) + 1, 0), covered(total.size(), 0);
     for (std::size_t k = 0; k < value.size(); ++k) {
-      const int c = segment_of[k];
-      if (c < 0) continue;
-      ++total[c];
-      if (value[k] != 0) ++covered[c];
+      ++total[segment_of[k]];
+      if (value[k] != 0) ++covered[segment_of[k]];
     }
     for (std::size_t k = 0; k < value.size(); ++k) {
       const int c = segment_of[k];
-      if (c < 0) continue;
       if (covered[c] < segment_fraction * total[c]) {
         value[k] = 0;
       } else if (value[k] == 0) {
