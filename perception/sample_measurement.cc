@@ -153,6 +153,29 @@ void FuseHeights(const CameraModel& camera, const ClassificationOptions& co,
       const HeightSeed* earlier = nearest[k] >= 0 && s.raw != PixelLabel::kMoving && !s.mismatched
                                       ? &prior[nearest[k]]
                                       : nullptr;
+      // The earlier estimate's point projects somewhere inside this sample's block; the
+      // sample's ray passes up to half a block beside it. Moved onto that ray at its height, what
+      // stays true for the floor and for a drop-off's lower floor, a point on an upright surface
+      // near the camera's height would slide along the ray by decimetres to metres at every
+      // frame (the ray meets that height at a grazing angle). The point of an estimate that
+      // stands clearly above the floor (its height less min_disparity_sigmas of its uncertainty
+      // still an obstacle's) moves to the ray's point nearest to it instead: an upright surface's
+      // range stays what it was. Far floor measured a little high keeps the floor's rule.
+      const Eigen::Vector2d q((j + 0.5) * sample_px, (i + 0.5) * sample_px);
+      const Eigen::Vector3d ray = camera.RayInBase(q);
+      HeightSeed moved;
+      if (earlier &&
+          earlier->mean_m - co.min_disparity_sigmas *
+                                std::max(std::sqrt(earlier->var_m2), earlier->best_sigma_m) >=
+              co.obstacle_min_height_m) {
+        const double along =
+            (earlier->point_in_base.cast<double>() - centre).dot(ray) / ray.squaredNorm();
+        if (along > 0.0) {
+          moved = *earlier;
+          moved.mean_m = static_cast<float>(centre.z() + along * ray.z());
+          earlier = &moved;
+        }
+      }
       // The measurement's error for fusion: its own, and at least that of min_sigma_px of zero
       // disparity, the part the pairs share (their motion's and the calibration's error).
       const double tau =
@@ -186,8 +209,6 @@ void FuseHeights(const CameraModel& camera, const ClassificationOptions& co,
         continue;
       }
       // Where the estimate puts the point: on this sample's ray, at its height.
-      const Eigen::Vector2d q((j + 0.5) * sample_px, (i + 0.5) * sample_px);
-      const Eigen::Vector3d ray = camera.RayInBase(q);
       const double t = (seed.mean_m - centre.z()) / ray.z();
       if (!(t > 0.0 && std::isfinite(t))) {  // this ray never reaches that height: no estimate
         s.measured = false;

@@ -1,0 +1,89 @@
+// FuseHeights: an earlier estimate taken up by the sample it projects into.
+#include <gtest/gtest.h>
+
+#include <Eigen/Core>
+#include <cmath>
+#include <vector>
+
+#include "perception/detector_stages.h"
+#include "perception/geometry/camera_model.h"
+#include "perception/height_filter.h"
+#include "perception/testing/detector_scene.h"
+
+namespace monoplane {
+namespace {
+
+// Where the ray of `pixel` meets the plane x = x_m (base frame).
+Eigen::Vector3d OnWall(const CameraModel& camera, const Eigen::Vector2d& pixel, double x_m) {
+  const Eigen::Vector3d c = camera.CameraCentreInBase(), ray = camera.RayInBase(pixel);
+  return c + ray * ((x_m - c.x()) / ray.x());
+}
+
+Eigen::Vector3d OnFloor(const CameraModel& camera, const Eigen::Vector2d& pixel) {
+  const Eigen::Vector3d c = camera.CameraCentreInBase(), ray = camera.RayInBase(pixel);
+  return c + ray * (-c.z() / ray.z());
+}
+
+// One sample, measured at the height of `point` on its own ray with 1 cm; the earlier estimate
+// of `earlier` (its point 3 px above the sample's centre, as the robot's motion put it), also
+// 1 cm. Returns the fused sample.
+detector_stages::Sample Fuse(const CameraModel& camera, const Eigen::Vector3d& measured,
+                             const Eigen::Vector3d& earlier) {
+  constexpr int kRows = 60, kCols = 80;
+  constexpr double kSamplePx = 8.0;
+  const ClassificationOptions co;
+  const HeightFilterOptions hf;
+  const auto pixel = camera.ProjectToPixel(earlier);
+  EXPECT_TRUE(pixel.has_value());
+  const int i = static_cast<int>(pixel->y() / kSamplePx),
+            j = static_cast<int>(pixel->x() / kSamplePx);
+  std::vector<detector_stages::Sample> samples(kRows * kCols);
+  detector_stages::Sample& s = samples[static_cast<std::size_t>(i) * kCols + j];
+  s.measured = true;
+  s.significant = std::abs(measured.z()) > 0.03;
+  s.textured = true;
+  s.height_m = measured.z();
+  s.height_sigma_m = 0.01;
+  s.height_m_per_px = 0.001;
+  s.raw = s.significant ? PixelLabel::kObstacle : PixelLabel::kFloor;
+  HeightSeed seed = NewHeightSeed(earlier.z(), 0.01, hf);
+  for (int n = 0; n < 4; ++n) UpdateHeightSeed(earlier.z(), 0.01, hf, &seed);
+  seed.point_in_base = earlier.cast<float>();
+  std::vector<HeightSeed> posterior;
+  detector_stages::FuseHeights(camera, co, hf, {seed}, kRows, kCols, kSamplePx, &samples,
+                               &posterior);
+  return samples[static_cast<std::size_t>(i) * kCols + j];
+}
+
+// A wall 3 m ahead, an earlier estimate of a point about 0.1 m below the camera on it, 3 px above
+// the centre of the sample it now projects into. Moved onto the centre's ray at its height, it
+// would land about 0.6 m in front of the wall; moved to that ray's nearest point, it stays on it.
+TEST(FuseHeights, AnUprightSurfaceKeepsItsRange) {
+  const CameraModel camera(DefaultCalibration());
+  constexpr double kWallX = 3.1;
+  const Eigen::Vector2d centre_px(324, 68);  // a block's centre; its wall point about 0.3 m up
+  const Eigen::Vector3d measured = OnWall(camera, centre_px, kWallX);
+  const Eigen::Vector3d earlier = OnWall(camera, centre_px - Eigen::Vector2d(0, 3), kWallX);
+  ASSERT_GT(earlier.z(), 0.25);
+  ASSERT_LT(earlier.z(), 0.35);
+  const detector_stages::Sample s = Fuse(camera, measured, earlier);
+  ASSERT_TRUE(s.measured);
+  EXPECT_EQ(s.measurements, 6);
+  EXPECT_NEAR(s.point_in_base2.x(), kWallX, 0.02);
+  EXPECT_NEAR(s.height_m, measured.z(), 0.005);
+}
+
+// The floor moves at its height: on the sample's own ray, at height zero.
+TEST(FuseHeights, TheFloorKeepsItsHeight) {
+  const CameraModel camera(DefaultCalibration());
+  const Eigen::Vector2d centre_px(324, 300);
+  const Eigen::Vector3d measured = OnFloor(camera, centre_px);
+  const Eigen::Vector3d earlier = OnFloor(camera, centre_px - Eigen::Vector2d(0, 3));
+  const detector_stages::Sample s = Fuse(camera, measured, earlier);
+  ASSERT_TRUE(s.measured);
+  EXPECT_NEAR(s.height_m, 0.0, 1e-4);
+  EXPECT_NEAR((s.point_in_base2 - measured.head<2>()).norm(), 0.0, 1e-3);
+}
+
+}  // namespace
+}  // namespace monoplane
