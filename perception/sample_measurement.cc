@@ -153,6 +153,7 @@ void FuseHeights(const CameraModel& camera, const ClassificationOptions& co,
       const HeightSeed* earlier = nearest[k] >= 0 && s.raw != PixelLabel::kMoving && !s.mismatched
                                       ? &prior[nearest[k]]
                                       : nullptr;
+      if (!earlier && !s.measured) continue;  // nothing known of this sample
       // The earlier estimate's point projects somewhere inside this sample's block; the
       // sample's ray passes up to half a block beside it. Moved onto that ray at its height, what
       // stays true for the floor and for a drop-off's lower floor, a point on an upright surface
@@ -202,11 +203,9 @@ void FuseHeights(const CameraModel& camera, const ClassificationOptions& co,
         } else {
           carried_only = true;
         }
-      } else if (s.measured) {
+      } else {  // measured (above)
         seed = NewHeightSeed(s.height_m, tau, hf);
         own_pair_only = true;
-      } else {
-        continue;
       }
       // Where the estimate puts the point: on this sample's ray, at its height.
       const double t = (seed.mean_m - centre.z()) / ray.z();
