@@ -74,7 +74,8 @@ void Mapper::Options::Describe(OptionVisitor& v) {
   RenamedOptions window_keys(&v,
                              {{"max_iterations", "window_max_iterations"},
                               {"refine_camera", "refine_camera"},
-                              {"pixel_sigma_px", "pixel_sigma_px"}},
+                              {"pixel_sigma_px", "pixel_sigma_px"},
+                              {"floor_max_height_m", "window_floor_max_height_m"}},
                              "sliding window: ");
   window.Describe(window_keys);
   v.Flag("loop_closure", &loop_closure, "match keyframes against older ones near them");

@@ -9,6 +9,7 @@
 
 #include "mapping/cost_functors.h"
 #include "perception/geometry/camera_model.h"
+#include "perception/zero_disparity.h"
 
 namespace monoplane {
 
@@ -66,6 +67,12 @@ void WindowOptions::Describe(OptionVisitor& v) {
          "off-floor landmarks above this are dropped, m");
   v.Real("max_landmark_range_m", &max_landmark_range_m, R::Above(0),
          "landmarks farther from their first view are dropped, m");
+  v.Real("floor_max_height_m", &floor_max_height_m, R::AtLeast(0).Note("0 = off"),
+         "a track voted floor is a floor landmark within this height over the window, m...");
+  v.Real("floor_max_height_px", &floor_max_height_px, R::AtLeast(0),
+         "...plus this many pixels' worth of height");
+  v.Real("floor_max_m_per_px", &floor_max_m_per_px, R::Above(0),
+         "...when its height changes at most this per pixel of parallax, m");
   v.Flag("refine_camera", &refine_camera, "refine camera height, pitch and roll in the window");
   v.Real("camera_prior_sigma_rad", &camera_prior_sigma_rad, R::Above(0),
          "pitch and roll prior, rad");
@@ -148,9 +155,20 @@ WindowResult AdjustWindow(const std::vector<WindowKeyframe>& keyframes,
     if (static_cast<int>(obs.size()) < options.min_observations) continue;
     int floor_votes = 0;
     for (const Obs& o : obs) floor_votes += o.floor ? 1 : 0;
-    const bool is_floor = 2 * floor_votes > static_cast<int>(obs.size());
+    bool is_floor = 2 * floor_votes > static_cast<int>(obs.size());
     const Obs& first = obs.front();
     const Pose2& first_pose = keyframes[first.keyframe].map_from_base;
+    if (is_floor && options.floor_max_height_m > 0) {
+      const Obs& last = obs.back();
+      const Pose2 motion = keyframes[last.keyframe].map_from_base.Inverse() * first_pose;
+      const auto track =
+          TriangulateTrackHeight(MotionTriangulator(model, motion), EpipoleInImage2(model, motion),
+                                 first.pixel, last.pixel);
+      if (track && track->m_per_px <= options.floor_max_m_per_px) {
+        is_floor = std::abs(track->point.point_in_base1.z()) <=
+                   options.floor_max_height_m + options.floor_max_height_px * track->m_per_px;
+      }
+    }
     auto landmark = std::make_unique<std::array<double, 3>>();
     if (is_floor) {
       const auto floor = model.PixelToFloor(first.pixel);

@@ -61,6 +61,16 @@ struct WindowOptions {
   double function_tolerance = 1e-4;    // relative cost change that stops Ceres
   double max_point_height_m = 3.0;     // off-floor landmarks above this are dropped
   double max_landmark_range_m = 10.0;  // landmarks farther from the first view are dropped
+  // A track voted floor by its frames' floor fits is a floor landmark only when the window's own
+  // evidence agrees: triangulated between its first and last keyframe (a baseline many times a
+  // frame step's), it lies within floor_max_height_m + floor_max_height_px pixels' worth of
+  // height of the floor. On a floor with little texture the frames' fits take the lower parts of
+  // what stands on it for floor; as floor landmarks those would pull the window back to the
+  // motion fitted to their height. Tracks whose height the window cannot tell (more than
+  // floor_max_m_per_px per pixel of parallax) keep their votes (floor_max_height_m 0 = off).
+  double floor_max_height_m = 0.02;
+  double floor_max_height_px = 0.5;
+  double floor_max_m_per_px = 0.03;
   // Online refinement of the camera's pitch, roll and height, with a prior from the calibration.
   bool refine_camera = false;
   double camera_prior_sigma_rad = 0.0175;  // pitch and roll prior

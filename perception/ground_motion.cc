@@ -92,6 +92,16 @@ void GroundMotionOptions::Describe(OptionVisitor& v) {
          "plus this allowance for the estimates' noise, m/s");
   v.Integer("max_rejected_steps", &max_rejected_steps, R::AtLeast(0),
             "at most this many steps rejected in a row");
+  v.Integer("lowest_surface_min_tracks", &lowest_surface_min_tracks, R::AtLeast(0).Note("0 = off"),
+            "where a pair finds no floor plane: tracks that make the lowest surface the floor");
+  v.Real("lowest_surface_tolerance_m", &lowest_surface_tolerance_m, R::Above(0),
+         "...agreeing within this height, m");
+  v.Real("lowest_surface_max_m_per_px", &lowest_surface_max_m_per_px, R::Above(0),
+         "...counting tracks whose height changes at most this per pixel of parallax, m");
+  v.Real("lowest_surface_min_offset_m", &lowest_surface_min_offset_m, R::AtLeast(0),
+         "...when that surface lies at least this far below the floor, m");
+  v.Real("lowest_surface_max_floor_share", &lowest_surface_max_floor_share, R::OpenClosed(0, 1),
+         "...unless this share of those tracks lies on the floor the motion assumes");
   v.Integer("min_inliers", &min_inliers, R::AtLeast(2), "inliers needed to trust the fit");
   v.Real("min_inlier_ratio", &min_inlier_ratio, R::OpenClosed(0, 1), "inlier share needed");
   v.Integer("seed", &seed, R::Any(), "RANSAC random seed");
@@ -107,6 +117,43 @@ bool IsDrivableStep(const Pose2& step, double dt_s, const Pose2& previous_step,
   const Eigen::Vector2d change =
       step.Translation() / dt_s - previous_step.Translation() / previous_dt_s;
   return change.norm() <= options.max_acceleration_mps2 * dt_s + options.velocity_noise_mps;
+}
+
+std::optional<double> LowestSurfaceScale(const std::vector<Eigen::Vector2d>& pixels1,
+                                         const std::vector<Eigen::Vector2d>& pixels2,
+                                         const CameraModel& camera, const Pose2& base2_from_base1,
+                                         const GroundMotionOptions& options) {
+  const int k = options.lowest_surface_min_tracks;
+  if (k <= 0 || pixels1.size() != pixels2.size()) return std::nullopt;
+  const double c = camera.CameraCentreInBase().z();
+  const MotionTriangulator triangulate(camera, base2_from_base1);
+  const Eigen::Vector3d e = EpipoleInImage2(camera, base2_from_base1);
+  std::vector<double> heights;
+  for (std::size_t i = 0; i < pixels1.size(); ++i) {
+    const auto track = TriangulateTrackHeight(triangulate, e, pixels1[i], pixels2[i]);
+    if (!track || track->m_per_px > options.lowest_surface_max_m_per_px) continue;
+    const Eigen::Vector3d& p = track->point.point_in_base1;
+    if (p.x() < options.strip_min_x_m || p.x() > options.strip_max_x_m ||
+        std::abs(p.y()) > options.strip_half_width_m) {
+      continue;
+    }
+    heights.push_back(p.z());
+  }
+  if (static_cast<int>(heights.size()) < k) return std::nullopt;
+  const double tolerance = options.lowest_surface_tolerance_m;
+  const auto on_floor = std::count_if(heights.begin(), heights.end(),
+                                      [&](double h) { return std::abs(h) <= tolerance; });
+  if (on_floor >= options.lowest_surface_max_floor_share * static_cast<double>(heights.size()))
+    return std::nullopt;
+  std::sort(heights.begin(), heights.end());
+  // The lowest run of k heights within twice the tolerance: a surface, not a stray mistrack.
+  for (std::size_t i = 0; i + k <= heights.size(); ++i) {
+    if (heights[i + k - 1] - heights[i] > 2.0 * tolerance) continue;
+    const double lowest = 0.5 * (heights[i] + heights[i + k - 1]);
+    if (lowest > -options.lowest_surface_min_offset_m || !(c > 0)) return std::nullopt;
+    return 1.0 - lowest / c;
+  }
+  return std::nullopt;
 }
 
 cv::Mat FloorStripMask(const CameraModel& camera, const GroundMotionOptions& options) {

@@ -60,6 +60,23 @@ struct GroundMotionOptions {
   double max_acceleration_mps2 = 10.0;
   double velocity_noise_mps = 0.1;
   int max_rejected_steps = 3;
+  // The floor as the lowest surface over a long baseline (LowestSurfaceScale): where a pair's
+  // floor fit finds no plane (a floor with little texture, whose tracked corners lie on what
+  // stands on it), the chained steps' motion is fitted to the corners' mean height and too long.
+  // Triangulated with that motion, the tracks show the floor (obstacles' bases, its few corners)
+  // below the assumed floor, and the motion is shortened until the lowest surface that at least
+  // lowest_surface_min_tracks tracks agree on (within +-lowest_surface_tolerance_m) lies on it.
+  // Only tracks within the strip whose height changes by at most
+  // lowest_surface_max_m_per_px per pixel along their epipolar line count; a surface less than
+  // lowest_surface_min_offset_m below the floor changes nothing, and neither does a lower surface
+  // while lowest_surface_max_floor_share or more of the counted tracks lie on the assumed floor
+  // (within the tolerance): that floor is seen, and what lies below it is a drop-off or
+  // mistracks (0 tracks = off).
+  int lowest_surface_min_tracks = 6;
+  double lowest_surface_tolerance_m = 0.015;
+  double lowest_surface_max_m_per_px = 0.03;
+  double lowest_surface_min_offset_m = 0.01;
+  double lowest_surface_max_floor_share = 0.5;
   // The fit is trusted with at least this many inliers and this inlier share.
   int min_inliers = 12;
   double min_inlier_ratio = 0.25;
@@ -84,6 +101,19 @@ GroundMotion FitGroundMotion(const std::vector<Eigen::Vector2d>& pixels1,
                              const GroundMotionOptions& options,
                              const std::optional<Pose2>& prior = std::nullopt,
                              std::vector<char>* inlier_mask = nullptr);
+
+// How much too long base2_from_base1 (a pair's motion, at least a few times the floor's pixel
+// precision long) is when the floor is the lowest surface the tracks (undistorted pixels in
+// image 1 and image 2) show: > 1 when that surface lies below the floor the motion assumes
+// (GroundMotionOptions::lowest_surface_min_tracks). Triangulated with a motion s times too long,
+// a point at height h appears at c - s (c - h), c the camera's height; the floor's points (h = 0)
+// at c (1 - s). nullopt when no such surface lies lowest_surface_min_offset_m or more below the
+// floor, when the assumed floor holds lowest_surface_max_floor_share of the tracks, or when it is
+// off.
+std::optional<double> LowestSurfaceScale(const std::vector<Eigen::Vector2d>& pixels1,
+                                         const std::vector<Eigen::Vector2d>& pixels2,
+                                         const CameraModel& camera, const Pose2& base2_from_base1,
+                                         const GroundMotionOptions& options);
 
 // Whether a frame-to-frame step (base2_from_base1, taking dt_s) can follow the previous one
 // (taking previous_dt_s): its velocity differs by at most max_acceleration_mps2 * dt_s +

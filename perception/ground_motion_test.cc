@@ -6,6 +6,18 @@
 namespace monoplane {
 namespace {
 
+// Where a point (base frame of pose 1, z up) appears in both images of the planar motion
+// base2_from_base1: one track.
+void AddTrack(const CameraModel& camera, const Pose2& base2_from_base1, const Eigen::Vector3d& p,
+              std::vector<Eigen::Vector2d>* pixels1, std::vector<Eigen::Vector2d>* pixels2) {
+  const Eigen::Vector2d xy2 = base2_from_base1 * Eigen::Vector2d(p.head<2>());
+  const auto a = camera.ProjectToPixel(p);
+  const auto b = camera.ProjectToPixel({xy2.x(), xy2.y(), p.z()});
+  ASSERT_TRUE(a && b);
+  pixels1->push_back(*a);
+  pixels2->push_back(*b);
+}
+
 TEST(GroundMotion, RecoversPlanarMotionOnTexturedFloor) {
   const CameraCalibration calib = DefaultCalibration();
   const CameraModel camera(calib);
@@ -41,12 +53,7 @@ TEST(GroundMotion, PrefersTheLowestSurfaceOverMoreCornersOnABoxTop) {
   const Pose2 truth = Pose2{0.05, 0.005, 0.02}.Inverse();  // base2_from_base1, driving forward
   std::vector<Eigen::Vector2d> pixels1, pixels2;
   const auto add = [&](double x, double y, double z) {
-    const Eigen::Vector2d xy2 = truth * Eigen::Vector2d(x, y);
-    const auto a = camera.ProjectToPixel({x, y, z});
-    const auto b = camera.ProjectToPixel({xy2.x(), xy2.y(), z});
-    ASSERT_TRUE(a && b);
-    pixels1.push_back(*a);
-    pixels2.push_back(*b);
+    AddTrack(camera, truth, {x, y, z}, &pixels1, &pixels2);
   };
   for (int i = 0; i < 15; ++i) add(0.6 + 0.05 * i, -0.5 + 0.07 * i, 0.0);         // floor
   for (int i = 0; i < 40; ++i) add(1.0 + 0.01 * i, -0.2 + 0.02 * (i % 7), 0.15);  // box top
@@ -94,6 +101,57 @@ TEST(GroundMotion, TracksThatBarelyMovedDoNotVoteAgainstTheFloor) {
   options.below_floor_max_share = 1.0;  // every point below counts: the standing still wins
   const GroundMotion counted = FitGroundMotion(pixels1, pixels2, camera, options);
   EXPECT_GT(std::abs(counted.base2_from_base1.x - truth.x), 0.03);
+}
+
+// A floor with little texture: most tracked corners lie on what stands on it (3-20 cm up), a few
+// on the floor (obstacles' bases). A motion fitted to the corners' mean height is too long; with
+// it the floor's tracks triangulate below the floor, and LowestSurfaceScale says by how much.
+TEST(GroundMotion, TheLowestSurfaceSaysHowMuchTooLongAMotionIs) {
+  const CameraModel camera(DefaultCalibration());
+  const Pose2 truth = Pose2{0.30, 0.01, 0.02}.Inverse();  // a long baseline, driving forward
+  std::vector<Eigen::Vector2d> pixels1, pixels2;
+  const auto add = [&](double x, double y, double z) {
+    AddTrack(camera, truth, {x, y, z}, &pixels1, &pixels2);
+  };
+  for (int i = 0; i < 8; ++i) add(1.5 + 0.1 * i, -0.6 + 0.15 * i, 0.0);  // the floor
+  for (int i = 0; i < 60; ++i)                                           // what stands on it
+    add(1.3 + 0.04 * i, -0.8 + 0.03 * (i % 40), 0.03 + 0.17 * ((i * 7) % 60) / 60.0);
+  // A stray mistrack far below: one track is not a surface.
+  pixels1.push_back(pixels1[20]);
+  pixels2.push_back(pixels2[20] + Eigen::Vector2d(0.0, 4.0));
+  const GroundMotionOptions options;
+  EXPECT_FALSE(LowestSurfaceScale(pixels1, pixels2, camera, truth, options));  // already right
+  for (const double s : {1.08, 1.15, 1.25}) {
+    Pose2 too_long = truth;
+    too_long.x *= s;
+    too_long.y *= s;
+    const auto scale = LowestSurfaceScale(pixels1, pixels2, camera, too_long, options);
+    ASSERT_TRUE(scale) << s;
+    EXPECT_NEAR(*scale, s, 0.01);
+  }
+  // Fewer floor tracks than a surface needs: nothing is said.
+  GroundMotionOptions more = options;
+  more.lowest_surface_min_tracks = 9;
+  Pose2 too_long = truth;
+  too_long.x *= 1.15;
+  too_long.y *= 1.15;
+  const auto nine = LowestSurfaceScale(pixels1, pixels2, camera, too_long, more);
+  EXPECT_TRUE(!nine || *nine < 1.1);
+  more.lowest_surface_min_tracks = 0;  // off
+  EXPECT_FALSE(LowestSurfaceScale(pixels1, pixels2, camera, too_long, more));
+
+  // A textured floor that ends in a step down 8 cm (step_down): the lower floor is the lowest
+  // surface, but most tracks lie on the floor the motion assumes, which is seen.
+  pixels1.clear();
+  pixels2.clear();
+  for (int i = 0; i < 40; ++i) add(0.8 + 0.03 * i, -0.6 + 0.03 * i, 0.0);
+  for (int i = 0; i < 15; ++i) add(1.5 + 0.05 * i, -0.5 + 0.07 * i, -0.08);
+  EXPECT_FALSE(LowestSurfaceScale(pixels1, pixels2, camera, truth, options));
+  more = options;
+  more.lowest_surface_max_floor_share = 1.0;  // without the rule, the lower floor would be taken
+  const auto step = LowestSurfaceScale(pixels1, pixels2, camera, truth, more);
+  ASSERT_TRUE(step);
+  EXPECT_NEAR(*step, 1.2, 0.02);  // 8 cm below a 0.4 m camera
 }
 
 // A car at 13 m/s (1.34 m per 0.103 s step) cannot reverse within one step; a robot at 0.4 m/s

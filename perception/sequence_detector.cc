@@ -422,7 +422,34 @@ SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, Timesta
         }
         return fit;
       };
+      // The far pair first. Where its floor fit finds no plane, the floor is the lowest surface
+      // its tracks show, and the odometry since its frame is shortened to that (the steps were
+      // fitted to what stands on the floor); the near pair then takes the corrected odometry.
+      const Frame* far = nullptr;
+      std::optional<PairFit> far_fit;
+      bool rescaled = false;
+      if (ps.far_min_baseline_m > ps.min_baseline_m && !turn_pair) {
+        far = newest_with(ps.far_min_baseline_m, ps.max_rotation_rad);
+        if (far != nullptr && far != reference) {
+          far_fit = fit_pair(*far);
+          if (far_fit->motion.status != GroundMotion::Status::kOk) {
+            if (const auto scale = LowestSurfaceScale(far_fit->p_ref, far_fit->p_cur, camera,
+                                                      far_fit->prior, options.ground_motion)) {
+              Pose2 corrected = far_fit->prior;
+              corrected.x /= *scale;
+              corrected.y /= *scale;
+              odom_from_base_ = far->odom_from_base * corrected.Inverse();
+              out.odom_from_base = odom_from_base_;
+              rescaled = true;
+            }
+          }
+        }
+      }
       PairFit near = fit_pair(*reference);
+      if (rescaled && near.motion.status == GroundMotion::Status::kOk) {
+        near.motion.status = GroundMotion::Status::kFallback;
+        near.motion.base2_from_base1 = near.prior;
+      }
       GroundMotion& motion = near.motion;
       const Pose2& prior = near.prior;
       if (motion.status == GroundMotion::Status::kFailed &&
@@ -444,14 +471,8 @@ SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, Timesta
         }
         // The far pair: only with a fitted motion.
         std::optional<FarPair> far_pair;
-        if (ps.far_min_baseline_m > ps.min_baseline_m && !turn_pair) {
-          const Frame* far = newest_with(ps.far_min_baseline_m, ps.max_rotation_rad);
-          if (far != nullptr && far != reference) {
-            PairFit far_fit = fit_pair(*far);
-            if (far_fit.motion.status == GroundMotion::Status::kOk)
-              far_pair = FarPair{far->image, far_fit.motion};
-          }
-        }
+        if (far_fit && far_fit->motion.status == GroundMotion::Status::kOk)
+          far_pair = FarPair{far->image, far_fit->motion};
         out.pending = Output::PendingDetection{reference->image,  prepared,           motion,
                                                std::move(moving), alignment,          turn_pair,
                                                odom_from_base_,   std::move(far_pair)};

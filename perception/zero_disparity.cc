@@ -120,6 +120,19 @@ Eigen::Vector3d EpipoleInImage2(const CameraModel& camera, const Pose2& base2_fr
   return camera.K() * c1_in_camera2;
 }
 
+std::optional<TrackHeight> TriangulateTrackHeight(const MotionTriangulator& triangulate,
+                                                  const Eigen::Vector3d& epipole2,
+                                                  const Eigen::Vector2d& pixel1,
+                                                  const Eigen::Vector2d& pixel2) {
+  const auto point = triangulate(pixel1, pixel2);
+  if (!point || point->depth_m <= 0) return std::nullopt;
+  const Eigen::Vector2d up = epipole2.head<2>() - epipole2.z() * pixel2;
+  if (!(up.norm() > 1e-9)) return std::nullopt;
+  const auto moved = triangulate(pixel1, pixel2 + up.normalized());
+  if (!moved) return std::nullopt;
+  return TrackHeight{*point, std::abs(moved->point_in_base1.z() - point->point_in_base1.z())};
+}
+
 ZeroDisparityField ComputeZeroDisparity(const cv::Mat& image1, const cv::Mat& image2,
                                         const CameraModel& camera, const Pose2& base2_from_base1,
                                         const ZeroDisparityOptions& options) {

@@ -1,6 +1,7 @@
 #pragma once
 
 #include <opencv2/core.hpp>
+#include <optional>
 #include <string>
 
 #include "perception/geometry/camera_model.h"
@@ -68,5 +69,18 @@ ZeroDisparityField ComputeZeroDisparity(const cv::Mat& image1, const cv::Mat& im
 // The image-2 epipole of the motion, homogeneous (e_x, e_y, e_w): the camera-1 centre seen from
 // camera 2. The direction of growing height at pixel x is (e_x - e_w x, e_y - e_w y), normalised.
 Eigen::Vector3d EpipoleInImage2(const CameraModel& camera, const Pose2& base2_from_base1);
+
+// A tracked point triangulated with a known motion, and how precisely that motion tells its
+// height: the change of height for one pixel more along its epipolar line in image 2.
+struct TrackHeight {
+  ParallaxPoint point;
+  double m_per_px = 0.0;
+};
+// `triangulate` and `epipole2` (EpipoleInImage2) of the same motion. nullopt when the point cannot
+// be triangulated in front of camera 1.
+std::optional<TrackHeight> TriangulateTrackHeight(const MotionTriangulator& triangulate,
+                                                  const Eigen::Vector3d& epipole2,
+                                                  const Eigen::Vector2d& pixel1,
+                                                  const Eigen::Vector2d& pixel2);
 
 }  // namespace monoplane
