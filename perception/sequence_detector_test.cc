@@ -305,6 +305,34 @@ TEST_F(DetectorOnSyntheticScene, FramesBeyondCarryReachAreDetected) {
   EXPECT_EQ(carried, std::vector<bool>(10, false));
 }
 
+// A plain floor: every tracked corner lies on what stands on it, and over a 3 cm step those a few
+// cm up move within a pixel of the floor, so the chained steps are fitted to them and run long.
+// Over the far pair the boxes' bases show the floor as the lowest surface, and the odometry is
+// shortened to it (GroundMotionOptions::lowest_surface_min_tracks).
+TEST_F(DetectorOnSyntheticScene, OnAPlainFloorTheBoxesBasesHoldTheOdometry) {
+  Scene scene;
+  scene.floor_contrast = 0.0;
+  scene.boxes.push_back({{1.6, -0.55, 0.0}, {1.9, -0.2, 0.06}});
+  scene.boxes.push_back({{1.9, 0.15, 0.0}, {2.2, 0.5, 0.12}});
+  scene.boxes.push_back({{2.4, -0.2, 0.0}, {2.6, 0.1, 0.25}});
+  const auto travelled = [&](int min_tracks) {
+    DetectorOptions options = options_;
+    options.ground_motion.lowest_surface_min_tracks = min_tracks;
+    SequenceDetector sequence(calib_, options);
+    Pose2 odom;
+    for (int i = 0; i <= 24; ++i) {
+      const Rendered r = Render(scene, sequence.detector().camera(), {0.03 * i, 0.0, 0.0});
+      odom = sequence.Process(r.image, i * kFrameNs).odom_from_base;
+    }
+    return odom.x;
+  };
+  const double truth = 0.03 * 24, chained = travelled(0), held = travelled(6);
+  std::printf("travelled %.3f m: chained steps %.3f m, held by the lowest surface %.3f m\n", truth,
+              chained, held);
+  EXPECT_GT(chained, 1.05 * truth);
+  EXPECT_LT(std::abs(held - truth), 0.03 * truth);
+}
+
 TEST_F(DetectorOnSyntheticScene, BadImagesAreRejectedWithReasons) {
   const ObstacleDetector detector(calib_, options_);
   std::string error;
