@@ -424,31 +424,34 @@ SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, Timesta
       };
       // The far pair first. Where its floor fit finds no plane, the floor is the lowest surface
       // its tracks show, and the odometry since its frame is shortened to that (the steps were
-      // fitted to what stands on the floor); the near pair then takes the corrected odometry.
+      // fitted to what stands on the floor); the near pair takes its share of the correction.
       const Frame* far = nullptr;
       std::optional<PairFit> far_fit;
-      bool rescaled = false;
+      std::optional<double> too_long;
       if (ps.far_min_baseline_m > ps.min_baseline_m && !turn_pair) {
         far = newest_with(ps.far_min_baseline_m, ps.max_rotation_rad);
         if (far != nullptr && far != reference) {
           far_fit = fit_pair(*far);
           if (far_fit->motion.status != GroundMotion::Status::kOk) {
-            if (const auto scale = LowestSurfaceScale(far_fit->p_ref, far_fit->p_cur, camera,
-                                                      far_fit->prior, options.ground_motion)) {
-              Pose2 corrected = far_fit->prior;
-              corrected.x /= *scale;
-              corrected.y /= *scale;
-              odom_from_base_ = far->odom_from_base * corrected.Inverse();
-              out.odom_from_base = odom_from_base_;
-              rescaled = true;
-            }
+            too_long = LowestSurfaceScale(far_fit->p_ref, far_fit->p_cur, camera, far_fit->prior,
+                                          options.ground_motion);
           }
         }
       }
       PairFit near = fit_pair(*reference);
-      if (rescaled && near.motion.status == GroundMotion::Status::kOk) {
-        near.motion.status = GroundMotion::Status::kFallback;
-        near.motion.base2_from_base1 = near.prior;
+      if (too_long) {
+        const auto shorten = [&](Pose2 motion) {
+          motion.x /= *too_long;
+          motion.y /= *too_long;
+          return motion;
+        };
+        odom_from_base_ = far->odom_from_base * shorten(far_fit->prior).Inverse();
+        out.odom_from_base = odom_from_base_;
+        near.prior = shorten(near.prior);
+        if (near.motion.status == GroundMotion::Status::kOk) {
+          near.motion.status = GroundMotion::Status::kFallback;
+          near.motion.base2_from_base1 = near.prior;
+        }
       }
       GroundMotion& motion = near.motion;
       const Pose2& prior = near.prior;
