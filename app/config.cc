@@ -119,7 +119,9 @@ OptionTable::OptionTable(AppConfig* config) : config_(config) {
        "ground_motion.strip_half_width_m", "classification.max_range_m", "local_map.resolution_m",
        "local_map.min_x_m", "local_map.max_x_m", "local_map.min_y_m", "local_map.max_y_m",
        "pair_selection.min_baseline_m", "pair_selection.far_min_baseline_m",
-       "pair_selection.turn_min_baseline_m", "direct_alignment.max_correction_m"});
+       "pair_selection.turn_min_baseline_m", "direct_alignment.max_correction_m",
+       "ground_motion.lowest_surface_tolerance_m", "ground_motion.lowest_surface_max_m_per_px",
+       "ground_motion.lowest_surface_min_offset_m", "mapping.window_floor_max_height_m"});
   ScaleWith(Entry::Scale::kFocalLength,
             {"ground_motion.inlier_threshold_px", "ground_motion.below_floor_px"});
 }
