@@ -146,9 +146,12 @@ std::optional<double> LowestSurfaceScale(const std::vector<Eigen::Vector2d>& pix
   if (on_floor >= options.lowest_surface_max_floor_share * static_cast<double>(heights.size()))
     return std::nullopt;
   std::sort(heights.begin(), heights.end());
-  // The lowest run of k heights within twice the tolerance: a surface, not a stray mistrack.
+  // The lowest run of k heights within twice the tolerance: a surface, not a stray mistrack. A run
+  // more than below_floor_max_share of the camera's height below the floor (the motion 1.5 times
+  // too long at 0.5) is taken for mistracks, as in the motion fit.
+  const double deepest = -options.below_floor_max_share * c;
   for (std::size_t i = 0; i + k <= heights.size(); ++i) {
-    if (heights[i + k - 1] - heights[i] > 2.0 * tolerance) continue;
+    if (heights[i + k - 1] - heights[i] > 2.0 * tolerance || heights[i] < deepest) continue;
     const double lowest = 0.5 * (heights[i] + heights[i + k - 1]);
     if (lowest > -options.lowest_surface_min_offset_m || !(c > 0)) return std::nullopt;
     return 1.0 - lowest / c;
