@@ -85,7 +85,10 @@ std::vector<Sample> MeasureSamples(const CameraModel& camera, const ZeroDisparit
 // The far pair's samples (the same grid, a longer baseline) into `samples`: a sample takes the far
 // pair's measurement where that one is measured and either this pair has none (but saw neither a
 // change nor motion there) or the far one is more precise and agrees with it within 3 sigmas.
-void KeepMorePrecise(const std::vector<Sample>& far, std::vector<Sample>* samples);
+// With floor_only, only the far pair's floor samples (a pair whose motion was not fitted to its
+// tracks: its floor is what matched under that motion, its obstacles are left to this pair).
+void KeepMorePrecise(const std::vector<Sample>& far, std::vector<Sample>* samples,
+                     bool floor_only = false);
 
 // Evidence over frames (HeightFilterOptions): each sample's measurement is fused with the earlier
 // estimate in front of the others that project into it (occluded ones lose), or starts a new one;

@@ -187,7 +187,8 @@ int RowsBeyondFloorRange(const CameraModel& camera, double range_m) {
 // The far pair's samples (FarPair) merged into the near pair's (KeepMorePrecise), on the same
 // sample grid of the current image. Only the rows whose floor lies at least 4 far baselines ahead
 // are searched: nearer, the floor's scale changes by more than a quarter between the frames and
-// the windows no longer match (the near pair measures it there). Nothing without a fitted motion,
+// the windows no longer match (the near pair measures it there). Without a fitted motion (the
+// odometry's, kFallback) only where the direct alignment refines it, and only its floor; nothing
 // with the Farneback search, for a pitched pair or one no longer than 1.5 near baselines.
 void MergeFarPair(const CameraModel& camera, const DetectorOptions& options,
                   const cv::Mat& strip_mask, const FarPair& far_pair, const cv::Mat& current,
@@ -207,6 +208,8 @@ void MergeFarPair(const CameraModel& camera, const DetectorOptions& options,
   const Eigen::Vector2d c1 = camera.CameraCentreInBase().head<2>();
   const double baseline_m = (t * c1 - c1).norm();
   if (aligned.pitch2_rad != 0.0 || !(baseline_m > 1.5 * near_baseline_m)) return;
+  const bool fitted = far_pair.motion.status == GroundMotion::Status::kOk;
+  if (!fitted && !aligned.refined) return;
   const int used_rows = RowsBeyondFloorRange(camera, 4.0 * baseline_m);
   const int used_sample_rows = std::min(grid.rows, static_cast<int>(used_rows / grid.SamplePx()));
   if (used_sample_rows <= 0) return;
@@ -218,7 +221,8 @@ void MergeFarPair(const CameraModel& camera, const DetectorOptions& options,
       ComputeZeroDisparity(far_pair.reference, current.rowRange(0, search_rows), camera, t, zo);
   if (field.s_px.rows < used_sample_rows * grid.stride) return;
   const SampleGrid far_grid{used_sample_rows, grid.cols, grid.stride, grid.scale};
-  KeepMorePrecise(MeasureSamples(camera, field, far_grid, t, options.classification), samples);
+  KeepMorePrecise(MeasureSamples(camera, field, far_grid, t, options.classification), samples,
+                  !fitted);
 }
 
 // The per-sample images of a result: labels, heights (EncodeHeightMm; floor 0, obstacles and

@@ -25,7 +25,8 @@ FrameResult UnknownResult(const cv::Size& size, const LocalMapOptions& map_optio
                           PairStatus status, const std::string& message);
 
 // The current frame's second, longer-baseline pair (PairSelectionOptions::far_min_baseline_m):
-// the older prepared image and the floor motion from it to the current frame.
+// the older prepared image and the floor motion from it to the current frame (kOk: fitted to the
+// tracks both share; kFallback: the odometry, of which only the floor is taken).
 struct FarPair {
   cv::Mat reference;
   GroundMotion motion;

@@ -92,11 +92,13 @@ std::vector<Sample> MeasureSamples(const CameraModel& camera, const ZeroDisparit
   return samples;
 }
 
-void KeepMorePrecise(const std::vector<Sample>& far, std::vector<Sample>* samples) {
+void KeepMorePrecise(const std::vector<Sample>& far, std::vector<Sample>* samples,
+                     bool floor_only) {
   for (std::size_t k = 0; k < samples->size() && k < far.size(); ++k) {
     Sample& near = (*samples)[k];
     const Sample& f = far[k];
     if (!f.measured || near.mismatched || near.raw == PixelLabel::kMoving) continue;
+    if (floor_only && f.raw != PixelLabel::kFloor) continue;
     if (near.measured) {
       const double sigma = std::hypot(near.height_sigma_m, f.height_sigma_m);
       if (!(f.height_sigma_m < near.height_sigma_m) ||

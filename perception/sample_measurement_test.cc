@@ -1,4 +1,5 @@
-// FuseHeights: an earlier estimate taken up by the sample it projects into.
+// FuseHeights: an earlier estimate taken up by the sample it projects into; KeepMorePrecise: the
+// far pair's samples merged into the near pair's.
 #include <gtest/gtest.h>
 
 #include <Eigen/Core>
@@ -99,6 +100,37 @@ TEST(FuseHeights, AnEstimateNotClearlyAboveTheFloorKeepsItsHeight) {
   const detector_stages::Sample s = Fuse(camera, measured, earlier);
   ASSERT_TRUE(s.measured);
   EXPECT_NEAR(s.height_m, 0.05, 1e-4);
+}
+
+// The far pair's measurements replace the near pair's where they are more precise and agree, or
+// where the near pair measured nothing; from a pair whose motion was not fitted (floor_only), only
+// its floor.
+TEST(KeepMorePrecise, AFarPairWithoutAFittedMotionGivesOnlyItsFloor) {
+  using detector_stages::Sample;
+  const auto measured = [](PixelLabel raw, double height_m, double sigma_m) {
+    Sample s;
+    s.measured = true;
+    s.raw = raw;
+    s.height_m = height_m;
+    s.height_sigma_m = sigma_m;
+    return s;
+  };
+  // Near: nothing at 0 and 1, a rough low obstacle at 2.
+  const std::vector<Sample> near = {Sample(), Sample(),
+                                    measured(PixelLabel::kObstacle, 0.05, 0.03)};
+  const std::vector<Sample> far = {measured(PixelLabel::kFloor, 0.0, 0.004),
+                                   measured(PixelLabel::kObstacle, 0.08, 0.005),
+                                   measured(PixelLabel::kObstacle, 0.06, 0.005)};
+  std::vector<Sample> all = near;
+  detector_stages::KeepMorePrecise(far, &all);
+  EXPECT_EQ(all[0].raw, PixelLabel::kFloor);
+  EXPECT_EQ(all[1].raw, PixelLabel::kObstacle);
+  EXPECT_DOUBLE_EQ(all[2].height_sigma_m, 0.005);
+  std::vector<Sample> floor_only = near;
+  detector_stages::KeepMorePrecise(far, &floor_only, true);
+  EXPECT_EQ(floor_only[0].raw, PixelLabel::kFloor);
+  EXPECT_FALSE(floor_only[1].measured);
+  EXPECT_DOUBLE_EQ(floor_only[2].height_sigma_m, 0.03);
 }
 
 }  // namespace

@@ -472,10 +472,18 @@ SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, Timesta
           moving = OffEpipolarCorners(camera, motion.base2_from_base1, near.p_ref, near.p_cur,
                                       options.classification.moving_track_min_px);
         }
-        // The far pair: only with a fitted motion.
+        // The far pair, with its fitted motion, or else with the odometry since its frame
+        // (kFallback: ObstacleDetector takes only its floor, and only where the direct alignment
+        // refines that motion).
         std::optional<FarPair> far_pair;
-        if (far_fit && far_fit->motion.status == GroundMotion::Status::kOk)
-          far_pair = FarPair{far->image, far_fit->motion};
+        if (far_fit) {
+          GroundMotion m = far_fit->motion;
+          if (m.status != GroundMotion::Status::kOk) {
+            m.status = GroundMotion::Status::kFallback;
+            m.base2_from_base1 = odom_from_base_.Inverse() * far->odom_from_base;
+          }
+          far_pair = FarPair{far->image, m};
+        }
         out.pending = Output::PendingDetection{reference->image,  prepared,           motion,
                                                std::move(moving), alignment,          turn_pair,
                                                odom_from_base_,   std::move(far_pair)};
