@@ -107,9 +107,9 @@ GroundMotion FitGroundMotion(const std::vector<Eigen::Vector2d>& pixels1,
 // image 1 and image 2) show: > 1 when that surface lies below the floor the motion assumes
 // (GroundMotionOptions::lowest_surface_min_tracks). Triangulated with a motion s times too long,
 // a point at height h appears at c - s (c - h), c the camera's height; the floor's points (h = 0)
-// at c (1 - s). nullopt when no such surface lies lowest_surface_min_offset_m or more below the
-// floor, when the assumed floor holds lowest_surface_max_floor_share of the tracks, or when it is
-// off.
+// at c (1 - s). A run of tracks deeper than below_floor_max_share * c is taken for mistracks.
+// nullopt when no such surface lies lowest_surface_min_offset_m or more below the floor, when the
+// assumed floor holds lowest_surface_max_floor_share of the tracks, or when it is off.
 std::optional<double> LowestSurfaceScale(const std::vector<Eigen::Vector2d>& pixels1,
                                          const std::vector<Eigen::Vector2d>& pixels2,
                                          const CameraModel& camera, const Pose2& base2_from_base1,

@@ -131,7 +131,8 @@ TEST(GroundMotion, TheLowestSurfaceSaysHowMuchTooLongAMotionIs) {
     ASSERT_TRUE(scale) << s;
     EXPECT_NEAR(*scale, s, 0.01);
   }
-  // Fewer floor tracks than a surface needs: nothing is said.
+  // Fewer floor tracks than a surface needs: the floor is not found (at most the lowest parts of
+  // what stands on it, well short of the truth's 1.15).
   GroundMotionOptions more = options;
   more.lowest_surface_min_tracks = 9;
   Pose2 too_long = truth;

@@ -77,13 +77,21 @@ TEST(FuseHeights, AnUprightSurfaceKeepsItsRange) {
   EXPECT_NEAR(s.height_m, measured.z(), 0.005);
 }
 
+// Fuse on a level surface z = z_m: measured at pixel (324, 300), the earlier estimate 3 px above
+// it (as the robot's motion put it); `measured` (optional) receives the measured point.
+detector_stages::Sample FuseOnLevel(const CameraModel& camera, double z_m,
+                                    Eigen::Vector3d* measured = nullptr) {
+  const Eigen::Vector2d centre_px(324, 300);
+  const Eigen::Vector3d m = OnLevel(camera, centre_px, z_m);
+  if (measured) *measured = m;
+  return Fuse(camera, m, OnLevel(camera, centre_px - Eigen::Vector2d(0, 3), z_m));
+}
+
 // The floor moves at its height: on the sample's own ray, at height zero.
 TEST(FuseHeights, TheFloorKeepsItsHeight) {
   const CameraModel camera(DefaultCalibration());
-  const Eigen::Vector2d centre_px(324, 300);
-  const Eigen::Vector3d measured = OnLevel(camera, centre_px, 0.0);
-  const Eigen::Vector3d earlier = OnLevel(camera, centre_px - Eigen::Vector2d(0, 3), 0.0);
-  const detector_stages::Sample s = Fuse(camera, measured, earlier);
+  Eigen::Vector3d measured;
+  const detector_stages::Sample s = FuseOnLevel(camera, 0.0, &measured);
   ASSERT_TRUE(s.measured);
   EXPECT_NEAR(s.height_m, 0.0, 1e-4);
   EXPECT_NEAR((s.point_in_base2 - measured.head<2>()).norm(), 0.0, 1e-3);
@@ -94,10 +102,7 @@ TEST(FuseHeights, TheFloorKeepsItsHeight) {
 // floor measured a little high would otherwise keep agreeing with itself at its range).
 TEST(FuseHeights, AnEstimateNotClearlyAboveTheFloorKeepsItsHeight) {
   const CameraModel camera(DefaultCalibration());
-  const Eigen::Vector2d centre_px(324, 300);
-  const Eigen::Vector3d measured = OnLevel(camera, centre_px, 0.05);
-  const Eigen::Vector3d earlier = OnLevel(camera, centre_px - Eigen::Vector2d(0, 3), 0.05);
-  const detector_stages::Sample s = Fuse(camera, measured, earlier);
+  const detector_stages::Sample s = FuseOnLevel(camera, 0.05);
   ASSERT_TRUE(s.measured);
   EXPECT_NEAR(s.height_m, 0.05, 1e-4);
 }

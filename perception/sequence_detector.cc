@@ -396,7 +396,7 @@ SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, Timesta
       // 3. The pair's motion, fitted directly to the tracks both frames share (no drift from
       //    chaining); the chained odometry is the prior and the fallback.
       struct PairFit {
-        Pose2 prior;                                // the chained odometry
+        Pose2 prior;  // the odometry since the frame (shortened where the lowest surface says)
         std::vector<Eigen::Vector2d> p_ref, p_cur;  // the tracks both frames share
         GroundMotion motion;
       };
@@ -440,14 +440,14 @@ SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, Timesta
       }
       PairFit near = fit_pair(*reference);
       if (too_long) {
-        const auto shorten = [&](Pose2 motion) {
-          motion.x /= *too_long;
-          motion.y /= *too_long;
-          return motion;
+        const auto shorten = [&](Pose2* motion) {
+          motion->x /= *too_long;
+          motion->y /= *too_long;
         };
-        odom_from_base_ = far->odom_from_base * shorten(far_fit->prior).Inverse();
+        shorten(&far_fit->prior);
+        shorten(&near.prior);
+        odom_from_base_ = far->odom_from_base * far_fit->prior.Inverse();
         out.odom_from_base = odom_from_base_;
-        near.prior = shorten(near.prior);
         if (near.motion.status == GroundMotion::Status::kOk) {
           near.motion.status = GroundMotion::Status::kFallback;
           near.motion.base2_from_base1 = near.prior;
@@ -480,7 +480,7 @@ SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, Timesta
           GroundMotion m = far_fit->motion;
           if (m.status != GroundMotion::Status::kOk) {
             m.status = GroundMotion::Status::kFallback;
-            m.base2_from_base1 = odom_from_base_.Inverse() * far->odom_from_base;
+            m.base2_from_base1 = far_fit->prior;
           }
           far_pair = FarPair{far->image, m};
         }

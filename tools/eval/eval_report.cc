@@ -369,6 +369,8 @@ std::string TrajectoryReportTable(const TrajectoryEvalResult& r) {
       << "\n"
       << "path length: gt " << Fixed(r.gt_path_length_m) << " m, pred "
       << Fixed(r.pred_path_length_m) << " m\n"
+      << "final error: " << Fixed(r.final_error_m, 4) << " m, " << Fixed(r.final_error_percent, 2)
+      << " % of the gt path\n"
       << "ATE (m), no alignment:   " << stats(r.ate_m, 4) << "\n"
       << "ATE (m), SE(2) aligned:  " << stats(r.ate_aligned_m, 4) << "\n"
       << "  alignment gt_from_pred: x " << Fixed(r.gt_from_pred.x, 4) << " m, y "
@@ -401,6 +403,8 @@ std::string TrajectoryReportJson(const TrajectoryEvalResult& r) {
              .Add("matched_poses", r.matched_poses)
              .Add("gt_path_length_m", r.gt_path_length_m)
              .Add("pred_path_length_m", r.pred_path_length_m)
+             .Add("final_error_m", r.final_error_m)
+             .Add("final_error_percent", r.final_error_percent)
              .Raw("ate_m", ErrorStatsJson(r.ate_m))
              .Raw("ate_aligned_m", ErrorStatsJson(r.ate_aligned_m))
              .Raw("gt_from_pred", JsonObject()

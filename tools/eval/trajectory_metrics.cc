@@ -172,6 +172,11 @@ bool EvaluateTrajectory(const std::vector<StampedPose2>& pred, const std::vector
     result->pred_path_length_m += (p_xy[k] - p_xy[k - 1]).norm();
   }
   result->gt_path_length_m = gt_distance.back();
+  result->final_error_m = ((p.front().Inverse() * p.back()).Translation() -
+                           (g.front().Inverse() * g.back()).Translation())
+                              .norm();
+  if (result->gt_path_length_m > 0.0)
+    result->final_error_percent = 100.0 * result->final_error_m / result->gt_path_length_m;
 
   std::vector<double> ate, ate_aligned;
   result->gt_from_pred = AlignSe2(p_xy, g_xy);

@@ -71,6 +71,10 @@ struct TrajectoryEvalResult {
   std::size_t matched_poses = 0;
   double gt_path_length_m = 0.0;    // along the matched ground-truth poses
   double pred_path_length_m = 0.0;  // along the matched predicted poses
+  // Where the run ends, seen from where it starts: |(pred_0^-1 pred_n).t - (gt_0^-1 gt_n).t| over
+  // the last matched pose, metres and percent of gt_path_length_m (no alignment besides the start).
+  double final_error_m = 0.0;
+  double final_error_percent = 0.0;
 
   ErrorStats ate_m;          // |pred - gt| of positions, no alignment
   ErrorStats ate_aligned_m;  // after the SE(2) alignment below

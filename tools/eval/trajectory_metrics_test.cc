@@ -60,6 +60,7 @@ TEST(TrajectoryMetrics, TranslationOffsetGivesThatAte) {
   EXPECT_NEAR(r.ate_aligned_m.rmse, 0.0, 1e-9);
   EXPECT_NEAR(r.gt_from_pred.x, -0.3, 1e-9);
   EXPECT_NEAR(r.gt_from_pred.y, 0.4, 1e-9);
+  EXPECT_NEAR(r.final_error_m, 0.0, 1e-9);  // the same run from another start
 }
 
 TEST(TrajectoryMetrics, ConstantScaleErrorGivesKnownRpePercent) {
@@ -74,6 +75,8 @@ TEST(TrajectoryMetrics, ConstantScaleErrorGivesKnownRpePercent) {
   ASSERT_TRUE(EvaluateTrajectory(pred, gt, TrajectoryEvalOptions{}, &r, &error)) << error;
   EXPECT_NEAR(r.gt_path_length_m, 10.0, 1e-9);
   EXPECT_NEAR(r.pred_path_length_m, 10.2, 1e-9);
+  EXPECT_NEAR(r.final_error_m, 0.2, 1e-9);
+  EXPECT_NEAR(r.final_error_percent, 2.0, 1e-9);
   ASSERT_EQ(r.rpe_segments.size(), 4u);
   for (const SegmentRpe& s : r.rpe_segments) {
     EXPECT_NEAR(s.translation_percent, 2.0, 1e-6) << s.length_m;
