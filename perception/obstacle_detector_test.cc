@@ -91,6 +91,39 @@ TEST_F(DetectorOnSyntheticScene, FloorOnlyIsFloorNotObstacle) {
   }
 }
 
+// A turn brings into view what the reference frame did not see: the search has nothing to match
+// there (only the reference's replicated border), so it is unknown, not floor, not obstacle.
+TEST_F(DetectorOnSyntheticScene, WhatTheReferenceDidNotSeeIsUnknown) {
+  const ObstacleDetector detector(calib_, options_);
+  Scene scene;
+  scene.boxes.push_back({{1.8, -0.4, 0.0}, {2.1, 0.4, 0.3}});
+  const Pose2 p1{0, 0, 0}, p2{0.10, 0.0, 0.12};  // turning left: the left side is new
+  const Rendered a = Render(scene, detector.camera(), p1), b = Render(scene, detector.camera(), p2);
+  const FrameResult r = detector.Detect(a.image, b.image, KnownMotion(p1, p2));
+  ASSERT_EQ(r.status, PairStatus::kOk) << r.message;
+  MaybeDump("turn_unseen", b.image, r);
+  const Pose2 base1_from_base2 = p1.Inverse() * p2;
+  int unseen = 0, unseen_labelled = 0, seen = 0, seen_labelled = 0;
+  for (int y = 0; y < 480; ++y) {
+    for (int x = 0; x < 640; ++x) {
+      const auto f = detector.camera().PixelToFloor({x, y});
+      if (!f || f->norm() > 3.0) continue;
+      const Eigen::Vector2d in1 = base1_from_base2 * *f;
+      const auto q1 = detector.camera().ProjectToPixel({in1.x(), in1.y(), 0.0});
+      const bool in_view = q1 && q1->x() >= 0 && q1->x() <= 639 && q1->y() >= 0 && q1->y() <= 479;
+      const bool labelled =
+          static_cast<PixelLabel>(r.labels.at<std::uint8_t>(y, x)) != PixelLabel::kUnknown;
+      (in_view ? seen : unseen) += 1;
+      (in_view ? seen_labelled : unseen_labelled) += labelled ? 1 : 0;
+    }
+  }
+  std::printf("labelled: %d of %d pixels the reference saw, %d of %d it did not\n", seen_labelled,
+              seen, unseen_labelled, unseen);
+  ASSERT_GT(unseen, 5000);
+  EXPECT_GT(seen_labelled, seen / 2);
+  EXPECT_LT(unseen_labelled, unseen / 20);
+}
+
 // A program that needs floor features only for some frames (the app: keyframes) defers them; they
 // come out the same, computed from what the result keeps, and the labels stay the same too.
 TEST_F(DetectorOnSyntheticScene, DeferredFloorFeaturesAreTheSame) {

@@ -67,7 +67,17 @@ std::vector<Sample> MeasureSamples(const CameraModel& camera, const ZeroDisparit
       const double sigma_px =
           std::max<double>(co.disparity_sigma_px, field.sigma_px.at<float>(y, x));
       const Eigen::Vector2d u(field.ux.at<float>(y, x), field.uy.at<float>(y, x));
-      const auto tri = triangulate.OnEpipolarLine(ApplyHomography(h_inv, q - s * u), q);
+      const Eigen::Vector2d in_image1 = ApplyHomography(h_inv, q - s * u);
+      // Matched where image 1's window would not lie inside image 1 (a turn brings in what the
+      // reference did not see): the search compared it with the image's replicated border, and
+      // on a plain wall or floor that fits as well as anything. Not seen in the pair.
+      const double margin = field.window_half_px;
+      if (!(in_image1.x() >= margin && in_image1.y() >= margin &&
+            in_image1.x() <= field.image1_size.width - 1 - margin &&
+            in_image1.y() <= field.image1_size.height - 1 - margin)) {
+        continue;
+      }
+      const auto tri = triangulate.OnEpipolarLine(in_image1, q);
       const auto tri_sigma =
           triangulate.OnEpipolarLine(ApplyHomography(h_inv, q - (s + sigma_px) * u), q);
       if (!tri || !tri_sigma || tri->depth_m <= 0) continue;

@@ -27,6 +27,8 @@ ZeroDisparityField FarnebackField(const cv::Mat& image1, const cv::Mat& image2,
   const int level = options.finest_level;
   field.level = level;
   field.scale = 1 << level;
+  field.image1_size = image1.size();
+  field.window_half_px = 0.5 * options.window_px * field.scale;
   std::vector<cv::Mat> pyr1, pyr2;
   cv::buildPyramid(image1, pyr1, level);
   cv::buildPyramid(image2, pyr2, level);
@@ -141,6 +143,8 @@ ZeroDisparityField ComputeZeroDisparity(const cv::Mat& image1, const cv::Mat& im
   const int coarsest = finest + options.num_levels - 1;
   field.level = finest;
   field.scale = 1 << finest;
+  field.image1_size = image1.size();
+  field.window_half_px = 0.5 * options.window_px * field.scale;
 
   const Eigen::Vector3d epipole = EpipoleInImage2(camera, base2_from_base1);
   const double baseline = (camera.K().inverse() * epipole).norm();

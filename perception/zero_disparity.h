@@ -58,6 +58,10 @@ struct ZeroDisparityField {
   cv::Mat perpendicular_sigma_px;  // CV_32F, the same for perpendicular_px
   cv::Mat ux, uy;                  // CV_32F, the unit epipolar direction of growing height
   bool has_parallax = false;
+  // Image 1's size and half the matching window (input pixels): a match whose window does not lie
+  // inside image 1 compared image 2 with image 1's replicated border.
+  cv::Size image1_size;
+  double window_half_px = 0.0;
 };
 
 // Dense, multi-resolution matching of image 2 against image 1 warped by the floor homography,
