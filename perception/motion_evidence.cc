@@ -204,7 +204,15 @@ cv::Mat MotionEvidence::Compute(const cv::Mat& previous, const cv::Mat& current,
       const Eigen::Vector3f far_h = r[x][3] > 0 ? Eigen::Vector3f(2.0f * r[x][3] * d + offset) : d;
       if (!(near_h.z() > 1e-6f) || !(far_h.z() > 1e-6f)) continue;
       const float nx = near_h.x() / near_h.z(), ny = near_h.y() / near_h.z();
-      const float sx = far_h.x() / far_h.z() - nx, sy = far_h.y() / far_h.z() - ny;
+      const float fx = far_h.x() / far_h.z(), fy = far_h.y() / far_h.z();
+      // Where no static depth puts the point inside the previous image (what a turn brings into
+      // view), the flow has nothing to follow: no evidence either way.
+      const float w = static_cast<float>(off_line.cols - 1),
+                  h = static_cast<float>(off_line.rows - 1);
+      if ((nx < 0 && fx < 0) || (nx > w && fx > w) || (ny < 0 && fy < 0) || (ny > h && fy > h)) {
+        continue;
+      }
+      const float sx = fx - nx, sy = fy - ny;
       const float ox = x1 - nx, oy = y1 - ny;
       const float length2 = sx * sx + sy * sy;
       const float along =

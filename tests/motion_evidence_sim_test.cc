@@ -84,6 +84,16 @@ TEST(MotionEvidence, StaticSceneHasNoMovingRegion) {
       << c.static_grown << " of " << c.static_pixels << " static pixels";
 }
 
+// Turning on the spot brings into view what the previous frame did not show; no static depth
+// puts those pixels inside the previous image, so their flow has nothing to follow (it is the
+// smoothed flow of their neighbours) and says nothing about motion.
+TEST(MotionEvidence, WhatATurnBringsIntoViewIsNotMoving) {
+  const Counts c = RunScene("standstill_turn", 50, 75);
+  ASSERT_GT(c.static_pixels, 0);
+  EXPECT_LE(static_cast<double>(c.static_grown), 0.0005 * static_cast<double>(c.static_pixels))
+      << c.static_grown << " of " << c.static_pixels << " static pixels";
+}
+
 TEST(MotionEvidence, FindsAPersonCrossingAfterTwoPairs) {
   int first_pair = -1;
   const Counts c = RunScene("person_crossing", 34, 42, &first_pair);
