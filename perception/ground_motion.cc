@@ -124,8 +124,8 @@ std::optional<double> LowestSurfaceScale(const std::vector<Eigen::Vector2d>& pix
                                          const CameraModel& camera, const Pose2& base2_from_base1,
                                          const GroundMotionOptions& options) {
   const int k = options.lowest_surface_min_tracks;
-  if (k <= 0 || pixels1.size() != pixels2.size()) return std::nullopt;
   const double c = camera.CameraCentreInBase().z();
+  if (k <= 0 || pixels1.size() != pixels2.size() || !(c > 0)) return std::nullopt;
   const MotionTriangulator triangulate(camera, base2_from_base1);
   const Eigen::Vector3d e = EpipoleInImage2(camera, base2_from_base1);
   std::vector<double> heights;
@@ -153,7 +153,7 @@ std::optional<double> LowestSurfaceScale(const std::vector<Eigen::Vector2d>& pix
   for (std::size_t i = 0; i + k <= heights.size(); ++i) {
     if (heights[i + k - 1] - heights[i] > 2.0 * tolerance || heights[i] < deepest) continue;
     const double lowest = 0.5 * (heights[i] + heights[i + k - 1]);
-    if (lowest > -options.lowest_surface_min_offset_m || !(c > 0)) return std::nullopt;
+    if (lowest > -options.lowest_surface_min_offset_m) return std::nullopt;
     return 1.0 - lowest / c;
   }
   return std::nullopt;

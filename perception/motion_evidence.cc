@@ -188,6 +188,8 @@ cv::Mat MotionEvidence::Compute(const cv::Mat& previous, const cv::Mat& current,
                             static_cast<float>(s * s);
   const int margin = std::max(2, 8 / s);
   cv::Mat off_line(cur_small.size(), CV_8U, cv::Scalar(0));
+  const float last_x = static_cast<float>(off_line.cols - 1);
+  const float last_y = static_cast<float>(off_line.rows - 1);
   for (int y = margin; y < off_line.rows - margin; ++y) {
     const auto* src = source.ptr<cv::Vec2f>(y);
     const auto* r = rays_.ptr<cv::Vec4f>(y);
@@ -207,9 +209,8 @@ cv::Mat MotionEvidence::Compute(const cv::Mat& previous, const cv::Mat& current,
       const float fx = far_h.x() / far_h.z(), fy = far_h.y() / far_h.z();
       // Where no static depth puts the point inside the previous image (what a turn brings into
       // view), the flow has nothing to follow: no evidence either way.
-      const float w = static_cast<float>(off_line.cols - 1),
-                  h = static_cast<float>(off_line.rows - 1);
-      if ((nx < 0 && fx < 0) || (nx > w && fx > w) || (ny < 0 && fy < 0) || (ny > h && fy > h)) {
+      if ((nx < 0 && fx < 0) || (nx > last_x && fx > last_x) || (ny < 0 && fy < 0) ||
+          (ny > last_y && fy > last_y)) {
         continue;
       }
       const float sx = fx - nx, sy = fy - ny;

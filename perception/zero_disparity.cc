@@ -17,18 +17,25 @@ Eigen::Matrix3d HomographyAtLevel(const Eigen::Matrix3d& h, int level) {
   return s * h * s_inv;
 }
 
+// A field at `level` over image 1, before the search fills it.
+ZeroDisparityField EmptyField(int level, const cv::Mat& image1,
+                              const ZeroDisparityOptions& options) {
+  ZeroDisparityField field;
+  field.level = level;
+  field.scale = 1 << level;
+  field.image1_size = image1.size();
+  field.window_half_px = 0.5 * options.window_px * field.scale;
+  return field;
+}
+
 // The baseline: unconstrained dense optical flow (image 2 -> image 1), then each pixel's flow is
 // split into the zero disparity along the epipolar line and the part across it.
 ZeroDisparityField FarnebackField(const cv::Mat& image1, const cv::Mat& image2,
                                   const CameraModel& camera, const Pose2& base2_from_base1,
                                   const ZeroDisparityOptions& options,
                                   const Eigen::Vector3d& epipole) {
-  ZeroDisparityField field;
   const int level = options.finest_level;
-  field.level = level;
-  field.scale = 1 << level;
-  field.image1_size = image1.size();
-  field.window_half_px = 0.5 * options.window_px * field.scale;
+  ZeroDisparityField field = EmptyField(level, image1, options);
   std::vector<cv::Mat> pyr1, pyr2;
   cv::buildPyramid(image1, pyr1, level);
   cv::buildPyramid(image2, pyr2, level);
@@ -138,13 +145,9 @@ std::optional<TrackHeight> TriangulateTrackHeight(const MotionTriangulator& tria
 ZeroDisparityField ComputeZeroDisparity(const cv::Mat& image1, const cv::Mat& image2,
                                         const CameraModel& camera, const Pose2& base2_from_base1,
                                         const ZeroDisparityOptions& options) {
-  ZeroDisparityField field;
   const int finest = options.finest_level;
   const int coarsest = finest + options.num_levels - 1;
-  field.level = finest;
-  field.scale = 1 << finest;
-  field.image1_size = image1.size();
-  field.window_half_px = 0.5 * options.window_px * field.scale;
+  ZeroDisparityField field = EmptyField(finest, image1, options);
 
   const Eigen::Vector3d epipole = EpipoleInImage2(camera, base2_from_base1);
   const double baseline = (camera.K().inverse() * epipole).norm();
