@@ -22,6 +22,9 @@ void ClassificationOptions::Describe(OptionVisitor& v) {
          "an obstacle needs the floor hypothesis to misfit it (min_floor_misfit)");
   v.Real("min_floor_misfit", &min_floor_misfit, R::AtLeast(0),
          "an obstacle needs the floor to misfit its 3x3 neighbourhood by this, grey levels");
+  v.Real("contour_min_texture", &contour_min_texture, R::AtLeast(0).Note("0 = off"),
+         "a sample whose window has this much texture needs the floor to misfit every 3x3 "
+         "neighbourhood around it, grey^2/px^2");
   v.Real("moving_min_perpendicular_px", &moving_min_perpendicular_px, R::AtLeast(0).Note("0 = off"),
          "off-epipolar motion that means moving, px");
   v.Real("moving_track_min_px", &moving_track_min_px, R::Above(0),

@@ -36,6 +36,14 @@ struct ClassificationOptions {
   // carried an obstacle's parallax onto the floor next to it, or there is no texture): unknown.
   bool check_floor_hypothesis = true;
   double min_floor_misfit = 0.0;
+  // Where a sample's window has at least this much texture (grey levels^2 per pixel^2; 0 = off),
+  // the floor must misfit every 3x3 neighbourhood around it, its own and its 8 neighbours': a
+  // strong edge in the window, most often the occluding contour of a thing in front, gives the
+  // window that thing's parallax, and a sample up to half a window beside the contour on the floor
+  // takes it too. One of the shifted neighbourhoods lies on the floor alone there. On a weakly
+  // textured surface the floor fits a shifted neighbourhood about as well as the surface does, so
+  // the rule would cost it its measurements; the rule holds only where texture is strong.
+  double contour_min_texture = 30.0;
   // Minimum texture along the epipolar line (mean squared gradient, grey levels^2 per pixel^2, >
   // 0); below it a pixel is unknown, never floor.
   double min_texture = 1.0;

@@ -53,6 +53,58 @@ TEST_F(DetectorOnSyntheticScene, RelativePitchIsEstimatedAndTheFloorStaysFloor) 
   EXPECT_LT(without, with_pitch);
 }
 
+// Dark, weakly textured posts on a textured floor: the windows beside a post are dominated by its
+// contour and take its parallax, and the floor's own 3x3 neighbourhood there still holds the
+// contour's edge. ClassificationOptions::contour_min_texture asks every 3x3 neighbourhood around
+// such a strongly textured sample to misfit the floor, and the floor beside the posts stays off
+// the obstacles.
+TEST_F(DetectorOnSyntheticScene, TheFloorBesideAContourDoesNotTakeItsParallax) {
+  Scene scene;
+  scene.box_texture = Texture(2, 0.2);
+  scene.box_offset = -80.0;
+  for (const double y : {-0.6, -0.2, 0.2, 0.6}) {
+    scene.boxes.push_back({{2.0, y - 0.02, 0.0}, {2.04, y + 0.02, 0.5}});
+  }
+  const Pose2 p1{0, 0, 0}, p2{0.12, 0.0, 0.0};
+  DetectorOptions off = options_;
+  off.classification.contour_min_texture = 0.0;
+  const auto [b, r, r0] = DetectBoth(scene, p1, p2, off);
+  ASSERT_EQ(r.status, PairStatus::kOk) << r.message;
+  // Floor pixels within 12 px of a post in their row, and how many each result calls obstacle.
+  const auto beside = [&](const FrameResult& result, int* post_obstacle) {
+    int floor_obstacle = 0;
+    *post_obstacle = 0;
+    for (int y = 0; y < b.height_m.rows; ++y) {
+      for (int x = 0; x < b.height_m.cols; ++x) {
+        const float h = b.height_m.at<float>(y, x);
+        const bool obstacle =
+            static_cast<PixelLabel>(result.labels.at<std::uint8_t>(y, x)) == PixelLabel::kObstacle;
+        if (h >= 0.05f) {
+          *post_obstacle += obstacle;
+          continue;
+        }
+        if (h != 0.0f || !obstacle) continue;
+        bool near_post = false;
+        const int cols = b.height_m.cols;
+        for (int dx = -12; dx <= 12 && !near_post; ++dx) {
+          near_post = b.height_m.at<float>(y, std::clamp(x + dx, 0, cols - 1)) >= 0.05f;
+        }
+        floor_obstacle += near_post;
+      }
+    }
+    return floor_obstacle;
+  };
+  int post = 0, post0 = 0;
+  const int floor = beside(r, &post), floor0 = beside(r0, &post0);
+  std::printf(
+      "floor pixels beside the posts labelled obstacle: %d with the rule, %d without; post "
+      "pixels labelled obstacle %d, %d\n",
+      floor, floor0, post, post0);
+  EXPECT_GT(floor0, 200);
+  EXPECT_LT(floor, floor0 * 9 / 10);
+  EXPECT_GE(post, post0 * 9 / 10);
+}
+
 TEST_F(DetectorOnSyntheticScene, FloorOnlyIsFloorNotObstacle) {
   const ObstacleDetector detector(calib_, options_);
   Scene scene;

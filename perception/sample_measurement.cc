@@ -27,6 +27,30 @@ PixelLabel Classify(const Sample& s, const ClassificationOptions& co, double cam
   return PixelLabel::kUnknown;
 }
 
+namespace {
+
+// How much worse the floor hypothesis fits the neighbourhood of level pixel (x, y) than its zero
+// disparity does (ClassificationOptions::check_floor_hypothesis): over its own 3x3
+// neighbourhood, or, where its window has contour_min_texture, the least over the 3x3
+// neighbourhoods around it (ClassificationOptions::contour_min_texture).
+float FloorMisfit(const ZeroDisparityField& field, int y, int x, double contour_min_texture) {
+  const auto misfit = [&](int yy, int xx) {
+    return field.floor_residual_fine.at<float>(yy, xx) - field.residual_fine.at<float>(yy, xx);
+  };
+  float least = misfit(y, x);
+  if (!(contour_min_texture > 0.0 && field.texture.at<float>(y, x) >= contour_min_texture)) {
+    return least;
+  }
+  for (int yy = std::max(y - 1, 0); yy <= std::min(y + 1, field.s_px.rows - 1); ++yy) {
+    for (int xx = std::max(x - 1, 0); xx <= std::min(x + 1, field.s_px.cols - 1); ++xx) {
+      least = std::min(least, misfit(yy, xx));
+    }
+  }
+  return least;
+}
+
+}  // namespace
+
 std::vector<Sample> MeasureSamples(const CameraModel& camera, const ZeroDisparityField& field,
                                    const SampleGrid& grid, const Pose2& base2_from_base1,
                                    const ClassificationOptions& co) {
@@ -85,8 +109,7 @@ std::vector<Sample> MeasureSamples(const CameraModel& camera, const ZeroDisparit
       sample.s_px = s;
       sample.significant = std::abs(s) >= co.min_disparity_sigmas * sigma_px;
       if (co.check_floor_hypothesis && sample.significant && !field.floor_residual_fine.empty() &&
-          field.floor_residual_fine.at<float>(y, x) <
-              field.residual_fine.at<float>(y, x) + co.min_floor_misfit) {
+          FloorMisfit(field, y, x, co.contour_min_texture) < co.min_floor_misfit) {
         sample.significant = false;
         sample.floor_explains = true;
       }

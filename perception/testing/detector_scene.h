@@ -70,6 +70,7 @@ struct Scene {
   Texture box_texture{2};
   std::vector<Box> boxes;
   double floor_contrast = 1.0;
+  double box_offset = 0.0;  // grey levels added to every box face (< 0: dark posts)
 };
 
 struct Rendered {
@@ -125,7 +126,10 @@ inline Rendered Render(const Scene& scene, const CameraModel& camera,
             best = t0;
             const double u = axis == 0 ? p.y() : p.x();
             const double v = axis == 2 ? p.y() : p.z();
-            value = 128 + scene.box_texture.At(u, v) * 0.8 + (axis == 2 ? 20 : axis == 0 ? -10 : 0);
+            value = 128 + scene.box_offset + scene.box_texture.At(u, v) * 0.8 +
+                    (axis == 2   ? 20
+                     : axis == 0 ? -10
+                                 : 0);
             height = p.z();
           }
           sum += value;
