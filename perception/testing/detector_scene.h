@@ -126,10 +126,8 @@ inline Rendered Render(const Scene& scene, const CameraModel& camera,
             best = t0;
             const double u = axis == 0 ? p.y() : p.x();
             const double v = axis == 2 ? p.y() : p.z();
-            value = 128 + scene.box_offset + scene.box_texture.At(u, v) * 0.8 +
-                    (axis == 2   ? 20
-                     : axis == 0 ? -10
-                                 : 0);
+            const double face = axis == 2 ? 20.0 : axis == 0 ? -10.0 : 0.0;  // shading
+            value = 128 + scene.box_offset + scene.box_texture.At(u, v) * 0.8 + face;
             height = p.z();
           }
           sum += value;
