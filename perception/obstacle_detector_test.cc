@@ -71,11 +71,12 @@ TEST_F(DetectorOnSyntheticScene, TheFloorBesideAContourDoesNotTakeItsParallax) {
   const auto [b, r, r0] = DetectBoth(scene, p1, p2, off);
   ASSERT_EQ(r.status, PairStatus::kOk) << r.message;
   // Floor pixels within 12 px of a post in their row, and how many each result calls obstacle.
+  const int cols = b.height_m.cols;
   const auto beside = [&](const FrameResult& result, int* post_obstacle) {
     int floor_obstacle = 0;
     *post_obstacle = 0;
     for (int y = 0; y < b.height_m.rows; ++y) {
-      for (int x = 0; x < b.height_m.cols; ++x) {
+      for (int x = 0; x < cols; ++x) {
         const float h = b.height_m.at<float>(y, x);
         const bool obstacle =
             static_cast<PixelLabel>(result.labels.at<std::uint8_t>(y, x)) == PixelLabel::kObstacle;
@@ -85,7 +86,6 @@ TEST_F(DetectorOnSyntheticScene, TheFloorBesideAContourDoesNotTakeItsParallax) {
         }
         if (h != 0.0f || !obstacle) continue;
         bool near_post = false;
-        const int cols = b.height_m.cols;
         for (int dx = -12; dx <= 12 && !near_post; ++dx) {
           near_post = b.height_m.at<float>(y, std::clamp(x + dx, 0, cols - 1)) >= 0.05f;
         }
