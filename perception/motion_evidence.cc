@@ -84,6 +84,10 @@ void MotionEvidenceOptions::Describe(OptionVisitor& v) {
   v.Flag("grow_regions", &grow_regions,
          "a moving region takes the pixels around it whose flow leaves the static world but "
          "fails the forward-backward check");
+  v.Real("pixel_min_texture", &pixel_min_texture, R::AtLeast(0).Note("0 = off"),
+         "a moving pixel with this much texture that the floor's motion explains as well as the "
+         "flow is floor (a region's own pixels: no worse; grown and carried ones: "
+         "floor_like_ratio, floor_like_margin), grey levels^2 per px^2");
 }
 
 bool MotionEvidenceOptions::IsValid(std::string* error) const {
@@ -276,6 +280,32 @@ cv::Mat MotionEvidence::Compute(const cv::Mat& previous, const cv::Mat& current,
   const float max_error2 =
       static_cast<float>(options_.max_flow_error_px * options_.max_flow_error_px) /
       static_cast<float>(s * s);
+  cv::Mat texture, residual, flow_residual;  // over the box
+  if (box.area() > 0) {
+    // Texture: the mean squared gradient over 5 x 5 pixels of the shrunk image (grey levels^2
+    // per input pixel^2). Flow over a textureless patch is whatever the smoothing made of it: a
+    // region needs textured pixels for at least min_textured_fraction of its area, and only
+    // textured pixels are tested one by one (pixel_min_texture).
+    cv::Mat gx, gy;
+    cv::Sobel(cur_small(box), gx, CV_32F, 1, 0, 3, 1.0 / (8.0 * s));
+    cv::Sobel(cur_small(box), gy, CV_32F, 0, 1, 3, 1.0 / (8.0 * s));
+    cv::blur(gx.mul(gx) + gy.mul(gy), texture, cv::Size(5, 5));
+    // How well the floor's motion of the step explains the image, against the flow: the
+    // residuals of the previous image moved by each (absolute differences, blurred over 5 x 5
+    // pixels). A floor whose texture repeats (print, tiles) gives flow that jumps a period off
+    // the static world, both ways alike, and the floor's motion explains it as well as the flow;
+    // a moving thing's textured pixels it explains worse.
+    residual = FloorMotionResidual(scale * camera_.pixel_from_floor() *
+                                       base2_from_base1.Inverse().Matrix() *
+                                       camera_.floor_from_pixel() * scale.inverse(),
+                                   prev_small, cur_small, box);
+    // ...as well as the flow does (the previous image moved by the flow).
+    cv::Mat flowed;
+    cv::remap(prev_small, flowed, source(box), cv::noArray(), cv::INTER_LINEAR, cv::BORDER_CONSTANT,
+              cv::Scalar(0));
+    cv::absdiff(cur_small(box), flowed, flow_residual);
+    cv::blur(flow_residual, flow_residual, cv::Size(5, 5));
+  }
   if (std::any_of(large.begin(), large.end(), [](std::uint8_t l) { return l != 0; })) {
     // From here on only the box: the pixels of pass 1's large regions lie at least `pad` inside
     // it (or at the image's edge), and nothing outside them can be part of a region.
@@ -300,28 +330,6 @@ cv::Mat MotionEvidence::Compute(const cv::Mat& previous, const cv::Mat& current,
       cv::dilate(previous_regions_(box), previous_dilated,
                  cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(9, 9)));
     }
-    // Texture: the mean squared gradient over 5 x 5 pixels of the shrunk image (grey levels^2
-    // per input pixel^2). Flow over a textureless patch is whatever the smoothing made of it: a
-    // region needs textured pixels for at least min_textured_fraction of its area.
-    cv::Mat gx, gy, texture;
-    cv::Sobel(cur_small(box), gx, CV_32F, 1, 0, 3, 1.0 / (8.0 * s));
-    cv::Sobel(cur_small(box), gy, CV_32F, 0, 1, 3, 1.0 / (8.0 * s));
-    cv::blur(gx.mul(gx) + gy.mul(gy), texture, cv::Size(5, 5));
-    // How well the floor's motion of the step explains the image, against the flow: the
-    // residuals of the previous image moved by each (absolute differences, blurred over 5 x 5
-    // pixels). A floor whose texture repeats (print, tiles) gives flow that jumps a period off
-    // the static world, both ways alike, and the floor's motion explains it as well as the flow;
-    // a moving thing's textured pixels it explains worse.
-    const cv::Mat residual = FloorMotionResidual(scale * camera_.pixel_from_floor() *
-                                                     base2_from_base1.Inverse().Matrix() *
-                                                     camera_.floor_from_pixel() * scale.inverse(),
-                                                 prev_small, cur_small, box);
-    // ...as well as the flow does (the previous image moved by the flow).
-    cv::Mat flowed, flow_residual;
-    cv::remap(prev_small, flowed, source(box), cv::noArray(), cv::INTER_LINEAR, cv::BORDER_CONSTANT,
-              cv::Scalar(0));
-    cv::absdiff(cur_small(box), flowed, flow_residual);
-    cv::blur(flow_residual, flow_residual, cv::Size(5, 5));
     const float min_texture = static_cast<float>(options_.min_texture);
     std::vector<int> textured(n, 0);
     std::vector<double> floor_sum(n, 0.0), flow_sum(n, 0.0);
@@ -385,6 +393,30 @@ cv::Mat MotionEvidence::Compute(const cv::Mat& previous, const cv::Mat& current,
   }
   previous_regions_ = regions;
   CarryAlongTheFlow(source, backward, forward, box, max_error2, disc, min_area, &moving);
+  if (options_.pixel_min_texture > 0 && box.area() > 0) {
+    // Per pixel (MotionEvidenceOptions::pixel_min_texture): a textured pixel that the floor's
+    // motion explains as well as the flow is the floor around a moving thing, onto which the
+    // smooth flow spread its motion. A region's own pixels passed the forward-backward check:
+    // the floor's motion must explain them at least as well as the flow; grown and carried ones,
+    // whose flow failed the check or was not measured, as the regions are judged.
+    const float min_texture_px = static_cast<float>(options_.pixel_min_texture);
+    const float ratio = static_cast<float>(options_.floor_like_ratio);
+    const float margin_grey = static_cast<float>(options_.floor_like_margin);
+    for (int y = 0; y < box.height; ++y) {
+      const float* t = texture.ptr<float>(y);
+      const std::uint8_t* e = residual.ptr<std::uint8_t>(y);
+      const std::uint8_t* ef = flow_residual.ptr<std::uint8_t>(y);
+      auto* m = moving.ptr<std::uint8_t>(box.y + y) + box.x;
+      for (int x = 0; x < box.width; ++x) {
+        if (m[x] == 0 || t[x] < min_texture_px) continue;
+        const float floor_residual = e[x], flow_error = ef[x];
+        const bool floor_explains = m[x] == 255
+                                        ? floor_residual <= flow_error
+                                        : floor_residual <= ratio * flow_error + margin_grey;
+        if (floor_explains) m[x] = 0;
+      }
+    }
+  }
   if (s == 1) return moving;
   cv::Mat full;
   cv::resize(moving, full, current.size(), 0, 0, cv::INTER_NEAREST);

@@ -49,6 +49,14 @@ struct MotionEvidenceOptions {
   // A moving region takes the connected pixels around it whose flow leaves the static world but
   // fails the forward-backward check (the plain inside of a moving thing).
   bool grow_regions = true;
+  // The same test per pixel, after the regions are found: a pixel of the mask whose texture is at
+  // least pixel_min_texture and that the floor's motion explains as well as the flow is static
+  // floor, not moving. A region's own pixels (their flow passed the forward-backward check) need
+  // the floor's residual at most the flow's; grown and carried ones floor_like_ratio times it
+  // plus floor_like_margin. The flow is smooth and spreads a moving thing's motion onto the floor
+  // around it; the floor's own texture shows that it follows the floor. Plain pixels say nothing
+  // (both motions explain them). 0 = off.
+  double pixel_min_texture = 4.0;
   // A moving region's pixels stay moving for up to carry_frames frames without evidence of their
   // own, following the flow (where each pixel was in the previous frame): a thing whose motion
   // runs along its epipolar lines for a while (crossing off to the side of the direction of

@@ -1,7 +1,7 @@
 // MotionEvidence on rendered frames with the true motion of each step: a static scene gives no
 // moving region, a person crossing is found once two consecutive pairs show it (and the regions
-// grown into its plain inside), one pair of evidence is not enough, and a thing found moving stays
-// moving along the flow when its evidence fails for a while.
+// grown into its plain inside), one pair of evidence is not enough, the floor around it is not
+// moving, and a thing found moving stays moving along the flow when its evidence fails for a while.
 #include <gtest/gtest.h>
 
 #include <cstdio>
@@ -110,6 +110,23 @@ TEST(MotionEvidence, FindsAPersonCrossingAfterTwoPairs) {
       << c.moving_grown << " of " << c.moving << " moving pixels with the grown ones";
   EXPECT_LE(static_cast<double>(c.static_grown), 0.08 * static_cast<double>(c.static_pixels))
       << c.static_grown << " of " << c.static_pixels << " static pixels with the grown ones";
+}
+
+// The flow is smooth: a moving thing's motion spreads onto the floor around it, and the regions
+// (and what is grown and carried from them) take that floor. Pixel by pixel, the floor's texture
+// shows that the floor's motion explains it as well as the flow (pixel_min_texture).
+TEST(MotionEvidence, TheFloorAroundAPersonIsNotMoving) {
+  const Counts c = RunScene("person_crossing", 34, 42);
+  MotionEvidenceOptions off;
+  off.pixel_min_texture = 0.0;
+  const Counts without = RunScene("person_crossing", 34, 42, nullptr, off);
+  ASSERT_GT(without.static_grown, 1000);
+  EXPECT_LE(static_cast<double>(c.static_grown), 0.7 * static_cast<double>(without.static_grown))
+      << c.static_grown << " static pixels called moving, " << without.static_grown
+      << " without the per-pixel test";
+  EXPECT_GE(static_cast<double>(c.moving_grown), 0.95 * static_cast<double>(without.moving_grown))
+      << c.moving_grown << " of " << c.moving << " moving pixels, " << without.moving_grown
+      << " without the per-pixel test";
 }
 
 // A newspaper's print repeats: the flow jumps a line of text off the static world, both ways
