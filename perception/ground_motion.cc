@@ -102,6 +102,9 @@ void GroundMotionOptions::Describe(OptionVisitor& v) {
          "...when that surface lies at least this far below the floor, m");
   v.Real("lowest_surface_max_floor_share", &lowest_surface_max_floor_share, R::OpenClosed(0, 1),
          "...unless this share of those tracks lies on the floor the motion assumes");
+  v.Flag("carry_step_scale", &carry_step_scale,
+         "...and the frame steps after it are shortened as the lowest surface last said, until "
+         "the far pair finds a floor plane");
   v.Integer("min_inliers", &min_inliers, R::AtLeast(2), "inliers needed to trust the fit");
   v.Real("min_inlier_ratio", &min_inlier_ratio, R::OpenClosed(0, 1), "inlier share needed");
   v.Integer("seed", &seed, R::Any(), "RANSAC random seed");

@@ -77,6 +77,12 @@ struct GroundMotionOptions {
   double lowest_surface_max_m_per_px = 0.03;
   double lowest_surface_min_offset_m = 0.01;
   double lowest_surface_max_floor_share = 0.5;
+  // The shortening carries over: the frame steps fitted after it are shortened by the factor the
+  // lowest surface last gave (the product of its corrections, at most halving a step) until the
+  // far pair's own fit finds a floor plane again. Without it the steps between corrections run
+  // long and every correction pulls the pose back: a sawtooth path, and the frames between
+  // corrections placed too far.
+  bool carry_step_scale = true;
   // The fit is trusted with at least this many inliers and this inlier share.
   int min_inliers = 12;
   double min_inlier_ratio = 0.25;

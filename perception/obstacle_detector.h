@@ -194,6 +194,9 @@ class SequenceDetector {
   std::optional<Pose2> last_step_;
   double last_step_dt_s_ = 0.0;  // time the last step took (0: unknown)
   int rejected_steps_ = 0;       // steps rejected in a row as undrivable
+  // What the frame steps are shortened by (GroundMotionOptions::carry_step_scale): the product of
+  // the far pair's lowest-surface corrections since it last found a floor plane, in [0.5, 1].
+  double step_scale_ = 1.0;
   Pose2 odom_from_base_;
   std::int64_t next_track_id_ = 0;
   int frames_since_detection_ = 0;

@@ -316,6 +316,11 @@ SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, Timesta
       rejected_steps_ = 0;
     }
   }
+  // Shortened as the far pair's lowest surface last said (GroundMotionOptions::carry_step_scale).
+  if (out.step.status == GroundMotion::Status::kOk && step_scale_ != 1.0 && gm.carry_step_scale) {
+    out.step.base2_from_base1.x *= step_scale_;
+    out.step.base2_from_base1.y *= step_scale_;
+  }
   for (std::size_t i = 0; i < tracked.size(); ++i) {
     tracked[i].floor_inlier = out.step.status == GroundMotion::Status::kOk && inlier[i];
   }
@@ -435,6 +440,10 @@ SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, Timesta
           if (far_fit->motion.status != GroundMotion::Status::kOk) {
             too_long = LowestSurfaceScale(far_fit->p_ref, far_fit->p_cur, camera, far_fit->prior,
                                           options.ground_motion);
+            // The steps after this are shortened too (GroundMotionOptions::carry_step_scale).
+            if (too_long) step_scale_ = std::clamp(step_scale_ / *too_long, 0.5, 1.0);
+          } else {
+            step_scale_ = 1.0;  // a floor plane: the steps are fitted to it again
           }
         }
       }

@@ -333,6 +333,42 @@ TEST_F(DetectorOnSyntheticScene, OnAPlainFloorTheBoxesBasesHoldTheOdometry) {
   EXPECT_LT(std::abs(held - truth), 0.03 * truth);
 }
 
+// The same plain floor: the steps after a correction are shortened by what the lowest surface last
+// said (GroundMotionOptions::carry_step_scale), so the path does not run long and jump back at
+// every correction (a sawtooth: the frames between corrections placed too far).
+TEST_F(DetectorOnSyntheticScene, OnAPlainFloorTheStepsKeepTheLowestSurfacesScale) {
+  Scene scene;
+  scene.floor_contrast = 0.0;
+  scene.boxes.push_back({{1.6, -0.55, 0.0}, {1.9, -0.2, 0.06}});
+  scene.boxes.push_back({{1.9, 0.15, 0.0}, {2.2, 0.5, 0.12}});
+  scene.boxes.push_back({{2.4, -0.2, 0.0}, {2.6, 0.1, 0.25}});
+  const auto path = [&](bool carry, double* error) {
+    DetectorOptions options = options_;
+    options.ground_motion.carry_step_scale = carry;
+    SequenceDetector sequence(calib_, options);
+    Pose2 odom, last;
+    double length = 0.0;
+    *error = 0.0;
+    for (int i = 0; i <= 24; ++i) {
+      const Rendered r = Render(scene, sequence.detector().camera(), {0.03 * i, 0.0, 0.0});
+      odom = sequence.Process(r.image, i * kFrameNs).odom_from_base;
+      if (i > 0) length += std::hypot(odom.x - last.x, odom.y - last.y);
+      *error = std::max(*error, std::abs(odom.x - 0.03 * i));
+      last = odom;
+    }
+    return length;
+  };
+  double error_off = 0.0, error_on = 0.0;
+  const double truth = 0.03 * 24, off = path(false, &error_off), on = path(true, &error_on);
+  std::printf(
+      "path %.3f m: %.3f m (largest error %.3f m) without the steps' scale, %.3f m (%.3f m) "
+      "with it\n",
+      truth, off, error_off, on, error_on);
+  EXPECT_GT(off, 1.03 * truth);
+  EXPECT_LT(std::abs(on - truth), 0.5 * std::abs(off - truth));
+  EXPECT_LE(error_on, error_off + 1e-3);
+}
+
 TEST_F(DetectorOnSyntheticScene, BadImagesAreRejectedWithReasons) {
   const ObstacleDetector detector(calib_, options_);
   std::string error;
