@@ -1,5 +1,5 @@
 // The detector over a sequence: standstill, stopping, heights fused over frames, carried results,
-// turning on the spot, detection every N-th frame.
+// turning on the spot, detection every N-th frame, a plain floor's odometry.
 #include <gtest/gtest.h>
 
 #include "perception/testing/detector_scene.h"
@@ -305,16 +305,22 @@ TEST_F(DetectorOnSyntheticScene, FramesBeyondCarryReachAreDetected) {
   EXPECT_EQ(carried, std::vector<bool>(10, false));
 }
 
-// A plain floor: every tracked corner lies on what stands on it, and over a 3 cm step those a few
-// cm up move within a pixel of the floor, so the chained steps are fitted to them and run long.
-// Over the far pair the boxes' bases show the floor as the lowest surface, and the odometry is
-// shortened to it (GroundMotionOptions::lowest_surface_min_tracks).
-TEST_F(DetectorOnSyntheticScene, OnAPlainFloorTheBoxesBasesHoldTheOdometry) {
+// A plain floor with three boxes 6-25 cm high standing on it 1.6-2.6 m ahead.
+Scene PlainFloorWithBoxes() {
   Scene scene;
   scene.floor_contrast = 0.0;
   scene.boxes.push_back({{1.6, -0.55, 0.0}, {1.9, -0.2, 0.06}});
   scene.boxes.push_back({{1.9, 0.15, 0.0}, {2.2, 0.5, 0.12}});
   scene.boxes.push_back({{2.4, -0.2, 0.0}, {2.6, 0.1, 0.25}});
+  return scene;
+}
+
+// A plain floor: every tracked corner lies on what stands on it, and over a 3 cm step those a few
+// cm up move within a pixel of the floor, so the chained steps are fitted to them and run long.
+// Over the far pair the boxes' bases show the floor as the lowest surface, and the odometry is
+// shortened to it (GroundMotionOptions::lowest_surface_min_tracks).
+TEST_F(DetectorOnSyntheticScene, OnAPlainFloorTheBoxesBasesHoldTheOdometry) {
+  const Scene scene = PlainFloorWithBoxes();
   const auto travelled = [&](int min_tracks) {
     DetectorOptions options = options_;
     options.ground_motion.lowest_surface_min_tracks = min_tracks;
@@ -337,11 +343,7 @@ TEST_F(DetectorOnSyntheticScene, OnAPlainFloorTheBoxesBasesHoldTheOdometry) {
 // said (GroundMotionOptions::carry_step_scale), so the path does not run long and jump back at
 // every correction (a sawtooth: the frames between corrections placed too far).
 TEST_F(DetectorOnSyntheticScene, OnAPlainFloorTheStepsKeepTheLowestSurfacesScale) {
-  Scene scene;
-  scene.floor_contrast = 0.0;
-  scene.boxes.push_back({{1.6, -0.55, 0.0}, {1.9, -0.2, 0.06}});
-  scene.boxes.push_back({{1.9, 0.15, 0.0}, {2.2, 0.5, 0.12}});
-  scene.boxes.push_back({{2.4, -0.2, 0.0}, {2.6, 0.1, 0.25}});
+  const Scene scene = PlainFloorWithBoxes();
   const auto path = [&](bool carry, double* error) {
     DetectorOptions options = options_;
     options.ground_motion.carry_step_scale = carry;
