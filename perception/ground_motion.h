@@ -81,7 +81,8 @@ struct GroundMotionOptions {
   // lowest surface last gave (the product of its corrections, at most halving a step) until the
   // far pair's own fit finds a floor plane again. Without it the steps between corrections run
   // long and every correction pulls the pose back: a sawtooth path, and the frames between
-  // corrections placed too far.
+  // corrections placed too far. The corrections only ever shorten (a surface above the floor
+  // changes nothing), so the factor falls until a floor plane resets it.
   bool carry_step_scale = true;
   // The fit is trusted with at least this many inliers and this inlier share.
   int min_inliers = 12;

@@ -281,7 +281,9 @@ cv::Mat MotionEvidence::Compute(const cv::Mat& previous, const cv::Mat& current,
       static_cast<float>(options_.max_flow_error_px * options_.max_flow_error_px) /
       static_cast<float>(s * s);
   cv::Mat texture, residual, flow_residual;  // over the box
-  if (box.area() > 0) {
+  const bool any_large =
+      std::any_of(large.begin(), large.end(), [](std::uint8_t l) { return l != 0; });
+  if (box.area() > 0 && (any_large || options_.pixel_min_texture > 0)) {
     // Texture: the mean squared gradient over 5 x 5 pixels of the shrunk image (grey levels^2
     // per input pixel^2). Flow over a textureless patch is whatever the smoothing made of it: a
     // region needs textured pixels for at least min_textured_fraction of its area, and only
@@ -306,7 +308,7 @@ cv::Mat MotionEvidence::Compute(const cv::Mat& previous, const cv::Mat& current,
     cv::absdiff(cur_small(box), flowed, flow_residual);
     cv::blur(flow_residual, flow_residual, cv::Size(5, 5));
   }
-  if (std::any_of(large.begin(), large.end(), [](std::uint8_t l) { return l != 0; })) {
+  if (any_large) {
     // From here on only the box: the pixels of pass 1's large regions lie at least `pad` inside
     // it (or at the image's edge), and nothing outside them can be part of a region.
     cv::Mat raw(box.size(), CV_8U, cv::Scalar(0));
@@ -413,6 +415,8 @@ cv::Mat MotionEvidence::Compute(const cv::Mat& previous, const cv::Mat& current,
         const bool floor_explains = m[x] == 255
                                         ? floor_residual <= flow_error
                                         : floor_residual <= ratio * flow_error + margin_grey;
+        // Its carry count stays (the carrying above has set it): cleared there too, fewer of a
+        // walker's pixels were carried through the frames its evidence fails.
         if (floor_explains) m[x] = 0;
       }
     }

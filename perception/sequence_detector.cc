@@ -303,6 +303,12 @@ SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, Timesta
                          out.step.base2_from_base1, options.direct_alignment)
             .base2_from_base1;
   }
+  // Shortened as the far pair's lowest surface last said (GroundMotionOptions::carry_step_scale),
+  // before it is compared with the last step (which was shortened too).
+  if (out.step.status == GroundMotion::Status::kOk && step_scale_ != 1.0 && gm.carry_step_scale) {
+    out.step.base2_from_base1.x *= step_scale_;
+    out.step.base2_from_base1.y *= step_scale_;
+  }
   // A step that cannot have been driven is an outlier fit: the last step is kept instead.
   const double dt_s = static_cast<double>(stamp_ns - previous.stamp_ns) * 1e-9;
   out.step_dt_s = dt_s;
@@ -315,11 +321,6 @@ SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, Timesta
     } else {
       rejected_steps_ = 0;
     }
-  }
-  // Shortened as the far pair's lowest surface last said (GroundMotionOptions::carry_step_scale).
-  if (out.step.status == GroundMotion::Status::kOk && step_scale_ != 1.0 && gm.carry_step_scale) {
-    out.step.base2_from_base1.x *= step_scale_;
-    out.step.base2_from_base1.y *= step_scale_;
   }
   for (std::size_t i = 0; i < tracked.size(); ++i) {
     tracked[i].floor_inlier = out.step.status == GroundMotion::Status::kOk && inlier[i];

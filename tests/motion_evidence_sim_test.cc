@@ -121,6 +121,7 @@ TEST(MotionEvidence, TheFloorAroundAPersonIsNotMoving) {
   off.pixel_min_texture = 0.0;
   const Counts without = RunScene("person_crossing", 34, 42, nullptr, off);
   ASSERT_GT(without.static_grown, 1000);
+  ASSERT_GT(without.moving_grown, 10000);
   EXPECT_LE(static_cast<double>(c.static_grown), 0.7 * static_cast<double>(without.static_grown))
       << c.static_grown << " static pixels called moving, " << without.static_grown
       << " without the per-pixel test";
