@@ -415,8 +415,8 @@ cv::Mat MotionEvidence::Compute(const cv::Mat& previous, const cv::Mat& current,
         const bool floor_explains = m[x] == 255
                                         ? floor_residual <= flow_error
                                         : floor_residual <= ratio * flow_error + margin_grey;
-        // Its carry count stays (the carrying above has set it): cleared there too, fewer of a
-        // walker's pixels were carried through the frames its evidence fails.
+        // Its carry count, set above, is left: clearing it too carried fewer of a walker's
+        // pixels through the frames without evidence (docs/experiments.md).
         if (floor_explains) m[x] = 0;
       }
     }

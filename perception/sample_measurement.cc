@@ -37,10 +37,10 @@ float FloorMisfit(const ZeroDisparityField& field, int y, int x, double contour_
   const auto misfit = [&](int yy, int xx) {
     return field.floor_residual_fine.at<float>(yy, xx) - field.residual_fine.at<float>(yy, xx);
   };
-  float least = misfit(y, x);
   if (!(contour_min_texture > 0.0 && field.texture.at<float>(y, x) >= contour_min_texture)) {
-    return least;
+    return misfit(y, x);
   }
+  float least = std::numeric_limits<float>::infinity();
   for (int yy = std::max(y - 1, 0); yy <= std::min(y + 1, field.s_px.rows - 1); ++yy) {
     for (int xx = std::max(x - 1, 0); xx <= std::min(x + 1, field.s_px.cols - 1); ++xx) {
       least = std::min(least, misfit(yy, xx));

@@ -230,7 +230,7 @@ BENCHMARK(BM_SequenceFrame)->Arg(0)->Arg(1)->Arg(2)->Arg(3)->Unit(benchmark::kMi
 
 // The dense motion evidence alone (MotionEvidence: two DIS flows and the static world's test) on
 // consecutive frames of person_crossing, with the fitted steps taken as known (the sequence
-// detector's per-frame figures include it). Time per frame.
+// detector's per-frame figures include it). Time per frame; the argument is the flow's downscale.
 void BM_MotionEvidence(benchmark::State& state) {
   const Sequence& seq = SceneSequence("person_crossing");
   const ObstacleDetector detector(seq.calibration, DetectorOptions());
@@ -239,6 +239,7 @@ void BM_MotionEvidence(benchmark::State& state) {
   for (const cv::Mat& f : seq.frames) prepared.push_back(detector.Prepare(f, &error));
   MotionEvidenceOptions options;
   options.enabled = true;
+  options.downscale = static_cast<int>(state.range(0));  // 2: the default; 1: full resolution
   MotionEvidence evidence(detector.camera(), options);
   Pose2 step;  // the scene drives straight ahead at 0.3 m/s: 2 cm per frame
   step.x = -0.3 / seq.fps;
@@ -248,7 +249,7 @@ void BM_MotionEvidence(benchmark::State& state) {
     next = next + 1 == prepared.size() ? 1 : next + 1;
   }
 }
-BENCHMARK(BM_MotionEvidence)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_MotionEvidence)->Arg(2)->Arg(1)->Unit(benchmark::kMillisecond);
 
 // The moving regions as objects on the same frames (the motion evidence computed beforehand):
 // the floor-matching image of the pair, the regions placed on the floor with their velocities from
