@@ -60,6 +60,9 @@ void ClassificationOptions::Describe(OptionVisitor& v) {
   v.Flag("free_between_floor_samples", &free_between_floor_samples,
          "top view: the floor between two consecutive free floor samples of an image column is "
          "free too");
+  v.Real("free_min_texture", &free_min_texture, R::AtLeast(0),
+         "top view: measured floor samples vote free only with this much texture (weaker ones only "
+         "label the image), grey^2/px^2");
   v.Choice(
       "aggregation", [this] { return static_cast<int>(aggregation); },
       [this](int i) { aggregation = static_cast<Aggregation>(i); }, {"none", "median", "segments"},

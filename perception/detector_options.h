@@ -45,8 +45,10 @@ struct ClassificationOptions {
   // the rule would cost it its measurements; the rule holds only where texture is strong.
   double contour_min_texture = 30.0;
   // Minimum texture along the epipolar line (mean squared gradient, grey levels^2 per pixel^2, >
-  // 0); below it a pixel is unknown, never floor.
-  double min_texture = 1.0;
+  // 0); below it a pixel is unknown, never floor. Above it the sample's error (from its texture,
+  // its residual and the step the search still asked for) decides its label: weakly textured
+  // faces (dark posts, plain walls) are measured, to the precision they allow.
+  double min_texture = 0.25;
   // Maximum mean |difference| after alignment, grey levels; above it unknown (or moving).
   double max_residual = 12.0;
   // Dense test: an offset perpendicular to the epipolar line of at least this many input pixels
@@ -134,6 +136,12 @@ struct ClassificationOptions {
   // the sample spacing). Without it, only the cells a floor sample's point falls in are free, and
   // beyond 2 m the samples' rows lie several cells apart on the floor.
   bool free_between_floor_samples = true;
+  // Top view: a measured floor sample votes free only with at least this much texture along the
+  // epipolar line (grey levels^2 per pixel^2); below it, down to min_texture, it labels the image
+  // but gives no vote, as an unmeasured sample would. Free space must rest on consistent evidence,
+  // and weakly textured floor is where a thing the camera sees only in part hides best (the floor
+  // under a table top that is above the view from nearer than a few metres).
+  double free_min_texture = 1.0;
   // How samples are combined before labelling: each on its own, with the median height of their
   // neighbours, or with the median height of their superpixel (SLICO; the paper's segments).
   enum class Aggregation { kNone, kMedian, kSegments };

@@ -40,6 +40,7 @@ struct Sample {
   // been covered (a moving thing); an earlier estimate is not carried onto it.
   bool mismatched = false;
   bool textured = false;  // enough texture along the epipolar line to be measured (min_texture)
+  float texture = 0.f;    // that texture, grey levels^2 per pixel^2
   // Labelled from an earlier frame's estimate without a measurement in this pair: it labels the
   // image, but gives the top view no vote (the map counted it when it was measured).
   bool carried = false;

@@ -294,8 +294,33 @@ TEST_F(DetectorOnSyntheticScene, BoxIsObstacleWithItsHeight) {
   EXPECT_GT(free_cells, 10 * occupied_cells);
 }
 
+// Beside a tall box the coarse levels carry its parallax onto the floor, and where the floor's
+// texture is weak the finest level's damped steps leave it there: counted in the error
+// (ZeroDisparityOptions::unconverged_sigma), fewer of those samples are called obstacle. The
+// floor check off in both runs: this rule alone.
+TEST_F(DetectorOnSyntheticScene, TheStepStillAskedForCountsInTheError) {
+  Scene scene;
+  scene.boxes.push_back({{1.5, -0.2, 0.0}, {1.7, 0.2, 0.6}});
+  const Pose2 p1{0, 0, 0}, p2{0.15, 0.0, 0.0};
+  options_.classification.check_floor_hypothesis = false;
+  DetectorOptions without = options_;
+  without.zero_disparity.unconverged_sigma = false;
+  const auto [b, r, r0] = DetectBoth(scene, p1, p2, without);
+  ASSERT_EQ(r.status, PairStatus::kOk) << r.message;
+  const BoundaryCounts c = CountAtBoundary(b, r, 16), c0 = CountAtBoundary(b, r0, 16);
+  std::printf(
+      "floor within 16 px of the box labelled obstacle: %d with, %d without; box labelled "
+      "obstacle %d / %d of %d\n",
+      c.floor_near_obstacle, c0.floor_near_obstacle, c.box_obstacle, c0.box_obstacle, c.box);
+  ASSERT_GT(c.floor_near, 3000);
+  EXPECT_LT(c.floor_near_obstacle, c0.floor_near_obstacle * 9 / 10);
+  EXPECT_GT(c.box_obstacle, c0.box_obstacle * 95 / 100);
+}
+
 // The matching window carries a tall box's parallax onto the floor beside and behind it; the
-// floor hypothesis tested on each sample's own neighbourhood takes most of that back.
+// floor hypothesis tested on each sample's own neighbourhood takes a third of that back (the
+// samples the search left short of convergence are uncertain without it: ZeroDisparityOptions::
+// unconverged_sigma).
 TEST_F(DetectorOnSyntheticScene, FloorBesideATallBoxIsNotObstacle) {
   Scene scene;
   scene.boxes.push_back({{1.5, -0.2, 0.0}, {1.7, 0.2, 0.6}});
@@ -313,7 +338,7 @@ TEST_F(DetectorOnSyntheticScene, FloorBesideATallBoxIsNotObstacle) {
       "without; box labelled obstacle %d / %d of %d\n",
       c.floor_near_obstacle, c.floor_near, c0.floor_near_obstacle, c.box_obstacle, c0.box_obstacle,
       c.box);
-  EXPECT_LT(c.floor_near_obstacle, 0.6 * c0.floor_near_obstacle);
+  EXPECT_LT(c.floor_near_obstacle, 0.7 * c0.floor_near_obstacle);
   EXPECT_LT(c.floor_near_obstacle, c.floor_near / 4);
   EXPECT_GT(c.box_obstacle, 0.7 * c.box);
 }

@@ -75,7 +75,8 @@ std::vector<Sample> MeasureSamples(const CameraModel& camera, const ZeroDisparit
       const Eigen::Vector2d q(x * field.scale, y * field.scale);
       sample.below_horizon_px = horizon_sign * horizon.dot(q.homogeneous()) / horizon_norm;
       if (auto f = camera.PixelToFloor(q)) sample.floor_in_base2 = *f;
-      if (field.texture.at<float>(y, x) < co.min_texture) continue;  // unknown, never floor
+      sample.texture = field.texture.at<float>(y, x);
+      if (sample.texture < co.min_texture) continue;  // unknown, never floor
       sample.textured = true;
       const float perpendicular = std::abs(field.perpendicular_px.at<float>(y, x));
       if (co.moving_min_perpendicular_px > 0 && perpendicular >= co.moving_min_perpendicular_px &&

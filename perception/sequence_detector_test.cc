@@ -66,7 +66,7 @@ TEST_F(DetectorOnSyntheticScene, StoppingAfterDrivingKeepsSeeing) {
 // and the floor does not turn into obstacles.
 TEST_F(DetectorOnSyntheticScene, HeightsFusedOverFramesKnowMoreOfTheBox) {
   Scene scene;
-  scene.box_texture = Texture(3, 0.35);  // a faint face: single pairs leave much of it unknown
+  scene.box_texture = Texture(3, 0.15);  // a faint face: single pairs leave much of it unknown
   scene.boxes.push_back({{1.6, -0.3, 0.0}, {1.9, 0.3, 0.25}});
   std::vector<Pose2> poses;
   for (int k = 0; k <= 12; ++k) poses.push_back({0.03 * k, 0.0, 0.0});

@@ -115,6 +115,8 @@ void ZeroDisparityOptions::Describe(OptionVisitor& v) {
   v.Integer("window_px", &window_px, R::AtLeast(3).Odd(), "aggregation window side, px");
   v.Real("max_step_px", &max_step_px, R::Above(0), "largest step per iteration, px");
   v.Real("damping", &damping, R::AtLeast(0), "step damping, grey^2/px^2");
+  v.Flag("unconverged_sigma", &unconverged_sigma,
+         "the step the data still ask for after the last iteration counts in the error");
 }
 
 bool ZeroDisparityOptions::IsValid(std::string* error) const {
@@ -209,8 +211,9 @@ ZeroDisparityField ComputeZeroDisparity(const cv::Mat& image1, const cv::Mat& im
     map_y.create(rows, cols, CV_32F);
     // Warps image 1 onto image 2 by the current s, then per pixel the terms whose window sums the
     // search needs, of the gradient along u (gu), the one across it (gp) and the zero-mean
-    // difference d: (gu d, gu^2) while iterating; at the end (gu^2, |d|, gp d, gp^2), for the
-    // texture, the residual and the offset across the epipolar line (a static point has none).
+    // difference d: (gu d, gu^2, gu^2 s) while iterating; at the end (gu^2, |d|, gp d, gp^2, gu d,
+    // gu^2 s), for the texture, the residual, the offset across the epipolar line (a static point
+    // has none) and the step still asked for (ZeroDisparityOptions::unconverged_sigma).
     // For the floor hypothesis only |d|, unsummed.
     // In float, twice as many lanes as double; at most 1e-4 px off at these image sizes.
     enum class Terms { kIterate, kFinal, kAbsDifference };
@@ -254,7 +257,8 @@ ZeroDisparityField ComputeZeroDisparity(const cv::Mat& image1, const cv::Mat& im
       // The 3x3 Sobel of the 8-bit warp in one pass; the integer sums are exact, / 8 as below.
       cv::spatialGradient(warped, grad_x, grad_y, 3);
       const bool final = what == Terms::kFinal;
-      terms.create(rows, cols, final ? CV_32FC4 : CV_32FC3);
+      const int n = final ? 6 : 3;
+      terms.create(rows, cols, CV_32FC(n));
       for (int y = 0; y < rows; ++y) {
         const std::uint8_t* __restrict pw = warped.ptr<std::uint8_t>(y);
         const std::int16_t* __restrict pdx = grad_x.ptr<std::int16_t>(y);
@@ -274,10 +278,12 @@ ZeroDisparityField ComputeZeroDisparity(const cv::Mat& image1, const cv::Mat& im
             pt[3 * x + 2] = gu * gu * ps[x];
           } else {
             const float gp = pdy[x] * 0.125f * pux[x] - pdx[x] * 0.125f * puy[x];
-            pt[4 * x] = gu * gu;
-            pt[4 * x + 1] = std::abs(d);
-            pt[4 * x + 2] = gp * d;
-            pt[4 * x + 3] = gp * gp;
+            pt[6 * x] = gu * gu;
+            pt[6 * x + 1] = std::abs(d);
+            pt[6 * x + 2] = gp * d;
+            pt[6 * x + 3] = gp * gp;
+            pt[6 * x + 4] = gu * d;
+            pt[6 * x + 5] = gu * gu * ps[x];
           }
         }
       }
@@ -325,11 +331,15 @@ ZeroDisparityField ComputeZeroDisparity(const cv::Mat& image1, const cv::Mat& im
       field.perpendicular_sigma_px.create(rows, cols, CV_32F);
       const float scale = static_cast<float>(field.scale);
       const float area = static_cast<float>(options.window_px * options.window_px);
+      const bool unconverged = options.unconverged_sigma;
       for (int y = 0; y < rows; ++y) {
         const float* __restrict tex = field.texture.ptr<float>(y);
         const float* __restrict res = field.residual.ptr<float>(y);
         const float* __restrict pgd = channels[2].ptr<float>(y);
         const float* __restrict pgg = channels[3].ptr<float>(y);
+        const float* __restrict pud = channels[4].ptr<float>(y);
+        const float* __restrict puus = channels[5].ptr<float>(y);
+        const float* __restrict ps = s.ptr<float>(y);
         float* __restrict perpendicular = field.perpendicular_px.ptr<float>(y);
         float* __restrict sigma = field.sigma_px.ptr<float>(y);
         float* __restrict perpendicular_sigma = field.perpendicular_sigma_px.ptr<float>(y);
@@ -338,6 +348,13 @@ ZeroDisparityField ComputeZeroDisparity(const cv::Mat& image1, const cv::Mat& im
           // Mean |d| of a Gaussian is 0.8 sigma; one grey level of quantisation at least.
           const float noise = std::max(1.25f * res[x], 1.0f);
           sigma[x] = noise / std::sqrt(area * std::max(tex[x], 1e-6f)) * scale;
+          if (unconverged) {
+            // The undamped step the data still ask for (as in the iterations), beyond the noise's
+            // own share of it (about one sigma).
+            const float gg = std::max(tex[x], 1e-6f);
+            const float step = (pud[x] + ps[x] * gg - puus[x]) / gg * scale;
+            sigma[x] = std::max(sigma[x], std::abs(step));
+          }
           perpendicular_sigma[x] = noise / std::sqrt(area * std::max(pgg[x], 1e-6f)) * scale;
         }
       }

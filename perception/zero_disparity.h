@@ -29,6 +29,10 @@ struct ZeroDisparityOptions {
   // Damping of each step (grey levels^2 per pixel^2, >= 0): where texture is weak the estimate
   // stays where it is instead of drifting.
   double damping = 4.0;
+  // Where the damping held the estimate back (weak texture: each step moves it only by
+  // texture / (texture + damping) of what the data ask), the step the data still ask for after the
+  // last iteration is part of its error: sigma_px grows by it (beyond what noise alone explains).
+  bool unconverged_sigma = true;
 
   // Every field's key, range and meaning (the checks, the config file and --dump use it).
   void Describe(OptionVisitor& v);
