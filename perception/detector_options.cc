@@ -17,6 +17,8 @@ void ClassificationOptions::Describe(OptionVisitor& v) {
   v.Real("floor_max_height_sigmas", &floor_max_height_sigmas, R::AtLeast(0),
          "floor needs |height| + this many sigmas below obstacle_min_height_m");
   v.Real("min_texture", &min_texture, R::Above(0), "texture along the epipolar line, grey^2/px^2");
+  v.Real("floor_min_texture", &floor_min_texture, R::AtLeast(0),
+         "texture a floor sample needs (weaker ones may be obstacles, not floor), grey^2/px^2");
   v.Real("max_residual", &max_residual, R::Above(0), "largest alignment residual, grey levels");
   v.Flag("check_floor_hypothesis", &check_floor_hypothesis,
          "an obstacle needs the floor hypothesis to misfit it (min_floor_misfit)");
@@ -60,9 +62,6 @@ void ClassificationOptions::Describe(OptionVisitor& v) {
   v.Flag("free_between_floor_samples", &free_between_floor_samples,
          "top view: the floor between two consecutive free floor samples of an image column is "
          "free too");
-  v.Real("free_min_texture", &free_min_texture, R::AtLeast(0),
-         "top view: measured floor samples vote free only with this much texture (weaker ones only "
-         "label the image), grey^2/px^2");
   v.Choice(
       "aggregation", [this] { return static_cast<int>(aggregation); },
       [this](int i) { aggregation = static_cast<Aggregation>(i); }, {"none", "median", "segments"},

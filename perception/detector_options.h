@@ -49,6 +49,13 @@ struct ClassificationOptions {
   // its residual and the step the search still asked for) decides its label: weakly textured
   // faces (dark posts, plain walls) are measured, to the precision they allow.
   double min_texture = 0.25;
+  // A sample is floor only with at least this much texture (grey levels^2 per pixel^2): below it,
+  // down to min_texture, significant parallax shows that something stands there, but no parallax
+  // is no evidence of floor. The coarse levels' windows give a weakly textured face the zero
+  // parallax of its base on the floor, and the finest level's damped steps hardly move it (the
+  // lowest centimetres of a plain box read floor); and weakly textured floor is where a thing the
+  // camera sees only in part hides (the floor under a table top above the view reads free).
+  double floor_min_texture = 1.0;
   // Maximum mean |difference| after alignment, grey levels; above it unknown (or moving).
   double max_residual = 12.0;
   // Dense test: an offset perpendicular to the epipolar line of at least this many input pixels
@@ -136,12 +143,7 @@ struct ClassificationOptions {
   // the sample spacing). Without it, only the cells a floor sample's point falls in are free, and
   // beyond 2 m the samples' rows lie several cells apart on the floor.
   bool free_between_floor_samples = true;
-  // Top view: a measured floor sample votes free only with at least this much texture along the
-  // epipolar line (grey levels^2 per pixel^2); below it, down to min_texture, it labels the image
-  // but gives no vote, as an unmeasured sample would. Free space must rest on consistent evidence,
-  // and weakly textured floor is where a thing the camera sees only in part hides best (the floor
-  // under a table top that is above the view from nearer than a few metres).
-  double free_min_texture = 1.0;
+
   // How samples are combined before labelling: each on its own, with the median height of their
   // neighbours, or with the median height of their superpixel (SLICO; the paper's segments).
   enum class Aggregation { kNone, kMedian, kSegments };

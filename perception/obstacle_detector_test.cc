@@ -294,6 +294,39 @@ TEST_F(DetectorOnSyntheticScene, BoxIsObstacleWithItsHeight) {
   EXPECT_GT(free_cells, 10 * occupied_cells);
 }
 
+// A faint box on a faint floor: weakly textured samples are measured
+// (ClassificationOptions::min_texture), so more of the box is obstacle than with the old threshold
+// of 1 grey level^2/px^2; but only samples with that much texture may be floor
+// (floor_min_texture): the faint floor is no more floor than before, and fewer of the box's
+// pixels are floor than if every measured sample could be.
+TEST_F(DetectorOnSyntheticScene, WeakTextureShowsObstaclesButNoFloor) {
+  Scene scene;
+  scene.floor_contrast = 0.2;
+  scene.box_texture = Texture(2, 0.15);
+  scene.boxes.push_back({{1.2, -0.3, 0.0}, {1.5, 0.3, 0.3}});
+  const Pose2 p1{0, 0, 0}, p2{0.12, 0.0, 0.0};
+  DetectorOptions before = options_;
+  before.classification.min_texture = before.classification.floor_min_texture;
+  const auto [b, r, r_before] = DetectBoth(scene, p1, p2, before);
+  DetectorOptions any_floor = options_;
+  any_floor.classification.floor_min_texture = any_floor.classification.min_texture;
+  const auto [b2, r2, r_any] = DetectBoth(scene, p1, p2, any_floor);
+  ASSERT_EQ(r.status, PairStatus::kOk) << r.message;
+  const BoxFloorCounts c = CountBoxAndFloor(b, r.labels);
+  const BoxFloorCounts c_before = CountBoxAndFloor(b, r_before.labels);
+  const BoxFloorCounts c_any = CountBoxAndFloor(b, r_any.labels);
+  std::printf(
+      "faint box pixels labelled obstacle %d (%d with min_texture %.2f), floor %d (%d when any "
+      "measured sample may be floor) of %d; pixels labelled floor %d, %d, %d\n",
+      c.box_obstacle, c_before.box_obstacle, before.classification.min_texture, c.box_floor,
+      c_any.box_floor, c.box, r.num_floor, r_before.num_floor, r_any.num_floor);
+  ASSERT_GT(c.box, 5000);
+  EXPECT_GT(c.box_obstacle, c_before.box_obstacle * 11 / 10);
+  EXPECT_LE(r.num_floor, r_before.num_floor * 11 / 10);
+  EXPECT_GT(r_any.num_floor, r.num_floor * 5 / 4);
+  EXPECT_LE(c.box_floor, c_any.box_floor);
+}
+
 // Beside a tall box the coarse levels carry its parallax onto the floor, and where the floor's
 // texture is weak the finest level's damped steps leave it there: counted in the error
 // (ZeroDisparityOptions::unconverged_sigma), fewer of those samples are called obstacle. The

@@ -19,7 +19,9 @@ PixelLabel Classify(const Sample& s, const ClassificationOptions& co, double cam
   if (s.below_horizon_px > 2.0 && s.height_m > 1.2 * camera_height_m) return PixelLabel::kMoving;
   if (s.height_m >= co.obstacle_min_height_m && s.significant) return PixelLabel::kObstacle;
   if (s.height_m <= -co.drop_off_min_depth_m && s.significant) return PixelLabel::kDropOff;
-  if (std::abs(s.height_m) + co.floor_max_height_sigmas * s.height_sigma_m <
+  // No parallax on weak texture is no evidence of floor (ClassificationOptions::floor_min_texture).
+  if (s.texture >= co.floor_min_texture &&
+      std::abs(s.height_m) + co.floor_max_height_sigmas * s.height_sigma_m <
           co.obstacle_min_height_m &&
       s.height_sigma_m < co.obstacle_min_height_m && s.below_horizon_px > 0) {
     return PixelLabel::kFloor;

@@ -220,9 +220,6 @@ void BuildTopView(const std::vector<Sample>& samples, const std::vector<PixelLab
       const Sample& sample = samples[k];
       const PixelLabel label = labels[k];
       if (sample.carried) continue;
-      if (label == PixelLabel::kFloor && sample.measured && sample.texture < co.free_min_texture) {
-        continue;  // labels the image only (ClassificationOptions::free_min_texture)
-      }
       if (label == PixelLabel::kFloor) {
         // Floor at its floor point...
         // ...except where the floor ends in the image column: that sample's window straddles the

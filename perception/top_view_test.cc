@@ -63,34 +63,6 @@ TEST_F(DetectorOnSyntheticScene, TheFloorBetweenTheSamplesOfAColumnIsFree) {
   EXPECT_GT(free, 256 * 45 / 100);
 }
 
-// A faint floor: its weakly textured samples are measured and labelled floor
-// (ClassificationOptions::min_texture), but only samples with more texture vote its cells free
-// (free_min_texture): free space rests on well-measured floor.
-TEST_F(DetectorOnSyntheticScene, AFaintFloorIsLabelledButItsWeakSamplesFreeNothing) {
-  Scene scene;
-  scene.floor_contrast = 0.2;
-  const Pose2 p1{0, 0, 0}, p2{0.12, 0.0, 0.0};
-  DetectorOptions strict = options_;
-  strict.classification.min_texture = strict.classification.free_min_texture;
-  const auto [b, r, r_strict] = DetectBoth(scene, p1, p2, strict);
-  DetectorOptions loose = options_;
-  loose.classification.free_min_texture = loose.classification.min_texture;
-  const auto [b2, r2, r_loose] = DetectBoth(scene, p1, p2, loose);
-  ASSERT_EQ(r.status, PairStatus::kOk) << r.message;
-  const int free = FreeCellsIn(r, p2, 0.5, 2.5, -0.5, 0.5);
-  const int free_strict = FreeCellsIn(r_strict, p2, 0.5, 2.5, -0.5, 0.5);
-  const int free_loose = FreeCellsIn(r_loose, p2, 0.5, 2.5, -0.5, 0.5);
-  std::printf(
-      "faint floor pixels labelled floor: %d (%d measured from %.2f up); free cells %d, %d "
-      "(%d when every labelled floor sample votes)\n",
-      r.num_floor, r_strict.num_floor, strict.classification.min_texture, free, free_strict,
-      free_loose);
-  EXPECT_GT(r.num_floor, r_strict.num_floor * 3 / 2);
-  // The weak samples' own cells are not freed (the floor between well-measured samples of a
-  // column still is: free_between_floor_samples).
-  EXPECT_GT(free_loose, free + 20);
-}
-
 // A patch of floor without texture leaves its samples unknown; the floor seen in front of it is
 // still free (it is a hole in the texture, not the base of something standing there), the patch
 // itself is not.
