@@ -49,12 +49,14 @@ struct ClassificationOptions {
   // its residual and the step the search still asked for) decides its label: weakly textured
   // faces (dark posts, plain walls) are measured, to the precision they allow.
   double min_texture = 0.25;
-  // A sample is floor only with at least this much texture (grey levels^2 per pixel^2): below it,
-  // down to min_texture, significant parallax shows that something stands there, but no parallax
-  // is no evidence of floor. The coarse levels' windows give a weakly textured face the zero
-  // parallax of its base on the floor, and the finest level's damped steps hardly move it (the
-  // lowest centimetres of a plain box read floor); and weakly textured floor is where a thing the
-  // camera sees only in part hides (the floor under a table top above the view reads free).
+  // A sample is floor by its own measurement only with at least this much texture (grey levels^2
+  // per pixel^2): below it, down to min_texture, significant parallax shows that something stands
+  // there, but no parallax is no evidence of floor. (The column fill still labels a short gap
+  // between two floor samples floor whatever its texture: nothing 3 cm high hides in it.) The
+  // coarse levels' windows give a weakly textured face the zero parallax of its base on the floor,
+  // and the finest level's damped steps hardly move it (the lowest centimetres of a plain box read
+  // floor); and weakly textured floor is where a thing the camera sees only in part hides (the
+  // floor under a table top above the view reads free).
   double floor_min_texture = 1.0;
   // Maximum mean |difference| after alignment, grey levels; above it unknown (or moving).
   double max_residual = 12.0;
@@ -143,7 +145,6 @@ struct ClassificationOptions {
   // the sample spacing). Without it, only the cells a floor sample's point falls in are free, and
   // beyond 2 m the samples' rows lie several cells apart on the floor.
   bool free_between_floor_samples = true;
-
   // How samples are combined before labelling: each on its own, with the median height of their
   // neighbours, or with the median height of their superpixel (SLICO; the paper's segments).
   enum class Aggregation { kNone, kMedian, kSegments };

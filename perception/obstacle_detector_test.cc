@@ -295,10 +295,10 @@ TEST_F(DetectorOnSyntheticScene, BoxIsObstacleWithItsHeight) {
 }
 
 // A faint box on a faint floor: weakly textured samples are measured
-// (ClassificationOptions::min_texture), so more of the box is obstacle than with the old threshold
-// of 1 grey level^2/px^2; but only samples with that much texture may be floor
-// (floor_min_texture): the faint floor is no more floor than before, and fewer of the box's
-// pixels are floor than if every measured sample could be.
+// (ClassificationOptions::min_texture), so more of the box is obstacle than when samples need
+// floor_min_texture to be measured at all; but only samples with that much texture may be floor:
+// the faint floor is no more floor than then, and fewer of the box's pixels are floor than if
+// every measured sample could be.
 TEST_F(DetectorOnSyntheticScene, WeakTextureShowsObstaclesButNoFloor) {
   Scene scene;
   scene.floor_contrast = 0.2;

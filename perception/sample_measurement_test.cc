@@ -46,6 +46,7 @@ detector_stages::Sample Fuse(const CameraModel& camera, const Eigen::Vector3d& m
   s.measured = true;
   s.significant = std::abs(measured.z()) > 0.03;
   s.textured = true;
+  s.texture = 10.f;
   s.height_m = measured.z();
   s.height_sigma_m = 0.01;
   s.height_m_per_px = 0.001;

@@ -116,7 +116,8 @@ void ZeroDisparityOptions::Describe(OptionVisitor& v) {
   v.Real("max_step_px", &max_step_px, R::Above(0), "largest step per iteration, px");
   v.Real("damping", &damping, R::AtLeast(0), "step damping, grey^2/px^2");
   v.Flag("unconverged_sigma", &unconverged_sigma,
-         "the step the data still ask for after the last iteration counts in the error");
+         "the step the data still ask for after the last iteration counts in the error (epipolar "
+         "method only)");
 }
 
 bool ZeroDisparityOptions::IsValid(std::string* error) const {

@@ -31,7 +31,8 @@ struct ZeroDisparityOptions {
   double damping = 4.0;
   // Where the damping held the estimate back (weak texture: each step moves it only by
   // texture / (texture + damping) of what the data ask), the step the data still ask for after the
-  // last iteration is part of its error: sigma_px grows by it (beyond what noise alone explains).
+  // last iteration is part of its error: sigma_px is at least that step's magnitude (noise alone
+  // leaves a step of about one sigma). Epipolar method only.
   bool unconverged_sigma = true;
 
   // Every field's key, range and meaning (the checks, the config file and --dump use it).
@@ -57,7 +58,8 @@ struct ZeroDisparityField {
   cv::Mat floor_residual_fine;
   cv::Mat perpendicular_px;  // CV_32F, best offset perpendicular to the epipolar line (input px)
   // CV_32F, standard deviation of s_px (input px) from the alignment residual and the texture:
-  // sigma_noise / sqrt(window area * texture), as for a Lucas-Kanade estimate.
+  // sigma_noise / sqrt(window area * texture), as for a Lucas-Kanade estimate; at least the step
+  // still asked for (ZeroDisparityOptions::unconverged_sigma).
   cv::Mat sigma_px;
   cv::Mat perpendicular_sigma_px;  // CV_32F, the same for perpendicular_px
   cv::Mat ux, uy;                  // CV_32F, the unit epipolar direction of growing height
