@@ -39,8 +39,9 @@ struct Sample {
   // After alignment the sample did not match (max_residual): what was there may have changed or
   // been covered (a moving thing); an earlier estimate is not carried onto it.
   bool mismatched = false;
-  bool textured = false;  // enough texture along the epipolar line to be measured (min_texture)
-  float texture = 0.f;    // that texture, grey levels^2 per pixel^2
+  // Texture along the epipolar line, grey levels^2 per pixel^2 (measured from min_texture, floor
+  // from floor_min_texture).
+  float texture = 0.f;
   // Labelled from an earlier frame's estimate without a measurement in this pair: it labels the
   // image, but gives the top view no vote (the map counted it when it was measured).
   bool carried = false;

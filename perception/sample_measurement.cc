@@ -79,7 +79,6 @@ std::vector<Sample> MeasureSamples(const CameraModel& camera, const ZeroDisparit
       if (auto f = camera.PixelToFloor(q)) sample.floor_in_base2 = *f;
       sample.texture = field.texture.at<float>(y, x);
       if (sample.texture < co.min_texture) continue;  // unknown, never floor
-      sample.textured = true;
       const float perpendicular = std::abs(field.perpendicular_px.at<float>(y, x));
       if (co.moving_min_perpendicular_px > 0 && perpendicular >= co.moving_min_perpendicular_px &&
           perpendicular >= co.min_disparity_sigmas * field.perpendicular_sigma_px.at<float>(y, x)) {
@@ -264,8 +263,9 @@ void FuseHeights(const CameraModel& camera, const ClassificationOptions& co,
       // none, the estimate may be of a point that something without texture now hides (the
       // floor behind a plain box): only what stands above or below the floor is carried onto
       // it, never floor, and only when more than one pair agreed on it.
-      if (carried_only && (s.textured || seed.measurements < hf.min_measurements_to_carry ||
-                           std::abs(seed.mean_m) < co.obstacle_min_height_m)) {
+      if (carried_only &&
+          (s.texture >= co.min_texture || seed.measurements < hf.min_measurements_to_carry ||
+           std::abs(seed.mean_m) < co.obstacle_min_height_m)) {
         continue;
       }
       s.measured = true;

@@ -45,7 +45,6 @@ detector_stages::Sample Fuse(const CameraModel& camera, const Eigen::Vector3d& m
   detector_stages::Sample& s = samples[static_cast<std::size_t>(i) * kCols + j];
   s.measured = true;
   s.significant = std::abs(measured.z()) > 0.03;
-  s.textured = true;
   s.texture = 10.f;
   s.height_m = measured.z();
   s.height_sigma_m = 0.01;

@@ -17,6 +17,16 @@ Eigen::Matrix3d HomographyAtLevel(const Eigen::Matrix3d& h, int level) {
   return s * h * s_inv;
 }
 
+// The Gauss-Newton step of a pixel's zero disparity s from its window's sums of gu d, gu^2 and
+// gu^2 s. Each pixel q of the window was warped by its own s(q), not by this pixel's s(p):
+// linearised, D_q(s_p) = D_q(s_q) + Gu_q (s_p - s_q), so the window's step for p is
+// -(sum(Gu D) + s_p sum(Gu^2) - sum(Gu^2 s)) / (sum(Gu^2) + damping). Without the s terms the
+// differences between neighbours are never corrected, and every iteration adds the noise of the
+// window sums to them.
+inline float WindowStep(float sum_gd, float sum_gg, float sum_ggs, float s, float damping) {
+  return -(sum_gd + s * sum_gg - sum_ggs) / (sum_gg + damping);
+}
+
 // A field at `level` over image 1, before the search fills it.
 ZeroDisparityField EmptyField(int level, const cv::Mat& image1,
                               const ZeroDisparityOptions& options) {
@@ -298,13 +308,7 @@ ZeroDisparityField ComputeZeroDisparity(const cv::Mat& image1, const cv::Mat& im
         float* __restrict ps = s.ptr<float>(y);
         const float* __restrict pnd = sums.ptr<float>(y);
         for (int x = 0; x < cols; ++x) {
-          // Each pixel q of the window was warped by its own s(q), not by this pixel's s(p):
-          // linearised, D_q(s_p) = D_q(s_q) + Gu_q (s_p - s_q), so the window's step for p is
-          // delta = -(sum(Gu D) + s_p sum(Gu^2) - sum(Gu^2 s)) / sum(Gu^2). Without the s terms
-          // the differences between neighbours are never corrected, and every iteration adds the
-          // noise of the window sums to them.
-          const float gg = pnd[3 * x + 1];
-          const float step = -(pnd[3 * x] + ps[x] * gg - pnd[3 * x + 2]) / (gg + damping);
+          const float step = WindowStep(pnd[3 * x], pnd[3 * x + 1], pnd[3 * x + 2], ps[x], damping);
           ps[x] += std::clamp(step, -max_step, max_step);
         }
       }
@@ -350,11 +354,10 @@ ZeroDisparityField ComputeZeroDisparity(const cv::Mat& image1, const cv::Mat& im
           const float noise = std::max(1.25f * res[x], 1.0f);
           sigma[x] = noise / std::sqrt(area * std::max(tex[x], 1e-6f)) * scale;
           if (unconverged) {
-            // The undamped step the data still ask for (as in the iterations), beyond the noise's
-            // own share of it (about one sigma).
-            const float gg = std::max(tex[x], 1e-6f);
-            const float step = (pud[x] + ps[x] * gg - puus[x]) / gg * scale;
-            sigma[x] = std::max(sigma[x], std::abs(step));
+            // The undamped step the data still ask for, beyond the noise's own share of it (about
+            // one sigma).
+            const float step = WindowStep(pud[x], std::max(tex[x], 1e-6f), puus[x], ps[x], 0.f);
+            sigma[x] = std::max(sigma[x], std::abs(step) * scale);
           }
           perpendicular_sigma[x] = noise / std::sqrt(area * std::max(pgg[x], 1e-6f)) * scale;
         }
