@@ -67,7 +67,13 @@ void FuseLocalMap(const OccupancyGrid& local_map,
       const int k = TiledGrid::IndexInTile(cell);
       const bool occupied = v >= 50;
       if (keep_occupied && !occupied && tile->log_odds[k] > 0.0f) continue;
-      tile->log_odds[k] = UpdateLogOdds(tile->log_odds[k], occupied, options);
+      if (v > 0 && !occupied) {  // free evidence of its own strength: logit(v / 100)
+        const float p = static_cast<float>(v) / 100.0f;
+        tile->log_odds[k] =
+            std::clamp(tile->log_odds[k] + std::log(p / (1.0f - p)), options.min, options.max);
+      } else {
+        tile->log_odds[k] = UpdateLogOdds(tile->log_odds[k], occupied, options);
+      }
       tile->last_seen_ns[k] = seen;
       if (tile->log_odds[k] <= 0.0f) tile->height_m[k] = std::numeric_limits<float>::quiet_NaN();
     }

@@ -138,6 +138,9 @@ void Mapper::Options::Describe(OptionVisitor& v) {
             R::Closed(0, 1000).Note("0 = off"),
             "a keyframe's unknown cell is free when this many frames since the last keyframe saw "
             "it free and none an obstacle next to it");
+  v.Real("near_free_range_m", &near_free_range_m, R::AtLeast(0).Note("0 = off"),
+         "floor that keyframe_free_min_frames frames saw free within this range of the camera "
+         "(and none an obstacle next to it) is free after one keyframe, m");
   RenamedOptions log_odds_keys(&v,
                                {{"hit", "log_odds_hit"},
                                 {"miss", "log_odds_miss"},
@@ -265,14 +268,20 @@ namespace {
 
 // Cells of `local_map` (the new keyframe's, at odom_from_keyframe) that it leaves unknown become
 // free where at least min_frames of the recent frames saw them free and none of them, nor the
-// keyframe, saw an obstacle within one cell (Options::keyframe_free_min_frames).
+// keyframe, saw an obstacle within one cell (Options::keyframe_free_min_frames). Cells that at
+// least min_frames of them, the keyframe included, saw free within near_range_m of the camera's
+// ground point (camera_in_base, x and y) and none saw an obstacle next to become
+// kCellFreeSeenNear; fewer such views (at least two) give a proportional share of its log-odds
+// (Options::near_free_range_m; 0 = off).
 template <typename Recent>
 void AddFloorSeenSinceLastKeyframe(const std::vector<Recent>& recent,
                                    const Pose2& odom_from_keyframe, int min_frames,
+                                   double near_range_m, const Eigen::Vector2d& camera_in_base,
                                    OccupancyGrid* local_map) {
   const GridGeometry& g = local_map->geometry;
-  if (recent.empty() || local_map->cells.size() != g.NumCells()) return;
+  if (local_map->cells.size() != g.NumCells()) return;
   std::vector<std::uint16_t> free_votes(g.NumCells(), 0);
+  std::vector<std::uint16_t> near_votes(g.NumCells(), 0);
   std::vector<std::uint8_t> blocked(g.NumCells(), 0);
   const auto block_around = [&](int col, int row) {
     for (int r = std::max(0, row - 1); r <= std::min(g.height - 1, row + 1); ++r) {
@@ -280,9 +289,13 @@ void AddFloorSeenSinceLastKeyframe(const std::vector<Recent>& recent,
         blocked[g.Index(c, r)] = 1;
     }
   };
+  const double near2 = near_range_m * near_range_m;
   for (int row = 0; row < g.height; ++row) {
     for (int col = 0; col < g.width; ++col) {
-      if (local_map->At(col, row) == kCellOccupied) block_around(col, row);
+      const std::int8_t v = local_map->At(col, row);
+      if (v == kCellOccupied) block_around(col, row);
+      if (v == kCellFree && (g.CellCenter(col, row) - camera_in_base).squaredNorm() <= near2)
+        ++near_votes[g.Index(col, row)];
     }
   }
   const Pose2 keyframe_from_odom = odom_from_keyframe.Inverse();
@@ -294,21 +307,34 @@ void AddFloorSeenSinceLastKeyframe(const std::vector<Recent>& recent,
       for (int col = 0; col < rg.width; ++col) {
         const std::int8_t v = r.local_map.At(col, row);
         if (v == kCellUnknown) continue;
-        const auto cell = g.CellOf(keyframe_from_frame * rg.CellCenter(col, row));
+        const Eigen::Vector2d in_frame = rg.CellCenter(col, row);
+        const auto cell = g.CellOf(keyframe_from_frame * in_frame);
         if (!cell) continue;
         if (v == kCellOccupied) {
           block_around(cell->x(), cell->y());
           continue;
         }
         const std::size_t i = g.Index(cell->x(), cell->y());
-        if (!voted[i]) ++free_votes[i];
+        if (!voted[i]) {
+          ++free_votes[i];
+          if ((in_frame - camera_in_base).squaredNorm() <= near2) ++near_votes[i];
+        }
         voted[i] = 1;
       }
     }
   }
+  // n of min_frames near views: n / min_frames of kCellFreeSeenNear's log-odds, as a probability
+  // (evidence split between two keyframes' windows still adds up).
+  const double near_logit = std::log(kCellFreeSeenNear / (100.0 - kCellFreeSeenNear));
   for (std::size_t i = 0; i < g.NumCells(); ++i) {
-    if (local_map->cells[i] == kCellUnknown && !blocked[i] && free_votes[i] >= min_frames)
+    if (blocked[i] || local_map->cells[i] == kCellOccupied) continue;
+    if (local_map->cells[i] == kCellUnknown && free_votes[i] >= min_frames)
       local_map->cells[i] = kCellFree;
+    if (near_range_m <= 0 || near_votes[i] < 2) continue;  // never one view alone
+    const double l = near_logit * std::min(1.0, double(near_votes[i]) / min_frames);
+    const auto p = static_cast<std::int8_t>(std::lround(100.0 / (1.0 + std::exp(-l))));
+    // Stronger than an ordinary miss only: a free cell (0) stays one miss when p would be weaker.
+    if (p < 40) local_map->cells[i] = p;
   }
 }
 
@@ -373,7 +399,8 @@ void Mapper::AddKeyframe(const FrameObservation& frame, FrameUpdate* update) {
   kf.local_map = frame.local_map;
   if (options_.keyframe_free_min_frames > 0) {
     AddFloorSeenSinceLastKeyframe(since_keyframe_, frame.odom_from_base,
-                                  options_.keyframe_free_min_frames, &kf.local_map);
+                                  options_.keyframe_free_min_frames, options_.near_free_range_m,
+                                  camera_.CameraCentreInBase().head<2>(), &kf.local_map);
   }
   kf.obstacle_points_in_base = frame.obstacle_points_in_base;
   kf.features = frame.features;

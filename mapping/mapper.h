@@ -122,6 +122,17 @@ class Mapper {
     // observations, so without this most of the floor seen between keyframes is lost. Turning
     // pairs do not vote. 0 = off.
     int keyframe_free_min_frames = 4;
+    // Near floor seen free again and again is free at once: a cell that at least
+    // keyframe_free_min_frames of those frames (the keyframe's own view counted) saw free within
+    // this range of the camera's ground point, with no obstacle next to it, enters the keyframe's
+    // local map as kCellFreeSeenNear, which makes an unknown grid cell read free after this one
+    // keyframe; n such views (2 <= n < keyframe_free_min_frames) give n / min_frames of its
+    // log-odds, so that views split between two keyframes add up. Near the camera a floor sample's
+    // height is known to a few millimetres and the same floor is seen by a dozen frames; the few
+    // keyframes made while a cell is this near (it leaves the view at about 0.5 m) would otherwise
+    // leave most of it short of the misses a free cell needs. Farther floor keeps needing several
+    // keyframes. m, 0 = off.
+    double near_free_range_m = 1.0;
     LogOddsOptions log_odds;
     // Where a tracked thing that moves on its own went (FrameObservation::moving_objects that are
     // not coasting: its disc, at most 0.5 m in radius, swept between the positions of frames in

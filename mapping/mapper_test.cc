@@ -2,6 +2,9 @@
 // packed and rebuilt, no false closures, the footprint and the free floor, options.
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <memory>
+
 #include "mapping/testing/mapper_fixtures.h"
 
 namespace monoplane {
@@ -152,7 +155,8 @@ TEST(Mapper, TheFootprintClearsTheCellsTheRobotDroveOver) {
 }
 
 // The floor seen by the frames between two keyframes goes into the second one's local map where
-// enough of them saw it free and none saw an obstacle next to it.
+// enough of them saw it free and none saw an obstacle next to it; near the camera as free seen
+// near (one keyframe makes it read free in the grid), farther as one ordinary free observation.
 TEST(Mapper, AKeyframeKeepsTheFloorItsFramesSawFree) {
   GridGeometry g;
   g.resolution_m = 0.05;
@@ -177,24 +181,31 @@ TEST(Mapper, AKeyframeKeepsTheFloorItsFramesSawFree) {
     for (const auto& p : occupied) set(p, kCellOccupied);
     return f;
   };
-  const Eigen::Vector2d a(1.025, 0.025), b(1.225, 0.025), c(1.425, 0.125), c_next(1.475, 0.125);
+  // Seen from 0.83-0.98 m (a), 1.03 m (b), 1.23-1.38 m (c, d) by the frames at x = 0.05 k.
+  const Eigen::Vector2d a(1.025, 0.025), b(1.225, 0.025), c(1.425, 0.125), c_next(1.475, 0.125),
+      d(1.425, -0.175);
   std::vector<FrameObservation> frames;
   frames.push_back(frame_at(0, 0.0, {}, {}));  // the first keyframe
   for (int k = 1; k <= 4; ++k) {               // 0.05 m apart: not keyframes
-    std::vector<Eigen::Vector2d> free = {a, c};
+    std::vector<Eigen::Vector2d> free = {a, c, d};
     if (k == 1) free.push_back(b);  // b seen free once only
     frames.push_back(
         frame_at(k, 0.05 * k, free, k == 3 ? std::vector{c_next} : std::vector<Eigen::Vector2d>{}));
   }
   frames.push_back(frame_at(5, 0.35, {}, {}));  // the second keyframe, which saw none of them
-  const auto second_keyframe_cell = [&](int min_frames, const Eigen::Vector2d& p) {
+  const auto run = [&](int min_frames, double near_range_m) {
     Mapper::Options options;
     options.keyframe_min_shared_tracks = 0.0;
     options.keyframe_free_min_frames = min_frames;
-    Mapper mapper(options, testing::TestCamera());
-    for (const FrameObservation& f : frames) mapper.AddFrame(f);
-    EXPECT_EQ(mapper.keyframes().size(), 2u);
-    const OccupancyGrid local = mapper.keyframes().back().LocalMap();
+    options.near_free_range_m = near_range_m;
+    auto mapper = std::make_unique<Mapper>(options, testing::TestCamera());
+    for (const FrameObservation& f : frames) mapper->AddFrame(f);
+    EXPECT_EQ(mapper->keyframes().size(), 2u);
+    return mapper;
+  };
+  const auto second_keyframe_cell = [&](int min_frames, const Eigen::Vector2d& p,
+                                        double near_range_m = 0.0) {
+    const OccupancyGrid local = run(min_frames, near_range_m)->keyframes().back().LocalMap();
     const Eigen::Vector2i cell = *local.geometry.CellOf(p - Eigen::Vector2d(0.35, 0));
     return local.At(cell.x(), cell.y());
   };
@@ -203,6 +214,21 @@ TEST(Mapper, AKeyframeKeepsTheFloorItsFramesSawFree) {
   EXPECT_EQ(second_keyframe_cell(4, c), kCellUnknown);  // an obstacle next to it in one frame
   EXPECT_EQ(second_keyframe_cell(0, a), kCellUnknown);  // off: the keyframe's own view only
   EXPECT_EQ(second_keyframe_cell(1, b), kCellFree);
+  // Within 1 m of the camera: free seen near; beyond it, or with an obstacle next to it, as above.
+  EXPECT_EQ(second_keyframe_cell(4, a, 1.0), kCellFreeSeenNear);
+  EXPECT_EQ(second_keyframe_cell(4, d, 1.0), kCellFree);
+  EXPECT_EQ(second_keyframe_cell(4, c, 1.0), kCellUnknown);
+  EXPECT_EQ(second_keyframe_cell(4, b, 1.0), kCellUnknown);
+  EXPECT_EQ(second_keyframe_cell(4, d, 1.5), kCellFreeSeenNear);
+  // In the grid the near floor reads free after that one keyframe; the other floor needs more.
+  const float free_below = std::log(0.196f / (1.0f - 0.196f));
+  const auto grid_log_odds = [&](double near_range_m, const Eigen::Vector2d& p) {
+    const auto mapper = run(4, near_range_m);
+    return mapper->grid().LogOdds(mapper->grid().CellOf(p));
+  };
+  EXPECT_LT(grid_log_odds(1.0, a), free_below);
+  EXPECT_GT(grid_log_odds(0.0, a), free_below);
+  EXPECT_GT(grid_log_odds(1.0, d), free_below);
 }
 
 // Where a tracked moving object went, the grid keeps nothing static, also what keyframes fused
