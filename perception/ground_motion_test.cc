@@ -201,6 +201,7 @@ TEST(ZeroDisparity, FloorEstimatesAreTightAndDoNotDriftWithIterations) {
   const auto spread = [&](int iterations) {
     ZeroDisparityOptions options;
     options.iterations_per_level = iterations;
+    options.coarse_iterations_per_level = iterations;
     const ZeroDisparityField f = ComputeZeroDisparity(a.image, b.image, camera, motion, options);
     std::vector<float> magnitudes;
     for (int y = f.s_px.rows / 2; y < f.s_px.rows - 8; ++y) {  // the floor within about 1.5 m

@@ -351,9 +351,9 @@ TEST_F(DetectorOnSyntheticScene, TheStepStillAskedForCountsInTheError) {
 }
 
 // The matching window carries a tall box's parallax onto the floor beside and behind it; the
-// floor hypothesis tested on each sample's own neighbourhood takes a third of that back (the
+// floor hypothesis tested on each sample's own neighbourhood takes a quarter of that back (the
 // samples the search left short of convergence are uncertain without it: ZeroDisparityOptions::
-// unconverged_sigma).
+// unconverged_sigma; and the coarse levels' steps take some of it before the check sees it).
 TEST_F(DetectorOnSyntheticScene, FloorBesideATallBoxIsNotObstacle) {
   Scene scene;
   scene.boxes.push_back({{1.5, -0.2, 0.0}, {1.7, 0.2, 0.6}});
@@ -371,8 +371,8 @@ TEST_F(DetectorOnSyntheticScene, FloorBesideATallBoxIsNotObstacle) {
       "without; box labelled obstacle %d / %d of %d\n",
       c.floor_near_obstacle, c.floor_near, c0.floor_near_obstacle, c.box_obstacle, c0.box_obstacle,
       c.box);
-  EXPECT_LT(c.floor_near_obstacle, 0.7 * c0.floor_near_obstacle);
-  EXPECT_LT(c.floor_near_obstacle, c.floor_near / 4);
+  EXPECT_LT(c.floor_near_obstacle, 0.8 * c0.floor_near_obstacle);
+  EXPECT_LT(c.floor_near_obstacle, c.floor_near / 5);
   EXPECT_GT(c.box_obstacle, 0.7 * c.box);
 }
 

@@ -121,7 +121,9 @@ void ZeroDisparityOptions::Describe(OptionVisitor& v) {
   v.Integer("finest_level", &finest_level, R::Closed(0, 3), "finest pyramid level searched");
   v.Integer("num_levels", &num_levels, R::Closed(1, 6), "pyramid levels, coarse to fine");
   v.Integer("iterations_per_level", &iterations_per_level, R::Closed(1, 10),
-            "Gauss-Newton steps per level");
+            "Gauss-Newton steps at the finest level");
+  v.Integer("coarse_iterations_per_level", &coarse_iterations_per_level, R::Closed(1, 20),
+            "Gauss-Newton steps at each coarser level");
   v.Integer("window_px", &window_px, R::AtLeast(3).Odd(), "aggregation window side, px");
   v.Real("max_step_px", &max_step_px, R::Above(0), "largest step per iteration, px");
   v.Real("damping", &damping, R::AtLeast(0), "step damping, grey^2/px^2");
@@ -302,7 +304,9 @@ ZeroDisparityField ComputeZeroDisparity(const cv::Mat& image1, const cv::Mat& im
     };
     const float max_step = static_cast<float>(options.max_step_px);
     const float damping = static_cast<float>(options.damping);
-    for (int it = 0; it < options.iterations_per_level; ++it) {
+    const int iterations =
+        level == finest ? options.iterations_per_level : options.coarse_iterations_per_level;
+    for (int it = 0; it < iterations; ++it) {
       warp(Terms::kIterate);
       for (int y = 0; y < rows; ++y) {
         float* __restrict ps = s.ptr<float>(y);
