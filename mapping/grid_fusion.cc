@@ -67,7 +67,9 @@ void FuseLocalMap(const OccupancyGrid& local_map,
       const int k = TiledGrid::IndexInTile(cell);
       const bool occupied = v >= 50;
       if (keep_occupied && !occupied && tile->log_odds[k] > 0.0f) continue;
-      if (v > 0 && !occupied) {  // free evidence of its own strength: logit(v / 100)
+      // Free evidence of its own strength, logit(v / 100), into a cell that does not read
+      // occupied; an occupied one takes an ordinary miss (only the ordinary count clears it).
+      if (v > 0 && !occupied && tile->log_odds[k] <= 0.0f) {
         const float p = static_cast<float>(v) / 100.0f;
         tile->log_odds[k] =
             std::clamp(tile->log_odds[k] + std::log(p / (1.0f - p)), options.min, options.max);

@@ -37,7 +37,8 @@ inline float UpdateLogOdds(float log_odds, bool occupied, const LogOddsOptions& 
 
 // Fuses a local map (cells -1 / 0 / 100 in the base frame) seen at map_from_base into the global
 // grid: every grid cell whose centre falls on a known local cell gets one hit (>= 50) or miss (0;
-// a cell of 1..49 adds logit(v / 100) instead, kCellFreeSeenNear) and
+// a cell of 1..49 adds logit(v / 100) instead where the grid cell's log-odds are <= 0,
+// kCellFreeSeenNear) and
 // last_seen_ns = max(stamp_ns, 1) (so an observed cell is never mistaken for unknown). Obstacle
 // points (base frame, z = height) raise the cell's height_m to their maximum; a cell whose
 // log-odds drops to <= 0 forgets its height (NaN). Keys of every touched tile go into

@@ -48,6 +48,28 @@ OccupancyGrid SmallLocalMap() {
   return m;
 }
 
+// A local map's cell of probability p in 1..49 adds logit(p) to a cell that does not read
+// occupied (clamped as any update); a cell that reads occupied takes an ordinary miss.
+TEST(GridFusion, FreeEvidenceOfItsOwnStrength) {
+  GridGeometry g;
+  g.resolution_m = 0.05;
+  g.width = 1;
+  g.height = 1;
+  OccupancyGrid near(g, kCellFreeSeenNear), hit(g, kCellOccupied);
+  const LogOddsOptions o;
+  const auto fuse = [&](const OccupancyGrid& m, TiledGrid* grid) {
+    FuseLocalMap(m, {}, Pose2::Identity(), 1000, o, grid);
+    return grid->LogOdds({0, 0});
+  };
+  TiledGrid unknown(0.05);
+  EXPECT_NEAR(fuse(near, &unknown), std::log(0.15f / 0.85f), 1e-5);
+  EXPECT_LE(TiledGrid::Probability(unknown.LogOdds({0, 0})), TrinaryThresholds{}.free);
+  EXPECT_FLOAT_EQ(fuse(near, &unknown), o.min);  // clamped
+  TiledGrid occupied(0.05);
+  fuse(hit, &occupied);
+  EXPECT_FLOAT_EQ(fuse(near, &occupied), o.hit + o.miss);
+}
+
 TEST(GridFusion, FusesHitsMissesHeightsAndStamps) {
   TiledGrid grid(0.05);
   std::set<TiledGrid::TileKey> changed;

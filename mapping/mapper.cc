@@ -139,8 +139,9 @@ void Mapper::Options::Describe(OptionVisitor& v) {
             "a keyframe's unknown cell is free when this many frames since the last keyframe saw "
             "it free and none an obstacle next to it");
   v.Real("near_free_range_m", &near_free_range_m, R::AtLeast(0).Note("0 = off"),
-         "floor that keyframe_free_min_frames frames saw free within this range of the camera "
-         "(and none an obstacle next to it) is free after one keyframe, m");
+         "floor that keyframe_free_min_frames frames (the keyframe's own view counted) saw free "
+         "within this range of the camera, none an obstacle next to it, is free after one "
+         "keyframe (fewer views: a share), m");
   RenamedOptions log_odds_keys(&v,
                                {{"hit", "log_odds_hit"},
                                 {"miss", "log_odds_miss"},
@@ -277,7 +278,7 @@ template <typename Recent>
 void AddFloorSeenSinceLastKeyframe(const std::vector<Recent>& recent,
                                    const Pose2& odom_from_keyframe, int min_frames,
                                    double near_range_m, const Eigen::Vector2d& camera_in_base,
-                                   OccupancyGrid* local_map) {
+                                   float miss, OccupancyGrid* local_map) {
   const GridGeometry& g = local_map->geometry;
   if (local_map->cells.size() != g.NumCells()) return;
   std::vector<std::uint16_t> free_votes(g.NumCells(), 0);
@@ -333,8 +334,8 @@ void AddFloorSeenSinceLastKeyframe(const std::vector<Recent>& recent,
     if (near_range_m <= 0 || near_votes[i] < 2) continue;  // never one view alone
     const double l = near_logit * std::min(1.0, double(near_votes[i]) / min_frames);
     const auto p = static_cast<std::int8_t>(std::lround(100.0 / (1.0 + std::exp(-l))));
-    // Stronger than an ordinary miss only: a free cell (0) stays one miss when p would be weaker.
-    if (p < 40) local_map->cells[i] = p;
+    // Only where stronger than an ordinary miss: a free cell (0) stays one miss otherwise.
+    if (std::log(p / (100.0 - p)) < miss) local_map->cells[i] = p;
   }
 }
 
@@ -400,7 +401,8 @@ void Mapper::AddKeyframe(const FrameObservation& frame, FrameUpdate* update) {
   if (options_.keyframe_free_min_frames > 0) {
     AddFloorSeenSinceLastKeyframe(since_keyframe_, frame.odom_from_base,
                                   options_.keyframe_free_min_frames, options_.near_free_range_m,
-                                  camera_.CameraCentreInBase().head<2>(), &kf.local_map);
+                                  camera_.CameraCentreInBase().head<2>(), options_.log_odds.miss,
+                                  &kf.local_map);
   }
   kf.obstacle_points_in_base = frame.obstacle_points_in_base;
   kf.features = frame.features;

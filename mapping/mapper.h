@@ -127,11 +127,11 @@ class Mapper {
     // this range of the camera's ground point, with no obstacle next to it, enters the keyframe's
     // local map as kCellFreeSeenNear, which makes an unknown grid cell read free after this one
     // keyframe; n such views (2 <= n < keyframe_free_min_frames) give n / min_frames of its
-    // log-odds, so that views split between two keyframes add up. Near the camera a floor sample's
-    // height is known to a few millimetres and the same floor is seen by a dozen frames; the few
-    // keyframes made while a cell is this near (it leaves the view at about 0.5 m) would otherwise
-    // leave most of it short of the misses a free cell needs. Farther floor keeps needing several
-    // keyframes. m, 0 = off.
+    // log-odds, so that views split between two keyframes add up (written only where stronger than
+    // an ordinary miss). A cell that reads occupied takes an ordinary miss. Near the camera the
+    // floor's parallax is largest and its height most precise, and the floor leaves the view soon
+    // after (the view's lower edge), within fewer keyframes than the ordinary count needs;
+    // farther floor keeps needing that count. m, 0 = off; needs keyframe_free_min_frames > 0.
     double near_free_range_m = 1.0;
     LogOddsOptions log_odds;
     // Where a tracked thing that moves on its own went (FrameObservation::moving_objects that are

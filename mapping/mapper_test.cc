@@ -181,24 +181,34 @@ TEST(Mapper, AKeyframeKeepsTheFloorItsFramesSawFree) {
     for (const auto& p : occupied) set(p, kCellOccupied);
     return f;
   };
-  // Seen from 0.83-0.98 m (a), 1.03 m (b), 1.23-1.38 m (c, d) by the frames at x = 0.05 k.
+  // Frames at x = 0.05 k, their cameras 0.1 m ahead of the base: from the frames 1-4, a is seen
+  // from 0.73-0.88 m, e from 0.83-0.98 m (1.08 m from the first frame's base origin), b from
+  // 1.08 m, c and d from 1.1-1.3 m; a_blocked from 0.63-0.78 m with an obstacle next to it once.
   const Eigen::Vector2d a(1.025, 0.025), b(1.225, 0.025), c(1.425, 0.125), c_next(1.475, 0.125),
-      d(1.425, -0.175);
+      d(1.425, -0.175), e(1.125, 0.025), a_blocked(0.925, 0.125), a_blocked_next(0.975, 0.125);
+  // Seen free from near by frames 3 and 4 only (two views), by those and the second keyframe
+  // (three), by frame 4 only (one).
+  const Eigen::Vector2d two(0.975, -0.275), three(1.125, -0.375), one(0.825, 0.225);
   std::vector<FrameObservation> frames;
   frames.push_back(frame_at(0, 0.0, {}, {}));  // the first keyframe
   for (int k = 1; k <= 4; ++k) {               // 0.05 m apart: not keyframes
-    std::vector<Eigen::Vector2d> free = {a, c, d};
+    std::vector<Eigen::Vector2d> free = {a, c, d, e, a_blocked};
     if (k == 1) free.push_back(b);  // b seen free once only
-    frames.push_back(
-        frame_at(k, 0.05 * k, free, k == 3 ? std::vector{c_next} : std::vector<Eigen::Vector2d>{}));
+    if (k >= 3) free.insert(free.end(), {two, three});
+    if (k == 4) free.push_back(one);
+    std::vector<Eigen::Vector2d> occupied;
+    if (k == 3) occupied = {c_next, a_blocked_next};
+    frames.push_back(frame_at(k, 0.05 * k, free, occupied));
   }
-  frames.push_back(frame_at(5, 0.35, {}, {}));  // the second keyframe, which saw none of them
+  frames.push_back(frame_at(5, 0.35, {three}, {}));  // the second keyframe
+  CameraCalibration camera = testing::TestCamera();
+  camera.mount.x_m = 0.1;
   const auto run = [&](int min_frames, double near_range_m) {
     Mapper::Options options;
     options.keyframe_min_shared_tracks = 0.0;
     options.keyframe_free_min_frames = min_frames;
     options.near_free_range_m = near_range_m;
-    auto mapper = std::make_unique<Mapper>(options, testing::TestCamera());
+    auto mapper = std::make_unique<Mapper>(options, camera);
     for (const FrameObservation& f : frames) mapper->AddFrame(f);
     EXPECT_EQ(mapper->keyframes().size(), 2u);
     return mapper;
@@ -214,21 +224,27 @@ TEST(Mapper, AKeyframeKeepsTheFloorItsFramesSawFree) {
   EXPECT_EQ(second_keyframe_cell(4, c), kCellUnknown);  // an obstacle next to it in one frame
   EXPECT_EQ(second_keyframe_cell(0, a), kCellUnknown);  // off: the keyframe's own view only
   EXPECT_EQ(second_keyframe_cell(1, b), kCellFree);
-  // Within 1 m of the camera: free seen near; beyond it, or with an obstacle next to it, as above.
+  // Within 1 m of the camera (not of the base): free seen near; beyond it as above.
   EXPECT_EQ(second_keyframe_cell(4, a, 1.0), kCellFreeSeenNear);
+  EXPECT_EQ(second_keyframe_cell(4, e, 1.0), kCellFreeSeenNear);
   EXPECT_EQ(second_keyframe_cell(4, d, 1.0), kCellFree);
-  EXPECT_EQ(second_keyframe_cell(4, c, 1.0), kCellUnknown);
-  EXPECT_EQ(second_keyframe_cell(4, b, 1.0), kCellUnknown);
   EXPECT_EQ(second_keyframe_cell(4, d, 1.5), kCellFreeSeenNear);
+  EXPECT_EQ(second_keyframe_cell(4, b, 1.0), kCellUnknown);
+  // An obstacle next to it in one frame: nothing, however near.
+  EXPECT_EQ(second_keyframe_cell(4, a_blocked, 1.0), kCellUnknown);
+  // Fewer near views give a share of the log-odds (the keyframe's own view counted); one, none.
+  EXPECT_EQ(second_keyframe_cell(4, two, 1.0), 30);    // 2 of 4: logit(0.30) ~ logit(0.15) / 2
+  EXPECT_EQ(second_keyframe_cell(4, three, 1.0), 21);  // 3 of 4
+  EXPECT_EQ(second_keyframe_cell(4, one, 1.0), kCellUnknown);
   // In the grid the near floor reads free after that one keyframe; the other floor needs more.
-  const float free_below = std::log(0.196f / (1.0f - 0.196f));
+  const float free_at_most = std::log(0.25f / 0.75f);  // TrinaryThresholds::free
   const auto grid_log_odds = [&](double near_range_m, const Eigen::Vector2d& p) {
     const auto mapper = run(4, near_range_m);
     return mapper->grid().LogOdds(mapper->grid().CellOf(p));
   };
-  EXPECT_LT(grid_log_odds(1.0, a), free_below);
-  EXPECT_GT(grid_log_odds(0.0, a), free_below);
-  EXPECT_GT(grid_log_odds(1.0, d), free_below);
+  EXPECT_LT(grid_log_odds(1.0, a), free_at_most);
+  EXPECT_GT(grid_log_odds(0.0, a), free_at_most);
+  EXPECT_GT(grid_log_odds(1.0, d), free_at_most);
 }
 
 // Where a tracked moving object went, the grid keeps nothing static, also what keyframes fused

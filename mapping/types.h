@@ -53,7 +53,9 @@ struct Keyframe {
   Pose2 odom_from_base;      // raw dead-reckoned pose
   Pose2 map_from_base;       // optimised pose; map = base frame of the first frame of the first run
   double path_length_m = 0;  // travelled distance (odometry) from the start of its run
-  OccupancyGrid local_map;   // as observed, in this keyframe's base frame; no cells once packed
+  // As observed, with the floor its frames since the previous keyframe saw (cells of 1..49: free
+  // evidence of that probability); this keyframe's base frame; no cells once packed.
+  OccupancyGrid local_map;
   PackedGrid packed_local_map;  // the local map's cells once packed, else empty
   std::vector<Eigen::Vector3f>
       obstacle_points_in_base;          // z = height above the floor, metres; empty once packed

@@ -351,9 +351,9 @@ TEST_F(DetectorOnSyntheticScene, TheStepStillAskedForCountsInTheError) {
 }
 
 // The matching window carries a tall box's parallax onto the floor beside and behind it; the
-// floor hypothesis tested on each sample's own neighbourhood takes a quarter of that back (the
-// samples the search left short of convergence are uncertain without it: ZeroDisparityOptions::
-// unconverged_sigma; and the coarse levels' steps take some of it before the check sees it).
+// floor hypothesis tested on each sample's own neighbourhood takes part of that back (the samples
+// the search left short of convergence are uncertain without it: ZeroDisparityOptions::
+// unconverged_sigma; the coarse levels' steps take some of it before the check sees it).
 TEST_F(DetectorOnSyntheticScene, FloorBesideATallBoxIsNotObstacle) {
   Scene scene;
   scene.boxes.push_back({{1.5, -0.2, 0.0}, {1.7, 0.2, 0.6}});

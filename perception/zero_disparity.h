@@ -20,13 +20,13 @@ struct ZeroDisparityOptions {
   int finest_level = 1;
   // Number of pyramid levels searched coarse to fine, from the finest upward.
   int num_levels = 4;
-  // Gauss-Newton iterations per level along the epipolar line: at the finest level, and at each
-  // coarser one. On weak texture the damping lets each step go only part of the way (see
-  // damping), and the coarse levels are where the estimate must get within reach of the finest
-  // level's window: a faint wall near the camera has more parallax than 3 damped steps per level
-  // reach, and its points then land behind it. The coarse levels are small (a quarter of the
-  // finest and less), so their extra steps cost little.
+  // Gauss-Newton iterations along the epipolar line at the finest level.
   int iterations_per_level = 3;
+  // ... and at each coarser level. On weak texture the damping lets each step go only part of the
+  // way (see damping), and the coarse levels are where the estimate must come within reach of the
+  // finest level's window: a faint wall near the camera has more parallax than a few damped steps
+  // per level reach, and its points then land behind it. The coarse levels hold a quarter of the
+  // finest level's pixels and less, so their extra steps cost little.
   int coarse_iterations_per_level = 6;
   // Side of the square aggregation window at each level, pixels.
   int window_px = 7;

@@ -13,8 +13,9 @@ inline constexpr std::int8_t kCellUnknown = -1;
 inline constexpr std::int8_t kCellFree = 0;
 inline constexpr std::int8_t kCellOccupied = 100;
 // A local map's cell of probability p in (0, 50) is free evidence of log-odds logit(p / 100) when
-// fused (FuseLocalMap); kCellFree is one ordinary miss. kCellFreeSeenNear is free seen by several
-// frames from near the camera: logit(0.15) = -1.73, below the export's free threshold (0.196).
+// fused into a cell that does not read occupied (FuseLocalMap); kCellFree is one ordinary miss.
+// kCellFreeSeenNear is floor seen free by several frames near the camera: logit(0.15) = -1.73,
+// beyond the grid's free threshold (p <= 0.25, TrinaryThresholds) in one observation.
 inline constexpr std::int8_t kCellFreeSeenNear = 15;
 
 // Where a grid lies in its frame. Cell (col, row) covers

@@ -81,7 +81,7 @@ DetectorOptions OptionsFor(int method) {
   }
   if (const char* window = std::getenv("MONOPLANE_BENCH_WINDOW"))
     o.zero_disparity.window_px = std::atoi(window);
-  if (const char* it = std::getenv("MONOPLANE_BENCH_ITER"))
+  if (const char* it = std::getenv("MONOPLANE_BENCH_ITER"))  // the finest level's steps
     o.zero_disparity.iterations_per_level = std::atoi(it);
   o.zero_disparity.method = method == 1 ? ZeroDisparityOptions::Method::kFarneback
                                         : ZeroDisparityOptions::Method::kEpipolar;
