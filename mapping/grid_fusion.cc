@@ -69,13 +69,9 @@ void FuseLocalMap(const OccupancyGrid& local_map,
       if (keep_occupied && !occupied && tile->log_odds[k] > 0.0f) continue;
       // Free evidence of its own strength, logit(v / 100), into a cell that does not read
       // occupied; an occupied one takes an ordinary miss (only the ordinary count clears it).
-      if (v > 0 && !occupied && tile->log_odds[k] <= 0.0f) {
-        const float p = static_cast<float>(v) / 100.0f;
-        tile->log_odds[k] =
-            std::clamp(tile->log_odds[k] + std::log(p / (1.0f - p)), options.min, options.max);
-      } else {
-        tile->log_odds[k] = UpdateLogOdds(tile->log_odds[k], occupied, options);
-      }
+      float delta = occupied ? options.hit : options.miss;
+      if (v > 0 && !occupied && tile->log_odds[k] <= 0.0f) delta = std::log(v / (100.0f - v));
+      tile->log_odds[k] = AddLogOdds(tile->log_odds[k], delta, options);
       tile->last_seen_ns[k] = seen;
       if (tile->log_odds[k] <= 0.0f) tile->height_m[k] = std::numeric_limits<float>::quiet_NaN();
     }

@@ -29,10 +29,15 @@ struct LogOddsOptions {
   bool IsValid(std::string* error) const;
 };
 
+// Evidence of log-odds `delta` applied to a log-odds value, clamped to [min, max].
+inline float AddLogOdds(float log_odds, float delta, const LogOddsOptions& options) {
+  const float v = log_odds + delta;
+  return v < options.min ? options.min : (v > options.max ? options.max : v);
+}
+
 // One observation applied to a log-odds value.
 inline float UpdateLogOdds(float log_odds, bool occupied, const LogOddsOptions& options) {
-  const float v = log_odds + (occupied ? options.hit : options.miss);
-  return v < options.min ? options.min : (v > options.max ? options.max : v);
+  return AddLogOdds(log_odds, occupied ? options.hit : options.miss, options);
 }
 
 // Fuses a local map (cells -1 / 0 / 100 in the base frame) seen at map_from_base into the global

@@ -324,18 +324,22 @@ void AddFloorSeenSinceLastKeyframe(const std::vector<Recent>& recent,
       }
     }
   }
-  // n of min_frames near views: n / min_frames of kCellFreeSeenNear's log-odds, as a probability
-  // (evidence split between two keyframes' windows still adds up).
+  // n near views (n >= 2, never one alone): min(n / min_frames, 1) of kCellFreeSeenNear's
+  // log-odds, as a probability (views split between two keyframes' windows still add up); only
+  // where stronger than an ordinary miss, else kCellUnknown (nothing to write).
   const double near_logit = std::log(kCellFreeSeenNear / (100.0 - kCellFreeSeenNear));
+  std::vector<std::int8_t> near_cell(static_cast<std::size_t>(min_frames) + 1, kCellUnknown);
+  for (int n = 2; near_range_m > 0 && n <= min_frames; ++n) {
+    const auto p = static_cast<std::int8_t>(
+        std::lround(100.0 / (1.0 + std::exp(-near_logit * n / min_frames))));
+    if (std::log(p / (100.0 - p)) < miss) near_cell[n] = p;
+  }
   for (std::size_t i = 0; i < g.NumCells(); ++i) {
     if (blocked[i] || local_map->cells[i] == kCellOccupied) continue;
     if (local_map->cells[i] == kCellUnknown && free_votes[i] >= min_frames)
       local_map->cells[i] = kCellFree;
-    if (near_range_m <= 0 || near_votes[i] < 2) continue;  // never one view alone
-    const double l = near_logit * std::min(1.0, double(near_votes[i]) / min_frames);
-    const auto p = static_cast<std::int8_t>(std::lround(100.0 / (1.0 + std::exp(-l))));
-    // Only where stronger than an ordinary miss: a free cell (0) stays one miss otherwise.
-    if (std::log(p / (100.0 - p)) < miss) local_map->cells[i] = p;
+    const std::int8_t near = near_cell[std::min<int>(near_votes[i], min_frames)];
+    if (near != kCellUnknown) local_map->cells[i] = near;
   }
 }
 
