@@ -2,6 +2,8 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
+#include <cmath>
 #include <fstream>
 #include <optional>
 #include <sstream>
@@ -124,6 +126,10 @@ OptionTable::OptionTable(AppConfig* config) : config_(config) {
        "ground_motion.lowest_surface_min_offset_m", "mapping.window_floor_max_height_m"});
   ScaleWith(Entry::Scale::kFocalLength,
             {"ground_motion.inlier_threshold_px", "ground_motion.below_floor_px"});
+  for (Entry& e : entries_) {
+    if (e.section == "zero_disparity" && e.key == "num_levels")
+      e.comment += "; default: one more per doubling of fx over 457 px";
+  }
 }
 
 namespace {
@@ -176,6 +182,13 @@ void ScaleDefaultsToCamera(const CameraCalibration& calibration, AppConfig* conf
     if (e.scale == OptionTable::Entry::Scale::kNone || config->given.count(e.section + "." + e.key))
       continue;
     *e.number *= e.scale == OptionTable::Entry::Scale::kCameraHeight ? by_height : by_focal;
+  }
+  // The dense search's pyramid: every parallax in pixels grows with the focal length, so a
+  // camera with twice the reference's fx gets one more level, which keeps the coarsest level's
+  // reach the same angle (never fewer levels than the reference's).
+  if (!config->given.count("zero_disparity.num_levels") && by_focal > 1.0) {
+    int& levels = config->detector.zero_disparity.num_levels;
+    levels = std::min(6, levels + static_cast<int>(std::lround(std::log2(by_focal))));
   }
 }
 

@@ -69,8 +69,9 @@ inline constexpr double kReferenceFocalPx = 457.0;
 // the detection range, the local map's extent and cells, the pair baselines, the alignment's
 // bound) scales with the camera's height over 0.40 m (a camera twice as high sees the same image of
 // a scene twice as large), and the motion fit's pixel thresholds, which cover the camera's
-// pitching between frames, scale with fx over 457 px. Keys in config->given keep their values; a
-// camera at the reference height and focal length changes nothing.
+// pitching between frames, scale with fx over 457 px, and the dense search's pyramid gets one
+// more level per doubling of fx (rounded; never fewer). Keys in config->given keep their values;
+// a camera at the reference height and focal length changes nothing.
 void ScaleDefaultsToCamera(const CameraCalibration& calibration, AppConfig* config);
 
 // Binds "section.key" names to option fields, for parsing YAML and for dumping the defaults.

@@ -48,6 +48,12 @@ TEST(ScaleDefaultsToCamera, LengthsFollowTheHeightAndMotionFitPixelsTheFocalLeng
             defaults.detector.classification.floor_max_height_sigmas);
   EXPECT_EQ(car.detector.ground_motion.lk_window_px, defaults.detector.ground_motion.lk_window_px);
   EXPECT_EQ(car.mapping.grid_resolution_m, defaults.mapping.grid_resolution_m);
+  // Twice the focal length: one more pyramid level for the dense search; a shorter one keeps them.
+  EXPECT_EQ(car.detector.zero_disparity.num_levels,
+            defaults.detector.zero_disparity.num_levels + 1);
+  AppConfig wide;
+  ScaleDefaultsToCamera(Camera(0.4, 300.0), &wide);
+  EXPECT_EQ(wide.detector.zero_disparity.num_levels, defaults.detector.zero_disparity.num_levels);
   std::string error;
   EXPECT_TRUE(ValidateConfig(car, &error)) << error;
 }
@@ -55,13 +61,16 @@ TEST(ScaleDefaultsToCamera, LengthsFollowTheHeightAndMotionFitPixelsTheFocalLeng
 TEST(ScaleDefaultsToCamera, KeysTheConfigSetAreKept) {
   AppConfig config;
   std::string error;
-  ASSERT_TRUE(ParseConfigYaml(
-      "ground_motion: {strip_max_x_m: 25}\nlocal_map: {resolution_m: 0.05}\n", &config, &error))
+  ASSERT_TRUE(
+      ParseConfigYaml("ground_motion: {strip_max_x_m: 25}\nlocal_map: {resolution_m: 0.05}\n"
+                      "zero_disparity: {num_levels: 3}\n",
+                      &config, &error))
       << error;
   ScaleDefaultsToCamera(Camera(1.6, 914.0), &config);
   const AppConfig defaults;
   EXPECT_EQ(config.detector.ground_motion.strip_max_x_m, 25.0);
   EXPECT_EQ(config.detector.local_map.resolution_m, 0.05);
+  EXPECT_EQ(config.detector.zero_disparity.num_levels, 3);
   EXPECT_DOUBLE_EQ(config.detector.ground_motion.strip_min_x_m,
                    4 * defaults.detector.ground_motion.strip_min_x_m);
   // The dump of the fitted options reads back as the same options for any camera.
