@@ -115,15 +115,16 @@ OptionTable::OptionTable(AppConfig* config) : config_(config) {
   AddSection("output", [&](OptionVisitor& v) { config->output.Describe(v); });
   // ScaleDefaultsToCamera: the sizes of what the camera sees, and the motion fit's tolerance of
   // the camera pitching between frames.
-  ScaleWith(
-      Entry::Scale::kCameraHeight,
-      {"ground_motion.strip_min_x_m", "ground_motion.strip_max_x_m",
-       "ground_motion.strip_half_width_m", "classification.max_range_m", "local_map.resolution_m",
-       "local_map.min_x_m", "local_map.max_x_m", "local_map.min_y_m", "local_map.max_y_m",
-       "pair_selection.min_baseline_m", "pair_selection.far_min_baseline_m",
-       "pair_selection.turn_min_baseline_m", "direct_alignment.max_correction_m",
-       "ground_motion.lowest_surface_tolerance_m", "ground_motion.lowest_surface_max_m_per_px",
-       "ground_motion.lowest_surface_min_offset_m", "mapping.window_floor_max_height_m"});
+  ScaleWith(Entry::Scale::kCameraHeight,
+            {"ground_motion.strip_min_x_m", "ground_motion.strip_max_x_m",
+             "ground_motion.strip_half_width_m", "pair_selection.min_baseline_m",
+             "pair_selection.far_min_baseline_m", "pair_selection.turn_min_baseline_m",
+             "direct_alignment.max_correction_m", "ground_motion.lowest_surface_tolerance_m",
+             "ground_motion.lowest_surface_max_m_per_px",
+             "ground_motion.lowest_surface_min_offset_m", "mapping.window_floor_max_height_m"});
+  ScaleWith(Entry::Scale::kCameraHeightUp,
+            {"classification.max_range_m", "local_map.resolution_m", "local_map.min_x_m",
+             "local_map.max_x_m", "local_map.min_y_m", "local_map.max_y_m"});
   ScaleWith(Entry::Scale::kFocalLength,
             {"ground_motion.inlier_threshold_px", "ground_motion.below_floor_px"});
   for (Entry& e : entries_) {
@@ -169,8 +170,9 @@ void OptionTable::ScaleWith(Entry::Scale scale, const std::vector<std::string>& 
     if (it == entries_.end() || it->number == nullptr)
       throw std::logic_error("OptionTable::ScaleWith: no number option " + name);
     it->scale = scale;
-    it->comment += scale == Entry::Scale::kCameraHeight ? "; default scales with camera height"
-                                                        : "; default scales with fx";
+    it->comment += scale == Entry::Scale::kCameraHeight     ? "; default scales with camera height"
+                   : scale == Entry::Scale::kCameraHeightUp ? "; default grows with camera height"
+                                                            : "; default scales with fx";
   }
 }
 
@@ -181,7 +183,16 @@ void ScaleDefaultsToCamera(const CameraCalibration& calibration, AppConfig* conf
   for (const OptionTable::Entry& e : table.entries_) {
     if (e.scale == OptionTable::Entry::Scale::kNone || config->given.count(e.section + "." + e.key))
       continue;
-    *e.number *= e.scale == OptionTable::Entry::Scale::kCameraHeight ? by_height : by_focal;
+    switch (e.scale) {
+      case OptionTable::Entry::Scale::kCameraHeight:
+        *e.number *= by_height;
+        break;
+      case OptionTable::Entry::Scale::kCameraHeightUp:
+        *e.number *= std::max(1.0, by_height);
+        break;
+      default:
+        *e.number *= by_focal;
+    }
   }
   // The dense search's pyramid: every parallax in pixels grows with the focal length, so a
   // camera with twice the reference's fx gets one more level, which keeps the coarsest level's

@@ -66,12 +66,15 @@ inline constexpr double kReferenceFocalPx = 457.0;
 
 // Fits the defaults to the camera, so that one set of defaults serves a robot camera a few
 // decimetres high and a car camera at 1.65 m: every length over the floor (the motion fit's strip,
-// the detection range, the local map's extent and cells, the pair baselines, the alignment's
-// bound) scales with the camera's height over 0.40 m (a camera twice as high sees the same image of
-// a scene twice as large), and the motion fit's pixel thresholds, which cover the camera's
-// pitching between frames, scale with fx over 457 px, and the dense search's pyramid gets one
-// more level per doubling of fx (rounded; never fewer). Keys in config->given keep their values;
-// a camera at the reference height and focal length changes nothing.
+// the pair baselines, the alignment's bound) scales with the camera's height over 0.40 m (a camera
+// twice as high sees the same image of a scene twice as large); the detection range and the local
+// map's extent and cells grow with it but do not shrink below the reference's for a lower camera
+// (a room is as large for a low robot, and a low camera measures a few metres away as well: the
+// parallax of a given height hardly depends on the camera's), and the motion fit's pixel
+// thresholds, which cover the camera's pitching between frames, scale with fx over 457 px, and the
+// dense search's pyramid gets one more level per doubling of fx (rounded; never fewer). Keys in
+// config->given keep their values; a camera at the reference height and focal length changes
+// nothing.
 void ScaleDefaultsToCamera(const CameraCalibration& calibration, AppConfig* config);
 
 // Binds "section.key" names to option fields, for parsing YAML and for dumping the defaults.
@@ -91,7 +94,9 @@ class OptionTable {
     std::function<bool(const std::string& value, std::string* error)> set;
     std::function<std::string()> get;
     double* number = nullptr;  // for ScaleDefaultsToCamera
-    enum class Scale { kNone, kCameraHeight, kFocalLength } scale = Scale::kNone;
+    // kCameraHeightUp: with the camera's height, but never below the reference's value (what the
+    // robot must see and map does not shrink with a lower camera).
+    enum class Scale { kNone, kCameraHeight, kCameraHeightUp, kFocalLength } scale = Scale::kNone;
   };
   friend void ScaleDefaultsToCamera(const CameraCalibration& calibration, AppConfig* config);
   void ScaleWith(Entry::Scale scale, const std::vector<std::string>& names);

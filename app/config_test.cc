@@ -54,6 +54,17 @@ TEST(ScaleDefaultsToCamera, LengthsFollowTheHeightAndMotionFitPixelsTheFocalLeng
   AppConfig wide;
   ScaleDefaultsToCamera(Camera(0.4, 300.0), &wide);
   EXPECT_EQ(wide.detector.zero_disparity.num_levels, defaults.detector.zero_disparity.num_levels);
+  // A camera lower than the reference: the strip and the baselines shrink with it, the range
+  // and the local map's extent and cells do not.
+  AppConfig low;
+  ScaleDefaultsToCamera(Camera(0.1, 457.0), &low);
+  EXPECT_DOUBLE_EQ(low.detector.ground_motion.strip_max_x_m,
+                   defaults.detector.ground_motion.strip_max_x_m / 4);
+  EXPECT_DOUBLE_EQ(low.detector.pair_selection.min_baseline_m,
+                   defaults.detector.pair_selection.min_baseline_m / 4);
+  EXPECT_EQ(low.detector.classification.max_range_m, defaults.detector.classification.max_range_m);
+  EXPECT_EQ(low.detector.local_map.max_x_m, defaults.detector.local_map.max_x_m);
+  EXPECT_EQ(low.detector.local_map.resolution_m, defaults.detector.local_map.resolution_m);
   std::string error;
   EXPECT_TRUE(ValidateConfig(car, &error)) << error;
 }
