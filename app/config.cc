@@ -170,9 +170,10 @@ void OptionTable::ScaleWith(Entry::Scale scale, const std::vector<std::string>& 
     if (it == entries_.end() || it->number == nullptr)
       throw std::logic_error("OptionTable::ScaleWith: no number option " + name);
     it->scale = scale;
-    it->comment += scale == Entry::Scale::kCameraHeight     ? "; default scales with camera height"
-                   : scale == Entry::Scale::kCameraHeightUp ? "; default grows with camera height"
-                                                            : "; default scales with fx";
+    it->comment += scale == Entry::Scale::kCameraHeight ? "; default scales with camera height"
+                   : scale == Entry::Scale::kCameraHeightUp
+                       ? "; default grows with camera height above 0.40 m"
+                       : "; default scales with fx";
   }
 }
 
@@ -190,8 +191,11 @@ void ScaleDefaultsToCamera(const CameraCalibration& calibration, AppConfig* conf
       case OptionTable::Entry::Scale::kCameraHeightUp:
         *e.number *= std::max(1.0, by_height);
         break;
-      default:
+      case OptionTable::Entry::Scale::kFocalLength:
         *e.number *= by_focal;
+        break;
+      case OptionTable::Entry::Scale::kNone:
+        break;
     }
   }
   // The dense search's pyramid: every parallax in pixels grows with the focal length, so a

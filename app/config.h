@@ -65,16 +65,15 @@ inline constexpr double kReferenceCameraHeightM = 0.40;
 inline constexpr double kReferenceFocalPx = 457.0;
 
 // Fits the defaults to the camera, so that one set of defaults serves a robot camera a few
-// decimetres high and a car camera at 1.65 m: every length over the floor (the motion fit's strip,
-// the pair baselines, the alignment's bound) scales with the camera's height over 0.40 m (a camera
-// twice as high sees the same image of a scene twice as large); the detection range and the local
-// map's extent and cells grow with it but do not shrink below the reference's for a lower camera
-// (a room is as large for a low robot, and a low camera measures a few metres away as well: the
-// parallax of a given height hardly depends on the camera's), and the motion fit's pixel
-// thresholds, which cover the camera's pitching between frames, scale with fx over 457 px, and the
-// dense search's pyramid gets one more level per doubling of fx (rounded; never fewer). Keys in
-// config->given keep their values; a camera at the reference height and focal length changes
-// nothing.
+// decimetres high and a car camera at 1.65 m. Lengths over the floor (the motion fit's strip, the
+// pair baselines, the alignment's bound) scale with the camera's height over 0.40 m: a camera
+// twice as high sees the same image of a scene twice as large. The detection range and the local
+// map's extent and cells grow with a higher camera but do not shrink for a lower one: a room is as
+// large for a low robot, and the parallax of a given height a few metres away hardly depends on
+// the camera's height. The motion fit's pixel thresholds, which cover the camera's pitching
+// between frames, scale with fx over 457 px, and the dense search's pyramid gets one more level
+// per doubling of fx (rounded; never fewer). Keys in config->given keep their values; a camera at
+// the reference height and focal length changes nothing.
 void ScaleDefaultsToCamera(const CameraCalibration& calibration, AppConfig* config);
 
 // Binds "section.key" names to option fields, for parsing YAML and for dumping the defaults.

@@ -48,25 +48,42 @@ TEST(ScaleDefaultsToCamera, LengthsFollowTheHeightAndMotionFitPixelsTheFocalLeng
             defaults.detector.classification.floor_max_height_sigmas);
   EXPECT_EQ(car.detector.ground_motion.lk_window_px, defaults.detector.ground_motion.lk_window_px);
   EXPECT_EQ(car.mapping.grid_resolution_m, defaults.mapping.grid_resolution_m);
-  // Twice the focal length: one more pyramid level for the dense search; a shorter one keeps them.
-  EXPECT_EQ(car.detector.zero_disparity.num_levels,
-            defaults.detector.zero_disparity.num_levels + 1);
-  AppConfig wide;
-  ScaleDefaultsToCamera(Camera(0.4, 300.0), &wide);
-  EXPECT_EQ(wide.detector.zero_disparity.num_levels, defaults.detector.zero_disparity.num_levels);
-  // A camera lower than the reference: the strip and the baselines shrink with it, the range
-  // and the local map's extent and cells do not.
+  std::string error;
+  EXPECT_TRUE(ValidateConfig(car, &error)) << error;
+}
+
+TEST(ScaleDefaultsToCamera, ThePyramidGrowsWithTheFocalLength) {
+  const AppConfig defaults;
+  const int levels = defaults.detector.zero_disparity.num_levels;
+  const auto levels_for = [](double fx) {
+    AppConfig config;
+    ScaleDefaultsToCamera(Camera(kReferenceCameraHeightM, fx), &config);
+    std::string error;
+    EXPECT_TRUE(ValidateConfig(config, &error)) << fx << ": " << error;
+    return config.detector.zero_disparity.num_levels;
+  };
+  EXPECT_EQ(levels_for(914.0), levels + 1);  // twice the focal length: one more level
+  EXPECT_EQ(levels_for(721.5), levels + 1);  // KITTI's: log2(1.58) rounds to 1
+  EXPECT_EQ(levels_for(600.0), levels);      // log2(1.31) rounds to 0
+  EXPECT_EQ(levels_for(300.0), levels);      // a shorter focal length keeps them
+  EXPECT_EQ(levels_for(16 * 457.0), 6);      // at most the option's largest value
+}
+
+TEST(ScaleDefaultsToCamera, ALowerCameraKeepsTheRangeAndTheLocalMap) {
+  const AppConfig defaults;
   AppConfig low;
-  ScaleDefaultsToCamera(Camera(0.1, 457.0), &low);
+  ScaleDefaultsToCamera(Camera(0.1, kReferenceFocalPx), &low);
+  // The strip and the baselines shrink with the camera; what it must see and map does not.
   EXPECT_DOUBLE_EQ(low.detector.ground_motion.strip_max_x_m,
                    defaults.detector.ground_motion.strip_max_x_m / 4);
   EXPECT_DOUBLE_EQ(low.detector.pair_selection.min_baseline_m,
                    defaults.detector.pair_selection.min_baseline_m / 4);
   EXPECT_EQ(low.detector.classification.max_range_m, defaults.detector.classification.max_range_m);
   EXPECT_EQ(low.detector.local_map.max_x_m, defaults.detector.local_map.max_x_m);
+  EXPECT_EQ(low.detector.local_map.min_y_m, defaults.detector.local_map.min_y_m);
   EXPECT_EQ(low.detector.local_map.resolution_m, defaults.detector.local_map.resolution_m);
   std::string error;
-  EXPECT_TRUE(ValidateConfig(car, &error)) << error;
+  EXPECT_TRUE(ValidateConfig(low, &error)) << error;
 }
 
 TEST(ScaleDefaultsToCamera, KeysTheConfigSetAreKept) {
