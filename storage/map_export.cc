@@ -148,9 +148,31 @@ cv::Mat RenderMapPicture(const OccupancyGrid& grid, const std::vector<Trajectory
       1, std::min(options.pixels_per_cell, options.max_side_px / std::max(g.width, g.height)));
   cv::Mat picture;
   cv::resize(cells, picture, cv::Size(g.width * scale, g.height * scale), 0, 0, cv::INTER_NEAREST);
+  const double px_per_m = scale / g.resolution_m;
+  // A grid of whole metres (of 10 m on maps wider than 50 m), a shade darker than the cells under
+  // it, so that distances can be read off the picture.
+  const double grid_m = std::max(g.width, g.height) * g.resolution_m > 50.0 ? 10.0 : 1.0;
+  if (grid_m * px_per_m >= 8.0) {
+    const auto darken = [&](int row, int col) {
+      cv::Vec3b& p = picture.at<cv::Vec3b>(row, col);
+      for (int c = 0; c < 3; ++c) p[c] = static_cast<std::uint8_t>(p[c] * 7 / 8);
+    };
+    for (double x = std::ceil(g.origin_x_m / grid_m) * grid_m;
+         x < g.origin_x_m + g.width * g.resolution_m; x += grid_m) {
+      const int col = static_cast<int>(std::lround((x - g.origin_x_m) * px_per_m));
+      if (col < 0 || col >= picture.cols) continue;
+      for (int row = 0; row < picture.rows; ++row) darken(row, col);
+    }
+    for (double y = std::ceil(g.origin_y_m / grid_m) * grid_m;
+         y < g.origin_y_m + g.height * g.resolution_m; y += grid_m) {
+      const int row =
+          picture.rows - 1 - static_cast<int>(std::lround((y - g.origin_y_m) * px_per_m));
+      if (row < 0 || row >= picture.rows) continue;
+      for (int col = 0; col < picture.cols; ++col) darken(row, col);
+    }
+  }
   // Shift 4 bits of sub-pixel precision for smooth lines.
   constexpr int kShift = 4;
-  const double px_per_m = scale / g.resolution_m;
   auto to_px = [&](const Pose2& p) {
     const double u = (p.x - g.origin_x_m) * px_per_m;
     const double v = picture.rows - (p.y - g.origin_y_m) * px_per_m;
@@ -171,6 +193,29 @@ cv::Mat RenderMapPicture(const OccupancyGrid& grid, const std::vector<Trajectory
       cv::line(picture, to_px(trajectory[k - 1].map_from_base), to_px(p.map_from_base), colour,
                thickness, cv::LINE_AA, kShift);
     }
+  }
+  // A scale bar in the lower left corner: the longest of 1, 2, 5, 10, ... m that takes at most a
+  // quarter of the picture's width, on a white ground, with its length written above it.
+  double bar_m = 0.0;
+  for (double decade = 1.0; decade * px_per_m <= picture.cols / 4.0; decade *= 10.0) {
+    for (const double f : {1.0, 2.0, 5.0}) {
+      if (f * decade * px_per_m <= picture.cols / 4.0) bar_m = f * decade;
+    }
+  }
+  if (bar_m > 0.0 && picture.rows >= 60) {
+    const int length = static_cast<int>(std::lround(bar_m * px_per_m));
+    const int x0 = 8, y0 = picture.rows - 8;
+    char label[32];
+    std::snprintf(label, sizeof(label), "%g m", bar_m);
+    int baseline = 0;
+    const cv::Size text = cv::getTextSize(label, cv::FONT_HERSHEY_SIMPLEX, 0.4, 1, &baseline);
+    cv::rectangle(picture, cv::Point(x0 - 4, y0 - text.height - 12),
+                  cv::Point(x0 + std::max(length, text.width) + 4, y0 + 4),
+                  cv::Scalar(255, 255, 255), cv::FILLED);
+    cv::rectangle(picture, cv::Point(x0, y0 - 2), cv::Point(x0 + length, y0), cv::Scalar(0, 0, 0),
+                  cv::FILLED);
+    cv::putText(picture, label, cv::Point(x0, y0 - 6), cv::FONT_HERSHEY_SIMPLEX, 0.4,
+                cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
   }
   return picture;
 }

@@ -50,7 +50,9 @@ struct MapPictureOptions {
   bool IsValid(std::string* error) const;
 };
 // A picture for people: free white, occupied black, unknown grey, the trajectory of each run in
-// its own colour with a dot at its start; top row = highest y. BGR 8-bit.
+// its own colour with a dot at its start, a faint grid of whole metres (10 m on maps wider than
+// 50 m) and a scale bar in the lower left corner (on pictures large enough for them); top row =
+// highest y. BGR 8-bit.
 cv::Mat RenderMapPicture(const OccupancyGrid& grid, const std::vector<TrajectoryPoint>& trajectory,
                          const MapPictureOptions& options);
 bool WriteMapPicture(const OccupancyGrid& grid, const std::vector<TrajectoryPoint>& trajectory,

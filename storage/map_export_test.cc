@@ -277,12 +277,42 @@ TEST(MapExport, PictureShowsMapTopUpAndTheTrajectory) {
   // never-seen cells grey.
   EXPECT_EQ(picture.at<cv::Vec3b>(2 * 4 + 2, 2 * 4 + 2), cv::Vec3b(0, 0, 0));
   EXPECT_EQ(picture.at<cv::Vec3b>(17 * 4 + 2, 15 * 4 + 2), cv::Vec3b(255, 255, 255));
-  EXPECT_EQ(picture.at<cv::Vec3b>(79 - 40, 40), cv::Vec3b(160, 160, 160));
+  EXPECT_EQ(picture.at<cv::Vec3b>(79 - 40, 41), cv::Vec3b(160, 160, 160));
+  // The metre grid: x = 0 m is column 40 (origin -1 m, 40 px per metre), a shade darker.
+  EXPECT_EQ(picture.at<cv::Vec3b>(79 - 40, 40), cv::Vec3b(140, 140, 140));
   // The trajectory at y = 0.95 (0.55 m below the top edge at y = 1.5: 22 px), drawn in colour.
   const cv::Vec3b on_path = picture.at<cv::Vec3b>(22, 40);
   EXPECT_FALSE(on_path[0] == on_path[1] && on_path[1] == on_path[2]) << on_path;
   EXPECT_FALSE(WriteMapPicture(OccupancyGrid(), trajectory, options, dir.File("e.png"), &error));
   EXPECT_EQ(error.rfind(dir.File("e.png"), 0), 0u) << error;
+}
+
+TEST(MapExport, PictureHasAScaleBarWhenLargeEnough) {
+  // 4 m x 3 m of free cells at 5 cm, 2 px per cell: 40 px per metre, 160 px wide, so a 1 m bar
+  // (a quarter of the width) fits in the lower left corner; the 2 m one would not.
+  OccupancyGrid grid(GridGeometry{0.05, 0.0, 0.0, 80, 60}, kCellFree);
+  MapPictureOptions options;
+  options.pixels_per_cell = 2;
+  const cv::Mat picture = RenderMapPicture(grid, {}, options);
+  ASSERT_EQ(picture.cols, 160);
+  ASSERT_EQ(picture.rows, 120);
+  const auto black = [&](int row, int col) {
+    return picture.at<cv::Vec3b>(row, col) == cv::Vec3b(0, 0, 0);
+  };
+  // The bar: rows 110-112, columns 8-48 (1 m), nothing black past it on its rows.
+  EXPECT_TRUE(black(111, 8));
+  EXPECT_TRUE(black(111, 47));
+  EXPECT_FALSE(black(111, 60));
+  EXPECT_FALSE(black(111, 100));
+  // Away from the bar and the grid lines the free floor is white.
+  EXPECT_EQ(picture.at<cv::Vec3b>(30, 100), cv::Vec3b(255, 255, 255));
+  // Too small a picture for a 1 m bar (a quarter of 40 px is 10 px): none.
+  OccupancyGrid small(GridGeometry{0.05, 0.0, 0.0, 20, 40}, kCellFree);
+  const cv::Mat no_bar = RenderMapPicture(small, {}, options);
+  for (int row = 0; row < no_bar.rows; ++row) {
+    for (int col = 0; col < no_bar.cols; ++col)
+      ASSERT_NE(no_bar.at<cv::Vec3b>(row, col), cv::Vec3b(0, 0, 0)) << row << " " << col;
+  }
 }
 
 }  // namespace
