@@ -127,10 +127,8 @@ OptionTable::OptionTable(AppConfig* config) : config_(config) {
              "local_map.max_x_m", "local_map.min_y_m", "local_map.max_y_m"});
   ScaleWith(Entry::Scale::kFocalLength,
             {"ground_motion.inlier_threshold_px", "ground_motion.below_floor_px"});
-  for (Entry& e : entries_) {
-    if (e.section == "zero_disparity" && e.key == "num_levels")
-      e.comment += "; default: one more per doubling of fx over 457 px";
-  }
+  Named("zero_disparity.num_levels").comment +=
+      "; default: one more per doubling of fx over 457 px";
 }
 
 namespace {
@@ -163,17 +161,23 @@ void OptionTable::AddDouble(const std::string& section, const std::string& key, 
                       [target] { return FormatOptionValue(*target); }, target});
 }
 
+OptionTable::Entry& OptionTable::Named(const std::string& name) {
+  auto it = std::find_if(entries_.begin(), entries_.end(),
+                         [&](const Entry& e) { return e.section + "." + e.key == name; });
+  if (it == entries_.end()) throw std::logic_error("OptionTable: no option " + name);
+  return *it;
+}
+
 void OptionTable::ScaleWith(Entry::Scale scale, const std::vector<std::string>& names) {
   for (const std::string& name : names) {
-    auto it = std::find_if(entries_.begin(), entries_.end(),
-                           [&](const Entry& e) { return e.section + "." + e.key == name; });
-    if (it == entries_.end() || it->number == nullptr)
-      throw std::logic_error("OptionTable::ScaleWith: no number option " + name);
-    it->scale = scale;
-    it->comment += scale == Entry::Scale::kCameraHeight ? "; default scales with camera height"
-                   : scale == Entry::Scale::kCameraHeightUp
-                       ? "; default grows with camera height above 0.40 m"
-                       : "; default scales with fx";
+    Entry& e = Named(name);
+    if (e.number == nullptr)
+      throw std::logic_error("OptionTable::ScaleWith: not a number: " + name);
+    e.scale = scale;
+    e.comment += scale == Entry::Scale::kCameraHeight ? "; default scales with camera height"
+                 : scale == Entry::Scale::kCameraHeightUp
+                     ? "; default grows with camera height above 0.40 m"
+                     : "; default scales with fx";
   }
 }
 
@@ -203,7 +207,8 @@ void ScaleDefaultsToCamera(const CameraCalibration& calibration, AppConfig* conf
   // reach the same angle (never fewer levels than the reference's).
   if (!config->given.count("zero_disparity.num_levels") && by_focal > 1.0) {
     int& levels = config->detector.zero_disparity.num_levels;
-    levels = std::min(6, levels + static_cast<int>(std::lround(std::log2(by_focal))));
+    levels = std::min(ZeroDisparityOptions::kMaxLevels,
+                      levels + static_cast<int>(std::lround(std::log2(by_focal))));
   }
 }
 

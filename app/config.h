@@ -98,6 +98,8 @@ class OptionTable {
     enum class Scale { kNone, kCameraHeight, kCameraHeightUp, kFocalLength } scale = Scale::kNone;
   };
   friend void ScaleDefaultsToCamera(const CameraCalibration& calibration, AppConfig* config);
+  // The entry of "section.key"; throws std::logic_error when there is none (a renamed key).
+  Entry& Named(const std::string& name);
   void ScaleWith(Entry::Scale scale, const std::vector<std::string>& names);
   void AddDouble(const std::string& section, const std::string& key, double* target,
                  const std::string& comment);

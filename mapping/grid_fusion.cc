@@ -70,7 +70,7 @@ void FuseLocalMap(const OccupancyGrid& local_map,
       // Free evidence of its own strength, logit(v / 100), into a cell that does not read
       // occupied; an occupied one takes an ordinary miss (only the ordinary count clears it).
       float delta = occupied ? options.hit : options.miss;
-      if (v > 0 && !occupied && tile->log_odds[k] <= 0.0f) delta = std::log(v / (100.0f - v));
+      if (v > 0 && !occupied && tile->log_odds[k] <= 0.0f) delta = TiledGrid::LogOddsOf(v / 100.0);
       tile->log_odds[k] = AddLogOdds(tile->log_odds[k], delta, options);
       tile->last_seen_ns[k] = seen;
       if (tile->log_odds[k] <= 0.0f) tile->height_m[k] = std::numeric_limits<float>::quiet_NaN();

@@ -62,7 +62,7 @@ TEST(GridFusion, FreeEvidenceOfItsOwnStrength) {
     return grid->LogOdds({0, 0});
   };
   TiledGrid unknown(0.05);
-  EXPECT_NEAR(fuse(near, &unknown), std::log(0.15f / 0.85f), 1e-5);
+  EXPECT_NEAR(fuse(near, &unknown), std::log(0.15 / 0.85), 1e-5);
   EXPECT_LE(TiledGrid::Probability(unknown.LogOdds({0, 0})), TrinaryThresholds{}.free);
   EXPECT_FLOAT_EQ(fuse(near, &unknown), o.min);  // clamped
   TiledGrid occupied(0.05);

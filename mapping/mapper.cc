@@ -327,12 +327,12 @@ void AddFloorSeenSinceLastKeyframe(const std::vector<Recent>& recent,
   // n near views (n >= 2, never one alone): min(n / min_frames, 1) of kCellFreeSeenNear's
   // log-odds, as a probability (views split between two keyframes' windows still add up); only
   // where stronger than an ordinary miss, else kCellUnknown (nothing to write).
-  const double near_logit = std::log(kCellFreeSeenNear / (100.0 - kCellFreeSeenNear));
+  const double near_logit = TiledGrid::LogOddsOf(kCellFreeSeenNear / 100.0);
   std::vector<std::int8_t> near_cell(static_cast<std::size_t>(min_frames) + 1, kCellUnknown);
   for (int n = 2; near_range_m > 0 && n <= min_frames; ++n) {
     const auto p = static_cast<std::int8_t>(
         std::lround(100.0 / (1.0 + std::exp(-near_logit * n / min_frames))));
-    if (std::log(p / (100.0 - p)) < miss) near_cell[n] = p;
+    if (TiledGrid::LogOddsOf(p / 100.0) < miss) near_cell[n] = p;
   }
   for (std::size_t i = 0; i < g.NumCells(); ++i) {
     if (blocked[i] || local_map->cells[i] == kCellOccupied) continue;

@@ -237,8 +237,7 @@ TEST(Mapper, AKeyframeKeepsTheFloorItsFramesSawFree) {
   EXPECT_EQ(second_keyframe_cell(4, three, 1.0), 21);  // 3 of 4
   EXPECT_EQ(second_keyframe_cell(4, one, 1.0), kCellUnknown);
   // In the grid the near floor reads free after that one keyframe; the other floor needs more.
-  const float p_free = static_cast<float>(TrinaryThresholds{}.free);
-  const float free_at_most = std::log(p_free / (1.0f - p_free));
+  const float free_at_most = TiledGrid::LogOddsOf(TrinaryThresholds{}.free);
   const auto grid_log_odds = [&](double near_range_m, const Eigen::Vector2d& p) {
     const auto mapper = run(4, near_range_m);
     return mapper->grid().LogOdds(mapper->grid().CellOf(p));

@@ -44,8 +44,7 @@ MatchTarget MakeMatchTarget(const TiledGrid& grid, const Eigen::Vector2d& region
   target.known.assign(g.NumCells(), 0.0f);
   if (g.NumCells() == 0) return target;
 
-  const float occupied_log_odds =
-      static_cast<float>(std::log(occupied_probability / (1.0 - occupied_probability)));
+  const float occupied_log_odds = TiledGrid::LogOddsOf(occupied_probability);
   const int radius = static_cast<int>(std::ceil(3.0 * smoothing_sigma_m / res));
   std::vector<float> kernel((2 * radius + 1) * (2 * radius + 1), 1.0f);
   if (smoothing_sigma_m > 0) {

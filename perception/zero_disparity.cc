@@ -119,7 +119,7 @@ ZeroDisparityField FarnebackField(const cv::Mat& image1, const cv::Mat& image2,
 void ZeroDisparityOptions::Describe(OptionVisitor& v) {
   using R = OptionRange;
   v.Integer("finest_level", &finest_level, R::Closed(0, 3), "finest pyramid level searched");
-  v.Integer("num_levels", &num_levels, R::Closed(1, 6), "pyramid levels, coarse to fine");
+  v.Integer("num_levels", &num_levels, R::Closed(1, kMaxLevels), "pyramid levels, coarse to fine");
   v.Integer("iterations_per_level", &iterations_per_level, R::Closed(1, 10),
             "Gauss-Newton steps at the finest level");
   v.Integer("coarse_iterations_per_level", &coarse_iterations_per_level, R::Closed(1, 20),

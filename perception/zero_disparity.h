@@ -18,7 +18,8 @@ struct ZeroDisparityOptions {
   Method method = Method::kEpipolar;
   // Finest pyramid level the search runs at (0 = input resolution, 1 = half, ...).
   int finest_level = 1;
-  // Number of pyramid levels searched coarse to fine, from the finest upward.
+  // Number of pyramid levels searched coarse to fine, from the finest upward (at most kMaxLevels).
+  static constexpr int kMaxLevels = 6;
   int num_levels = 4;
   // Gauss-Newton iterations along the epipolar line at the finest level.
   int iterations_per_level = 3;

@@ -42,8 +42,8 @@ class Classifier {
  public:
   explicit Classifier(const TrinaryThresholds& t)
       : thresholds_(t),
-        occupied_l_(static_cast<float>(std::log(t.occupied / (1.0 - t.occupied)))),
-        free_l_(static_cast<float>(std::log(t.free / (1.0 - t.free)))) {}
+        occupied_l_(TiledGrid::LogOddsOf(t.occupied)),
+        free_l_(TiledGrid::LogOddsOf(t.free)) {}
 
   CellState operator()(const TiledGrid::Tile& tile, int k) const {
     if (!CellObserved(tile, k)) return CellState::kUnknown;

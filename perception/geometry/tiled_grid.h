@@ -85,6 +85,10 @@ class TiledGrid {
   }
 
   static float Probability(float log_odds) { return 1.0f / (1.0f + std::exp(-log_odds)); }
+  // Its inverse: the log-odds of a probability in (0, 1).
+  static float LogOddsOf(double probability) {
+    return static_cast<float>(std::log(probability / (1.0 - probability)));
+  }
 
  private:
   static int FloorDiv(int i) {
