@@ -299,15 +299,18 @@ bool MapSink::Open(std::string* error) {
   }
   for (const Keyframe& k : saved_keyframes)
     m.first_run_keyframe_id = std::max(m.first_run_keyframe_id, k.id + 1);
+  // The tracks' pixels are the detector's: its undistorted camera (ObstacleDetector::camera()).
+  CameraCalibration detector_camera = m.calibration;
+  detector_camera.intrinsics = detector_camera.intrinsics.Rectified();
   if (!saved_keyframes.empty()) {
     spdlog::info(
         "extending {}: {} keyframes, localising the first keyframe near ({:.2f}, {:.2f}, {:.2f})",
         m.request.map_path, saved_keyframes.size(), config.start.x_m, config.start.y_m,
         config.start.yaw_rad);
-    m.mapper = std::make_unique<Mapper>(mapping, m.calibration, std::move(saved_grid),
+    m.mapper = std::make_unique<Mapper>(mapping, detector_camera, std::move(saved_grid),
                                         std::move(saved_keyframes), config.start.pose());
   } else {
-    m.mapper = std::make_unique<Mapper>(mapping, m.calibration);
+    m.mapper = std::make_unique<Mapper>(mapping, detector_camera);
   }
   if (m.db) {
     OptionTable table(const_cast<AppConfig*>(&config));

@@ -54,25 +54,37 @@ const char* ToString(PairStatus status) {
   return "?";
 }
 
+namespace {
+
+CameraCalibration Rectified(const CameraCalibration& calibration) {
+  CameraCalibration r = ValidOrDie(calibration, "ObstacleDetector");
+  r.intrinsics = r.intrinsics.Rectified();
+  return r;
+}
+
+}  // namespace
+
 ObstacleDetector::ObstacleDetector(const CameraCalibration& calibration,
                                    const DetectorOptions& options)
-    : camera_(ValidOrDie(calibration, "ObstacleDetector")),
+    : camera_(Rectified(calibration)),
       options_(ValidOrDie(options, "ObstacleDetector")),
       strip_mask_(FloorStripMask(camera_, options.ground_motion)),
       floor_features_(camera_, options.floor_features) {
   const CameraIntrinsics& in = calibration.intrinsics;
   if (in.HasDistortion()) {
     const cv::Matx33d k(in.fx, 0, in.cx, 0, in.fy, in.cy, 0, 0, 1);
+    const CameraIntrinsics& out = camera_.calibration().intrinsics;
+    const cv::Matx33d k_out(out.fx, 0, out.cx, 0, out.fy, out.cy, 0, 0, 1);
     const cv::Vec<double, 5> d(in.distortion[0], in.distortion[1], in.distortion[2],
                                in.distortion[3], in.distortion[4]);
-    cv::initUndistortRectifyMap(k, d, cv::noArray(), k, cv::Size(in.width, in.height), CV_32FC1,
+    cv::initUndistortRectifyMap(k, d, cv::noArray(), k_out, cv::Size(in.width, in.height), CV_32FC1,
                                 undistort_map_x_, undistort_map_y_);
     // And back: where each input pixel lies in the undistorted image (one two-channel map).
     cv::Mat input_pixels(in.height, in.width, CV_32FC2);
     for (int y = 0; y < in.height; ++y) {
       for (int x = 0; x < in.width; ++x) input_pixels.at<cv::Vec2f>(y, x) = cv::Vec2f(x, y);
     }
-    cv::undistortPoints(input_pixels.reshape(2, 1), input_map_, k, d, cv::noArray(), k,
+    cv::undistortPoints(input_pixels.reshape(2, 1), input_map_, k, d, cv::noArray(), k_out,
                         cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 50,
                                          1e-12));  // as CameraModel::UndistortPixel
     input_map_ = input_map_.reshape(2, in.height);

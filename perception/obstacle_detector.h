@@ -47,11 +47,12 @@ class ObstacleDetector {
   // image the detector works on. Returns an empty Mat and a reason for unusable images.
   cv::Mat Prepare(const cv::Mat& image, std::string* error) const;
 
-  // The detector works on undistorted images (same camera matrix); FrameResult's per-pixel images
-  // are in its pixels. Undistort: an input image (8- or 16-bit or float, bilinear) into those
-  // pixels. ToInputPixels: a per-pixel image of a result (labels, heights) back into the input
-  // image's pixels, nearest neighbour, 0 (unknown) where the input pixel falls outside. Both
-  // return their argument when the calibration has no distortion.
+  // The detector works on undistorted images of the calibration's size (camera(): the
+  // intrinsics' Rectified() camera, no distortion, the mount as given); FrameResult's per-pixel
+  // images and every pixel it reports are in its pixels. Undistort: an input image (8- or 16-bit or
+  // float, bilinear) into those pixels. ToInputPixels: a per-pixel image of a result (labels,
+  // heights) back into the input image's pixels, nearest neighbour, 0 (unknown) where the input
+  // pixel falls outside. Both return their argument when the calibration has no distortion.
   cv::Mat Undistort(const cv::Mat& image) const;
   cv::Mat ToInputPixels(const cv::Mat& per_pixel) const;
 

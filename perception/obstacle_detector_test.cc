@@ -617,6 +617,10 @@ TEST(ObstacleDetector, ResultsGoBackToTheInputPixels) {
 
   calib.intrinsics.distortion = {-0.28, 0.08, 0.0005, -0.0003, 0.0};
   const ObstacleDetector detector(calib, DetectorOptions{});
+  const CameraModel lens(calib);  // the input's own model: its pixels undistorted in its own K
+  const CameraIntrinsics& working = detector.camera().calibration().intrinsics;
+  EXPECT_FALSE(working.HasDistortion());
+  EXPECT_LT(working.fx, calib.intrinsics.fx);  // a wider view than the input's K keeps
   // An undistorted per-pixel image whose value tells its pixel: 1 + x + 640 * (y % 64).
   cv::Mat coded(480, 640, CV_32SC1);
   for (int y = 0; y < 480; ++y) {
@@ -627,8 +631,11 @@ TEST(ObstacleDetector, ResultsGoBackToTheInputPixels) {
   ASSERT_EQ(in_input.type(), CV_32SC1);
   int checked = 0, outside = 0;
   for (const auto& [x, y] : std::vector<std::pair<int, int>>{
-           {320, 240}, {5, 5}, {634, 10}, {20, 470}, {600, 400}, {100, 240}, {320, 20}}) {
-    const Eigen::Vector2d q = detector.camera().UndistortPixel(Eigen::Vector2d(x, y));
+           {320, 240}, {5, 5}, {634, 10}, {20, 470}, {600, 400}, {100, 240}, {320, 20}, {5, 240}}) {
+    const Eigen::Vector2d u = lens.UndistortPixel(Eigen::Vector2d(x, y));
+    const Eigen::Vector2d q(
+        working.cx + working.fx * (u.x() - calib.intrinsics.cx) / calib.intrinsics.fx,
+        working.cy + working.fy * (u.y() - calib.intrinsics.cy) / calib.intrinsics.fy);
     const int qx = static_cast<int>(std::lround(q.x())), qy = static_cast<int>(std::lround(q.y()));
     const int value = in_input.at<int>(y, x);
     if (qx < 0 || qy < 0 || qx >= 640 || qy >= 480) {
@@ -639,11 +646,16 @@ TEST(ObstacleDetector, ResultsGoBackToTheInputPixels) {
     EXPECT_EQ(value, coded.at<int>(qy, qx)) << x << "," << y;
     ++checked;
   }
-  EXPECT_GE(checked, 3);
-  EXPECT_GE(outside, 1);
+  // The centre, (600, 400), the top edge's middle and both points of the left edge's middle row,
+  // which the input's own K left out (the edge's middle lies 57 px beyond it).
+  EXPECT_EQ(checked, 5);
+  EXPECT_EQ(outside, 3);  // the outermost corners still fall outside
   // With k1 = -0.28 a corner pixel lies tens of pixels from its undistorted position.
-  const Eigen::Vector2d corner = detector.camera().UndistortPixel(Eigen::Vector2d(20, 470));
-  EXPECT_GT((corner - Eigen::Vector2d(20, 470)).norm(), 20.0);
+  EXPECT_GT((lens.UndistortPixel(Eigen::Vector2d(20, 470)) - Eigen::Vector2d(20, 470)).norm(),
+            20.0);
+  // Every pixel of the undistorted image shows the input: a white input stays white.
+  const cv::Mat white = detector.Undistort(cv::Mat(480, 640, CV_8UC1, cv::Scalar(255)));
+  EXPECT_EQ(cv::countNonZero(white < 250), 0);
   EXPECT_EQ(detector.Undistort(cv::Mat(480, 640, CV_8UC3, cv::Scalar(9, 9, 9))).type(), CV_8UC3);
 }
 

@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <opencv2/calib3d.hpp>
 #include <opencv2/core.hpp>
 #include <set>
 #include <sstream>
@@ -294,6 +295,57 @@ CameraIntrinsics CameraIntrinsics::Scaled(int new_width, int new_height) const {
   s.cx = (cx + 0.5) * sx - 0.5;
   s.cy = (cy + 0.5) * sy - 0.5;
   return s;
+}
+
+CameraIntrinsics CameraIntrinsics::Rectified() const {
+  if (!HasDistortion()) return *this;
+  const cv::Matx33d k(fx, 0, cx, 0, fy, cy, 0, 0, 1);
+  const cv::Mat d(distortion, /*copyData=*/true);
+  const cv::Size size(width, height);
+  const cv::Matx33d k_new = cv::getOptimalNewCameraMatrix(k, d, size, 0.0, size);
+  CameraIntrinsics r = *this;
+  r.distortion = {0, 0, 0, 0, 0};
+  r.fx = k_new(0, 0);
+  r.fy = k_new(1, 1);
+  r.cx = k_new(0, 2);
+  r.cy = k_new(1, 2);
+  // getOptimalNewCameraMatrix bounds the view by a coarse grid of points; check every border
+  // pixel and narrow the view (larger focal lengths) until all of them lie inside the input.
+  std::vector<cv::Point3d> border;
+  for (int x = 0; x < width; ++x) {
+    border.emplace_back(x, 0, 1);
+    border.emplace_back(x, height - 1, 1);
+  }
+  for (int y = 1; y + 1 < height; ++y) {
+    border.emplace_back(0, y, 1);
+    border.emplace_back(width - 1, y, 1);
+  }
+  for (int attempt = 0; attempt < 100; ++attempt) {
+    std::vector<cv::Point3d> rays;
+    rays.reserve(border.size());
+    for (const cv::Point3d& p : border) {
+      rays.emplace_back((p.x - r.cx) / r.fx, (p.y - r.cy) / r.fy, 1.0);
+    }
+    std::vector<cv::Point2d> in_input;
+    cv::projectPoints(rays, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), k, d, in_input);
+    bool inside = true;
+    for (std::size_t i = 0; i < rays.size(); ++i) {
+      const cv::Point2d& q = in_input[i];
+      // A ray past the radial polynomial's fold (where it turns back) is not inside either.
+      const double r2 = rays[i].x * rays[i].x + rays[i].y * rays[i].y;
+      const double slope =
+          1 + r2 * (3 * distortion[0] + r2 * (5 * distortion[1] + r2 * 7 * distortion[4]));
+      inside = inside && slope > 0 && q.x >= 0 && q.y >= 0 && q.x <= width - 1 && q.y <= height - 1;
+    }
+    if (inside) return r;
+    r.fx *= 1.005;
+    r.fy *= 1.005;
+  }
+  r.fx = fx;  // no such view found: the input's own focal lengths, as before
+  r.fy = fy;
+  r.cx = cx;
+  r.cy = cy;
+  return r;
 }
 
 Eigen::Isometry3d CameraCalibration::BaseFromCamera() const {

@@ -5,7 +5,9 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <opencv2/calib3d.hpp>
 #include <opencv2/core.hpp>
+#include <vector>
 
 namespace monoplane {
 namespace {
@@ -118,6 +120,57 @@ TEST(CameraCalibration, ScaledIntrinsicsKeepPixelCentres) {
   EXPECT_DOUBLE_EQ(half.fx, 228.5);
   EXPECT_DOUBLE_EQ(half.cx, 159.5);
   EXPECT_DOUBLE_EQ(half.cy, 119.5);
+}
+
+// The share of the input's pixels that a distortion-free camera `out` of the same size shows.
+double ShareOfInputShown(const CameraIntrinsics& in, const CameraIntrinsics& out) {
+  std::vector<cv::Point2f> pixels;
+  for (int y = 0; y < in.height; y += 4) {
+    for (int x = 0; x < in.width; x += 4) pixels.emplace_back(x, y);
+  }
+  const cv::Matx33d k(in.fx, 0, in.cx, 0, in.fy, in.cy, 0, 0, 1);
+  const cv::Matx33d k_out(out.fx, 0, out.cx, 0, out.fy, out.cy, 0, 0, 1);
+  std::vector<cv::Point2f> undistorted;
+  cv::undistortPoints(pixels, undistorted, k, cv::Mat(in.distortion, true), cv::noArray(), k_out);
+  int shown = 0;
+  for (const cv::Point2f& p : undistorted) {
+    shown += p.x >= -0.5 && p.y >= -0.5 && p.x < in.width - 0.5 && p.y < in.height - 0.5;
+  }
+  return static_cast<double>(shown) / pixels.size();
+}
+
+TEST(CameraCalibration, RectifiedCameraShowsMostOfTheInputAndNoEmptyPixel) {
+  const CameraIntrinsics plain{640, 480, 457.0, 457.0, 319.5, 239.5, {}};
+  const CameraIntrinsics same = plain.Rectified();
+  EXPECT_EQ(same.fx, plain.fx);
+  EXPECT_EQ(same.cy, plain.cy);
+
+  CameraIntrinsics wide = plain;  // barrel distortion of a wide-angle lens
+  wide.distortion = {-0.28, 0.08, 0.0005, -0.0003, 0.0};
+  const CameraIntrinsics r = wide.Rectified();
+  EXPECT_FALSE(r.HasDistortion());
+  EXPECT_EQ(r.width, 640);
+  EXPECT_EQ(r.height, 480);
+  // The input's own K shows under four fifths of it; the rectified camera more than nine tenths.
+  CameraIntrinsics own_k = wide;
+  own_k.distortion = {0, 0, 0, 0, 0};
+  EXPECT_LT(ShareOfInputShown(wide, own_k), 0.80);
+  EXPECT_GT(ShareOfInputShown(wide, r), 0.90);
+  // Every border pixel of the rectified image lies inside the input: no pixel without data.
+  const cv::Matx33d k(wide.fx, 0, wide.cx, 0, wide.fy, wide.cy, 0, 0, 1);
+  std::vector<cv::Point3d> rays;
+  for (int x = 0; x < 640; ++x) {
+    for (int y : {0, 479}) rays.emplace_back((x - r.cx) / r.fx, (y - r.cy) / r.fy, 1.0);
+  }
+  for (int y = 0; y < 480; ++y) {
+    for (int x : {0, 639}) rays.emplace_back((x - r.cx) / r.fx, (y - r.cy) / r.fy, 1.0);
+  }
+  std::vector<cv::Point2d> in_input;
+  cv::projectPoints(rays, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), k, cv::Mat(wide.distortion, true),
+                    in_input);
+  for (const cv::Point2d& q : in_input) {
+    ASSERT_TRUE(q.x >= 0 && q.y >= 0 && q.x <= 639 && q.y <= 479) << q.x << ", " << q.y;
+  }
 }
 
 struct BadCase {
