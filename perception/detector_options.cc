@@ -121,6 +121,9 @@ void PairSelectionOptions::Describe(OptionVisitor& v) {
          "turning: narrower pairs allowed down to this camera travel, m");
   v.Real("turn_max_rotation_rad", &turn_max_rotation_rad, R::AtLeast(0).Note("0 = off"),
          "turning: largest yaw of such a pair, rad");
+  v.Real("turn_side_min_baseline_m", &turn_side_min_baseline_m, R::AtLeast(0).Note("0 = off"),
+         "turning: a newer frame this far away measures what the turning pair's reference did "
+         "not see, m");
   v.Integer("detect_every", &detect_every, R::AtLeast(1),
             "dense detection on every N-th frame, others tracked only");
 }

@@ -199,6 +199,12 @@ struct PairSelectionOptions {
   // that sees near obstacles (FrameResult::turn_pair tells). turn_max_rotation_rad 0 = off.
   double turn_min_baseline_m = 0.04;
   double turn_max_rotation_rad = 0.5;
+  // A turning pair's reference did not see the side the turn brings into view (at 45 deg/s a
+  // pair of 0.04 m spans 0.4 rad: 180 px of a 640 px image). There the newest frame at least
+  // turn_side_min_baseline_m away (m, below turn_min_baseline_m; 0 = off) is matched too, for
+  // the samples the turning pair did not measure: half the baseline, so half the parallax, but
+  // half the side left unseen.
+  double turn_side_min_baseline_m = 0.02;
   // Dense detection on every N-th usable frame; the others are only tracked for odometry
   // and carry the last detected frame's result. 2 halves the cost with obstacle updates at half
   // the camera rate. A frame farther from the last detected one than a carried result may go

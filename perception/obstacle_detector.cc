@@ -196,6 +196,27 @@ int RowsBeyondFloorRange(const CameraModel& camera, double range_m) {
   return std::clamp(static_cast<int>(std::ceil(lowest)), 0, in.height);
 }
 
+// A second pair's motion refined on the floor's texture, as the main pair's; none for a failed
+// motion, another search than the epipolar one, an image of another size, or a pitched pair (the
+// chain works on the current image at the main reference's pitch).
+std::optional<DirectAlignment> AlignSecondPair(const CameraModel& camera,
+                                               const DetectorOptions& options,
+                                               const cv::Mat& strip_mask, const FarPair& pair,
+                                               const cv::Mat& current,
+                                               const AlignmentImage& current_aligned) {
+  if (pair.motion.status == GroundMotion::Status::kFailed ||
+      options.zero_disparity.method != ZeroDisparityOptions::Method::kEpipolar ||
+      pair.reference.size() != current.size() || pair.reference.type() != CV_8U) {
+    return std::nullopt;
+  }
+  const DirectAlignmentOptions& da = options.direct_alignment;
+  DirectAlignment aligned =
+      AlignFloorDirect(PrepareAlignmentImage(pair.reference, da), current_aligned, camera,
+                       strip_mask, pair.motion.base2_from_base1, da);
+  if (aligned.pitch2_rad != 0.0) return std::nullopt;
+  return aligned;
+}
+
 // The far pair's samples (FarPair) merged into the near pair's (KeepMorePrecise), on the same
 // sample grid of the current image. Only the rows whose floor lies at least 4 far baselines ahead
 // are searched: nearer, the floor's scale changes by more than a quarter between the frames and
@@ -207,21 +228,15 @@ void MergeFarPair(const CameraModel& camera, const DetectorOptions& options,
                   const AlignmentImage& current_aligned, const SampleGrid& grid,
                   double near_baseline_m, std::vector<Sample>* samples) {
   const ZeroDisparityOptions& zo = options.zero_disparity;
-  if (far_pair.motion.status == GroundMotion::Status::kFailed ||
-      zo.method != ZeroDisparityOptions::Method::kEpipolar ||
-      far_pair.reference.size() != current.size() || far_pair.reference.type() != CV_8U) {
-    return;
-  }
-  const DirectAlignmentOptions& da = options.direct_alignment;
-  const DirectAlignment aligned =
-      AlignFloorDirect(PrepareAlignmentImage(far_pair.reference, da), current_aligned, camera,
-                       strip_mask, far_pair.motion.base2_from_base1, da);
-  const Pose2& t = aligned.base2_from_base1;
+  const auto aligned =
+      AlignSecondPair(camera, options, strip_mask, far_pair, current, current_aligned);
+  if (!aligned) return;
+  const Pose2& t = aligned->base2_from_base1;
   const Eigen::Vector2d c1 = camera.CameraCentreInBase().head<2>();
   const double baseline_m = (t * c1 - c1).norm();
-  if (aligned.pitch2_rad != 0.0 || !(baseline_m > 1.5 * near_baseline_m)) return;
+  if (!(baseline_m > 1.5 * near_baseline_m)) return;
   const bool fitted = far_pair.motion.status == GroundMotion::Status::kOk;
-  if (!fitted && !aligned.refined) return;
+  if (!fitted && !aligned->refined) return;
   const int used_rows = RowsBeyondFloorRange(camera, 4.0 * baseline_m);
   const int used_sample_rows = std::min(grid.rows, static_cast<int>(used_rows / grid.SamplePx()));
   if (used_sample_rows <= 0) return;
@@ -235,6 +250,33 @@ void MergeFarPair(const CameraModel& camera, const DetectorOptions& options,
   const SampleGrid far_grid{used_sample_rows, grid.cols, grid.stride, grid.scale};
   KeepMorePrecise(MeasureSamples(camera, field, far_grid, t, options.classification), samples,
                   !fitted);
+}
+
+// A turning pair's newer, narrower pair (FarPair::unseen_only): over the whole image, with its
+// motion refined on the floor's texture as the main pair's; its measurements go only to the
+// samples the main pair measured nothing at (not to mismatched or moving ones: what the main
+// pair saw change stays unknown). Nothing for a pitched pair or one without parallax.
+void MergeUnseen(const CameraModel& camera, const DetectorOptions& options,
+                 const cv::Mat& strip_mask, const FarPair& side_pair, const cv::Mat& current,
+                 const AlignmentImage& current_aligned, const SampleGrid& grid,
+                 std::vector<Sample>* samples) {
+  const auto aligned =
+      AlignSecondPair(camera, options, strip_mask, side_pair, current, current_aligned);
+  if (!aligned) return;
+  const Pose2& t = aligned->base2_from_base1;
+  const Eigen::Vector2d c1 = camera.CameraCentreInBase().head<2>();
+  if (!((t * c1 - c1).norm() >= 0.01)) return;
+  const ZeroDisparityField field =
+      ComputeZeroDisparity(side_pair.reference, current, camera, t, options.zero_disparity);
+  if (field.s_px.rows < grid.rows * grid.stride || field.s_px.cols < grid.cols * grid.stride) {
+    return;
+  }
+  const std::vector<Sample> side = MeasureSamples(camera, field, grid, t, options.classification);
+  for (std::size_t k = 0; k < samples->size() && k < side.size(); ++k) {
+    Sample& s = (*samples)[k];
+    if (s.measured || s.mismatched || s.raw == PixelLabel::kMoving || !side[k].measured) continue;
+    s = side[k];
+  }
 }
 
 // The per-sample images of a result: labels, heights (EncodeHeightMm; floor 0, obstacles and
@@ -412,8 +454,13 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
   // The far pair, on the same sample grid of the current image (not for a pitched camera: the
   // chain works on the current image at the near reference's pitch).
   if (far_pair != nullptr && !pitched) {
-    MergeFarPair(camera_, options_, strip_mask_, *far_pair, current, current_aligned, grid,
-                 baseline_m, &samples);
+    if (far_pair->unseen_only) {
+      MergeUnseen(camera_, options_, strip_mask_, *far_pair, current, current_aligned, grid,
+                  &samples);
+    } else {
+      MergeFarPair(camera_, options_, strip_mask_, *far_pair, current, current_aligned, grid,
+                   baseline_m, &samples);
+    }
   }
 
   // Phase 2: evidence over frames.

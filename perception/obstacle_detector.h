@@ -24,12 +24,17 @@ namespace monoplane {
 FrameResult UnknownResult(const cv::Size& size, const LocalMapOptions& map_options,
                           PairStatus status, const std::string& message);
 
-// The current frame's second, longer-baseline pair (PairSelectionOptions::far_min_baseline_m):
-// the older prepared image and the floor motion from it to the current frame (kOk: fitted to the
-// tracks both share; kFallback: the odometry, of which only the floor is taken).
+// The current frame's second pair: the older prepared image and the floor motion from it to the
+// current frame (kOk: fitted to the tracks both share; kFallback: the odometry).
+// - A longer-baseline pair (PairSelectionOptions::far_min_baseline_m; unseen_only false): each
+//   sample keeps the more precise pair where the two agree; with kFallback only its floor.
+// - A turning pair's newer, narrower one (PairSelectionOptions::turn_side_min_baseline_m;
+//   unseen_only true): it measures only the samples the main pair did not (most of them on the
+//   side the turn brings into view, which the main pair's reference did not see).
 struct FarPair {
   cv::Mat reference;
   GroundMotion motion;
+  bool unseen_only = false;
 };
 
 // Detects floor, obstacles, drop-offs and moving things in the second of two frames. Holds the

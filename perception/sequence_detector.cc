@@ -486,6 +486,17 @@ SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, Timesta
         // (kFallback: ObstacleDetector takes only its floor, and only where the direct alignment
         // refines that motion).
         std::optional<FarPair> far_pair;
+        if (turn_pair && ps.turn_side_min_baseline_m > 0 &&
+            ps.turn_side_min_baseline_m < ps.turn_min_baseline_m) {
+          // The side the turn brings into view, from a newer frame (turn_side_min_baseline_m).
+          const Frame* side = newest_with(ps.turn_side_min_baseline_m, ps.turn_max_rotation_rad);
+          if (side != nullptr && side != reference) {
+            PairFit side_fit = fit_pair(*side);
+            if (side_fit.motion.status == GroundMotion::Status::kOk) {
+              far_pair = FarPair{side->image, side_fit.motion, /*unseen_only=*/true};
+            }
+          }
+        }
         if (far_fit) {
           GroundMotion m = far_fit->motion;
           if (m.status != GroundMotion::Status::kOk) {

@@ -263,6 +263,36 @@ TEST_F(DetectorOnSyntheticScene, TurningOnTheSpotSeesANearBox) {
   EXPECT_EQ(unknown.result->status, PairStatus::kNoParallax);
 }
 
+// A turn to the left brings in view what the turning pair's reference (0.4 rad back) never saw:
+// a box 0.3 rad left of the last frame's heading. The newer frame 0.02 m away
+// (turn_side_min_baseline_m) saw it, and measures the samples the turning pair could not.
+TEST_F(DetectorOnSyntheticScene, TurningOnTheSpotSeesTheSideTheTurnBringsIn) {
+  Scene scene;
+  scene.boxes.push_back({{0.62, 0.58, 0.0}, {0.84, 0.80, 0.3}});  // 1 m away, bearing 0.75 rad
+  std::vector<Pose2> poses;
+  for (int k = 0; k <= 9; ++k) poses.push_back({0, 0, 0.05 * k});
+  Rendered b;
+  const SequenceDetector::Output side = RunEveryFrame(options_, scene, poses, &b);
+  DetectorOptions off = options_;
+  off.pair_selection.turn_side_min_baseline_m = 0.0;
+  const SequenceDetector::Output without = RunEveryFrame(off, scene, poses, &b);
+  ASSERT_TRUE(side.result && without.result);
+  ASSERT_EQ(side.result->status, PairStatus::kOk) << side.result->message;
+  EXPECT_TRUE(side.result->turn_pair);
+  const BoxFloorCounts with_side = CountBoxAndFloor(b, side.result->labels);
+  const BoxFloorCounts turning_only = CountBoxAndFloor(b, without.result->labels);
+  std::printf(
+      "box labelled obstacle: %d with the side pair, %d without, of %d; floor labelled obstacle "
+      "%d / %d of %d\n",
+      with_side.box_obstacle, turning_only.box_obstacle, with_side.box, with_side.floor_obstacle,
+      turning_only.floor_obstacle, with_side.floor);
+  ASSERT_GT(with_side.box, 3000);
+  EXPECT_LT(turning_only.box_obstacle, with_side.box / 10);  // outside the reference's view
+  EXPECT_GT(with_side.box_obstacle, with_side.box / 3);
+  EXPECT_LT(with_side.box_floor, with_side.box / 100);
+  EXPECT_LT(with_side.floor_obstacle, with_side.floor / 20);
+}
+
 // Drives 10 frames 0.05 m apart over the floor; which frames were detected, which carried.
 void DetectedAndCarried(const CameraCalibration& calib, const DetectorOptions& options,
                         std::vector<bool>* detected, std::vector<bool>* carried) {
