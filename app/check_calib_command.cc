@@ -23,6 +23,13 @@ int CheckCalib(const std::string& path) {
   std::printf("camera: %dx%d px, fx %.3f fy %.3f, cx %.3f cy %.3f, distortion [%g %g %g %g %g]\n",
               in.width, in.height, in.fx, in.fy, in.cx, in.cy, in.distortion[0], in.distortion[1],
               in.distortion[2], in.distortion[3], in.distortion[4]);
+  if (in.HasDistortion()) {
+    const CameraIntrinsics r = in.Rectified();
+    std::printf(
+        "undistorted for the detector: fx %.3f fy %.3f, cx %.3f cy %.3f (the widest view without "
+        "empty pixels)\n",
+        r.fx, r.fy, r.cx, r.cy);
+  }
   std::printf(
       "mount: x %.3f m, y %.3f m, height %.3f m, pitch %.2f deg, roll %.2f deg, yaw %.2f deg\n",
       m.x_m, m.y_m, m.height_m, m.pitch_deg, m.roll_deg, m.yaw_deg);
