@@ -45,7 +45,7 @@ void RunPipeline(const app::AppConfig& config) {
   rng.fill(texture, cv::RNG::UNIFORM, 0, 256);
   cv::GaussianBlur(texture, texture, cv::Size(5, 5), 1.0);
   SequenceDetector detector(camera, config.detector);
-  Mapper mapper(config.mapping, camera);
+  Mapper mapper(config.mapping, RectifiedCalibration(camera));
   for (int i = 0; i < 4; ++i) {
     const cv::Mat frame = texture(cv::Rect(0, 60 - 4 * i, 160, 120)).clone();
     const TimestampNs stamp = static_cast<TimestampNs>(i) * 66666667;

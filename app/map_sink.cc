@@ -299,9 +299,8 @@ bool MapSink::Open(std::string* error) {
   }
   for (const Keyframe& k : saved_keyframes)
     m.first_run_keyframe_id = std::max(m.first_run_keyframe_id, k.id + 1);
-  // The tracks' pixels are the detector's: its undistorted camera (ObstacleDetector::camera()).
-  CameraCalibration detector_camera = m.calibration;
-  detector_camera.intrinsics = detector_camera.intrinsics.Rectified();
+  // The tracks' pixels are the detector's (ObstacleDetector::camera()).
+  const CameraCalibration detector_camera = RectifiedCalibration(m.calibration);
   if (!saved_keyframes.empty()) {
     spdlog::info(
         "extending {}: {} keyframes, localising the first keyframe near ({:.2f}, {:.2f}, {:.2f})",

@@ -162,7 +162,8 @@ int Run(const RunRequest& given, RunSummary* summary) {
     std::cerr << "monoplane run: " << error << "\n";
     return kExitBadInput;
   }
-  if (const std::string problem = FloorNotInView(CameraModel(calibration)); !problem.empty()) {
+  if (const std::string problem = FloorNotInView(CameraModel(RectifiedCalibration(calibration)));
+      !problem.empty()) {
     std::cerr << "monoplane run: " << calib_path << ": " << problem << "\n";
     return kExitBadInput;
   }
@@ -190,7 +191,8 @@ int Run(const RunRequest& given, RunSummary* summary) {
     }
     calibration.intrinsics = in.Scaled(first->image.cols, first->image.rows);
   }
-  ScaleDefaultsToCamera(calibration, &request.config);
+  // Pixel sizes follow the camera the detector works in.
+  ScaleDefaultsToCamera(RectifiedCalibration(calibration), &request.config);
   if (!ValidateConfig(request.config, &error)) {
     std::cerr << "monoplane run: " << calib_path << ": the options fitted to this camera: " << error
               << "\n";

@@ -176,7 +176,8 @@ class Mapper {
     Pose2 map_from_base;  // this frame's pose
   };
 
-  // A fresh map. Aborts on invalid options or calibration (check IsValid first).
+  // A fresh map. Aborts on invalid options or calibration (check IsValid first). The calibration
+  // is the detector's (RectifiedCalibration): the tracks' pixels are in its camera.
   Mapper(const Options& options, const CameraCalibration& calibration);
   // Extends a saved map: its grid and keyframes (kept fixed; with their floor features, when they
   // have them, for loop closure and as merge targets). The first keyframe of this run is

@@ -21,7 +21,7 @@ struct FrameObservation {
   TimestampNs stamp_ns = 0;
   Pose2 odom_from_base;  // dead-reckoned pose of this frame (odom = base frame at the first frame)
   GroundMotion step;     // previous good frame -> this frame, with its quality
-  std::vector<FeatureObservation> features;  // corners tracked into this frame (undistorted px)
+  std::vector<FeatureObservation> features;  // corners tracked into this frame (detector's px)
   // The detector's result for this frame; false for the first frame or an unusable image, in which
   // case local_map and obstacle_points_in_base are empty and the frame cannot be a keyframe.
   bool has_result = false;

@@ -290,6 +290,8 @@ void UnknownFloorNextToObstacles(const SampleGrid& grid, int reach,
       bool next_to_obstacle = false;
       for (int d = std::max(0, i - reach); d <= std::min(grid.rows - 1, i + reach); ++d)
         next_to_obstacle |= before[grid.Index(d, j)] == PixelLabel::kObstacle;
+      for (int d = std::max(0, j - reach); d <= std::min(grid.cols - 1, j + reach); ++d)
+        next_to_obstacle |= before[grid.Index(i, d)] == PixelLabel::kObstacle;
       if (next_to_obstacle) (*labels)[grid.Index(i, j)] = PixelLabel::kUnknown;
     }
   }

@@ -57,9 +57,8 @@ const char* ToString(PairStatus status) {
 namespace {
 
 CameraCalibration Rectified(const CameraCalibration& calibration) {
-  CameraCalibration r = ValidOrDie(calibration, "ObstacleDetector");
-  r.intrinsics = r.intrinsics.Rectified();
-  return r;
+  return ValidOrDie(RectifiedCalibration(ValidOrDie(calibration, "ObstacleDetector")),
+                    "ObstacleDetector (rectified)");
 }
 
 }  // namespace

@@ -79,6 +79,21 @@ std::vector<Sample> MeasureSamples(const CameraModel& camera, const ZeroDisparit
       if (auto f = camera.PixelToFloor(q)) sample.floor_in_base2 = *f;
       sample.texture = field.texture.at<float>(y, x);
       if (sample.texture < co.min_texture) continue;  // unknown, never floor
+      const double s = field.s_px.at<float>(y, x);
+      const double sigma_px =
+          std::max<double>(co.disparity_sigma_px, field.sigma_px.at<float>(y, x));
+      const Eigen::Vector2d u(field.ux.at<float>(y, x), field.uy.at<float>(y, x));
+      const Eigen::Vector2d in_image1 = ApplyHomography(h_inv, q - s * u);
+      // Matched where image 1's window would not lie inside image 1 (a turn brings in what the
+      // reference did not see): the search compared it with the image's replicated border, and
+      // on a plain wall or floor that fits as well as anything. Not seen in the pair: neither
+      // measured nor a change (its residual and its offset across the line say nothing).
+      const double margin = field.window_half_px;
+      if (!(in_image1.x() >= margin && in_image1.y() >= margin &&
+            in_image1.x() <= field.image1_size.width - 1 - margin &&
+            in_image1.y() <= field.image1_size.height - 1 - margin)) {
+        continue;
+      }
       const float perpendicular = std::abs(field.perpendicular_px.at<float>(y, x));
       if (co.moving_min_perpendicular_px > 0 && perpendicular >= co.moving_min_perpendicular_px &&
           perpendicular >= co.min_disparity_sigmas * field.perpendicular_sigma_px.at<float>(y, x)) {
@@ -87,20 +102,6 @@ std::vector<Sample> MeasureSamples(const CameraModel& camera, const ZeroDisparit
       }
       if (field.residual.at<float>(y, x) > co.max_residual) {
         sample.mismatched = true;
-        continue;
-      }
-      const double s = field.s_px.at<float>(y, x);
-      const double sigma_px =
-          std::max<double>(co.disparity_sigma_px, field.sigma_px.at<float>(y, x));
-      const Eigen::Vector2d u(field.ux.at<float>(y, x), field.uy.at<float>(y, x));
-      const Eigen::Vector2d in_image1 = ApplyHomography(h_inv, q - s * u);
-      // Matched where image 1's window would not lie inside image 1 (a turn brings in what the
-      // reference did not see): the search compared it with the image's replicated border, and
-      // on a plain wall or floor that fits as well as anything. Not seen in the pair.
-      const double margin = field.window_half_px;
-      if (!(in_image1.x() >= margin && in_image1.y() >= margin &&
-            in_image1.x() <= field.image1_size.width - 1 - margin &&
-            in_image1.y() <= field.image1_size.height - 1 - margin)) {
         continue;
       }
       const auto tri = triangulate.OnEpipolarLine(in_image1, q);

@@ -52,6 +52,11 @@ struct CameraCalibration {
   bool IsValid(std::string* error) const;
 };
 
+// The calibration the detector works in (ObstacleDetector::camera()): the intrinsics' Rectified()
+// camera with the same mount. Tracked pixels (FeatureObservation::pixel) are in its pixels, so the
+// mapper takes it too.
+CameraCalibration RectifiedCalibration(const CameraCalibration& calibration);
+
 // Parses the monoplane calibration YAML (see ../shared/INTERFACES.md). The `camera:` section may
 // also use the layout ROS camera_calibration writes (image_width, image_height, camera_matrix,
 // distortion_coefficients, ...). Unknown keys, missing keys, wrong types and invalid values are

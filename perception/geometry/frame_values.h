@@ -23,7 +23,7 @@ enum class PixelLabel : std::uint8_t {
 // A corner tracked from frame to frame, for the mapping layer.
 struct FeatureObservation {
   std::int64_t track_id = 0;  // the same id in every frame that sees the same corner
-  Eigen::Vector2d pixel;      // undistorted pixel in this frame
+  Eigen::Vector2d pixel;      // in this frame, in RectifiedCalibration's (the detector's) pixels
   bool floor_inlier = false;  // moved as the floor did between the previous frame and this one
 };
 
