@@ -108,9 +108,9 @@ struct ClassificationOptions {
   // textureless spot in the floor) they just give no free vote. 0 = off.
   int floor_edge_samples = 3;
   // Labels: a floor sample within this many samples of an obstacle sample in its image column (the
-  // obstacle's base below it, its top edge above it) is unknown: its matching window straddles the
-  // edge, and next to an obstacle the floor label reaches onto its lowest pixels. More samples
-  // label fewer obstacle pixels floor and cover less of the floor. 0 = off.
+  // obstacle's base below it, its top edge above it) or row (its sides) is unknown: its matching
+  // window straddles the edge, and next to an obstacle the floor label reaches onto its lowest
+  // pixels. More samples label fewer obstacle pixels floor and cover less of the floor. 0 = off.
   int edge_floor_unknown_samples = 1;
   // Labels: unmeasured samples between two labelled ones in an image column are filled where the
   // two bound what lies between (one vertical surface, an obstacle standing on the floor, or

@@ -162,8 +162,8 @@ void FillColumnGaps(const CameraModel& camera, const ClassificationOptions& co, 
                     std::vector<PixelLabel>* labels);
 
 // Floor within `reach` samples of an obstacle in its image column (its base below it, the floor
-// behind its top above it): the matching window straddled the edge, and the floor label reached
-// onto the obstacle's edge pixels. Unknown, not floor.
+// behind its top above it) or row (beside it): the matching window straddled the edge, and the
+// floor label reached onto the obstacle's edge pixels. Unknown, not floor.
 void UnknownFloorNextToObstacles(const SampleGrid& grid, int reach,
                                  std::vector<PixelLabel>* labels);
 
