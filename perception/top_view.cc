@@ -56,7 +56,11 @@ std::vector<std::uint8_t> SamplesOnSurfaces(const CameraModel& camera,
   std::vector<std::uint8_t> on_surface(samples.size(), 1);
   if (co.min_surface_angle_deg <= 0) return on_surface;
   const Eigen::Vector3d centre = camera.CameraCentreInBase();
-  const double pixel_rad = grid.SamplePx() / camera.K()(0, 0);
+  // The angle between neighbouring samples across and along the columns (a rectified camera's
+  // pixels need not be square).
+  const double rad_x = grid.SamplePx() / camera.K()(0, 0);
+  const double rad_y = grid.SamplePx() / camera.K()(1, 1);
+  const double rad_diagonal = std::hypot(rad_x, rad_y);
   const double depth_per_lateral = 1.0 / std::tan(co.min_surface_angle_deg * M_PI / 180.0);
   std::vector<float> range(samples.size(), NAN);
   for (std::size_t k = 0; k < samples.size(); ++k) {
@@ -81,7 +85,9 @@ std::vector<std::uint8_t> SamplesOnSurfaces(const CameraModel& camera,
             continue;
           const float neighbour = range[grid.Index(ii, jj)];
           if (std::isnan(neighbour)) continue;
-          const double lateral = range[k] * pixel_rad * (di != 0 && dj != 0 ? M_SQRT2 : 1.0);
+          const double lateral = range[k] * (di != 0 && dj != 0 ? rad_diagonal
+                                             : dj != 0          ? rad_x
+                                                                : rad_y);
           smooth += std::abs(neighbour - range[k]) <= depth_per_lateral * lateral ? 1 : 0;
         }
       }
