@@ -92,6 +92,10 @@ std::vector<Sample> MeasureSamples(const CameraModel& camera, const ZeroDisparit
 void KeepMorePrecise(const std::vector<Sample>& far, std::vector<Sample>* samples,
                      bool floor_only = false);
 
+// Another pair's samples (the same grid) into `samples` only where this pair measured nothing and
+// saw neither a change nor motion (FarPair::unseen_only: a turning pair's newer, narrower one).
+void TakeWhereUnmeasured(const std::vector<Sample>& other, std::vector<Sample>* samples);
+
 // Evidence over frames (HeightFilterOptions): each sample's measurement is fused with the earlier
 // estimate in front of the others that project into it (occluded ones lose), or starts a new one;
 // estimates not measured again are carried while they match what is seen. The samples then carry

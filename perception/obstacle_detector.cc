@@ -270,12 +270,7 @@ void MergeUnseen(const CameraModel& camera, const DetectorOptions& options,
   if (field.s_px.rows < grid.rows * grid.stride || field.s_px.cols < grid.cols * grid.stride) {
     return;
   }
-  const std::vector<Sample> side = MeasureSamples(camera, field, grid, t, options.classification);
-  for (std::size_t k = 0; k < samples->size() && k < side.size(); ++k) {
-    Sample& s = (*samples)[k];
-    if (s.measured || s.mismatched || s.raw == PixelLabel::kMoving || !side[k].measured) continue;
-    s = side[k];
-  }
+  TakeWhereUnmeasured(MeasureSamples(camera, field, grid, t, options.classification), samples);
 }
 
 // The per-sample images of a result: labels, heights (EncodeHeightMm; floor 0, obstacles and

@@ -146,6 +146,14 @@ void KeepMorePrecise(const std::vector<Sample>& far, std::vector<Sample>* sample
   }
 }
 
+void TakeWhereUnmeasured(const std::vector<Sample>& other, std::vector<Sample>* samples) {
+  for (std::size_t k = 0; k < samples->size() && k < other.size(); ++k) {
+    Sample& s = (*samples)[k];
+    if (s.measured || s.mismatched || s.raw == PixelLabel::kMoving || !other[k].measured) continue;
+    s = other[k];
+  }
+}
+
 void FuseHeights(const CameraModel& camera, const ClassificationOptions& co,
                  const HeightFilterOptions& hf, const std::vector<HeightSeed>& prior, int rows,
                  int cols, double sample_px, std::vector<Sample>* samples,

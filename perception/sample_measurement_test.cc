@@ -1,5 +1,5 @@
 // FuseHeights: an earlier estimate taken up by the sample it projects into; KeepMorePrecise: the
-// far pair's samples merged into the near pair's.
+// far pair's samples merged into the near pair's; TakeWhereUnmeasured: a turning pair's newer one.
 #include <gtest/gtest.h>
 
 #include <Eigen/Core>
@@ -105,6 +105,34 @@ TEST(FuseHeights, AnEstimateNotClearlyAboveTheFloorKeepsItsHeight) {
   const detector_stages::Sample s = FuseOnLevel(camera, 0.05);
   ASSERT_TRUE(s.measured);
   EXPECT_NEAR(s.height_m, 0.05, 1e-4);
+}
+
+// A turning pair's newer, narrower pair fills only what the turning pair did not measure: never a
+// measured sample (even a less precise one), a mismatched one or a moving one.
+TEST(TakeWhereUnmeasured, FillsOnlyWhatThePairMeasuredNothingAt) {
+  using detector_stages::Sample;
+  Sample measured;
+  measured.measured = true;
+  measured.raw = PixelLabel::kFloor;
+  measured.height_sigma_m = 0.03;
+  Sample mismatched;
+  mismatched.mismatched = true;
+  Sample moving;
+  moving.raw = PixelLabel::kMoving;
+  Sample side;
+  side.measured = true;
+  side.raw = PixelLabel::kObstacle;
+  side.height_sigma_m = 0.001;
+  std::vector<Sample> samples = {Sample(), measured, mismatched, moving, Sample()};
+  const std::vector<Sample> other = {side, side, side, side, Sample()};
+  detector_stages::TakeWhereUnmeasured(other, &samples);
+  EXPECT_EQ(samples[0].raw, PixelLabel::kObstacle);
+  EXPECT_EQ(samples[1].raw, PixelLabel::kFloor);
+  EXPECT_DOUBLE_EQ(samples[1].height_sigma_m, 0.03);
+  EXPECT_FALSE(samples[2].measured);
+  EXPECT_TRUE(samples[2].mismatched);
+  EXPECT_EQ(samples[3].raw, PixelLabel::kMoving);
+  EXPECT_FALSE(samples[4].measured);
 }
 
 // The far pair's measurements replace the near pair's where they are more precise and agree, or
