@@ -195,6 +195,14 @@ int RowsBeyondFloorRange(const CameraModel& camera, double range_m) {
   return std::clamp(static_cast<int>(std::ceil(lowest)), 0, in.height);
 }
 
+// How far the camera centre moved between the frames of a pair (m); below kMinTravelM a pair
+// has no parallax to measure.
+constexpr double kMinTravelM = 0.01;
+double CameraTravelM(const CameraModel& camera, const Pose2& base2_from_base1) {
+  const Eigen::Vector2d c1 = camera.CameraCentreInBase().head<2>();
+  return (base2_from_base1 * c1 - c1).norm();
+}
+
 // A second pair's motion refined on the floor's texture, as the main pair's; none for a failed
 // motion, another search than the epipolar one, an image of another size, or a pitched pair (the
 // chain works on the current image at the main reference's pitch).
@@ -231,8 +239,7 @@ void MergeFarPair(const CameraModel& camera, const DetectorOptions& options,
       AlignSecondPair(camera, options, strip_mask, far_pair, current, current_aligned);
   if (!aligned) return;
   const Pose2& t = aligned->base2_from_base1;
-  const Eigen::Vector2d c1 = camera.CameraCentreInBase().head<2>();
-  const double baseline_m = (t * c1 - c1).norm();
+  const double baseline_m = CameraTravelM(camera, t);
   if (!(baseline_m > 1.5 * near_baseline_m)) return;
   const bool fitted = far_pair.motion.status == GroundMotion::Status::kOk;
   if (!fitted && !aligned->refined) return;
@@ -263,13 +270,10 @@ void MergeUnseen(const CameraModel& camera, const DetectorOptions& options,
       AlignSecondPair(camera, options, strip_mask, side_pair, current, current_aligned);
   if (!aligned) return;
   const Pose2& t = aligned->base2_from_base1;
-  const Eigen::Vector2d c1 = camera.CameraCentreInBase().head<2>();
-  if (!((t * c1 - c1).norm() >= 0.01)) return;
+  if (!(CameraTravelM(camera, t) >= kMinTravelM)) return;
+  // The same images' sizes as the main pair's: the same sample grid.
   const ZeroDisparityField field =
       ComputeZeroDisparity(side_pair.reference, current, camera, t, options.zero_disparity);
-  if (field.s_px.rows < grid.rows * grid.stride || field.s_px.cols < grid.cols * grid.stride) {
-    return;
-  }
   TakeWhereUnmeasured(MeasureSamples(camera, field, grid, t, options.classification), samples);
 }
 
@@ -419,9 +423,8 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
   refined.pitch2_rad = aligned.pitch2_rad;
   const Pose2& t = refined.base2_from_base1;
   // Camera baseline: without it there is no parallax and nothing is known.
-  const Eigen::Vector2d c1 = camera_.CameraCentreInBase().head<2>();
-  const double baseline_m = (t * c1 - c1).norm();
-  if (baseline_m < 0.01) {
+  const double baseline_m = CameraTravelM(camera_, t);
+  if (baseline_m < kMinTravelM) {
     FrameResult r = UnknownResult(size, options_.local_map, PairStatus::kNoParallax,
                                   "camera moved " + std::to_string(baseline_m) + " m: no parallax");
     r.motion = motion;

@@ -2,7 +2,6 @@
 
 #include <yaml-cpp/yaml.h>
 
-#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <opencv2/calib3d.hpp>
@@ -304,25 +303,23 @@ CameraIntrinsics CameraIntrinsics::Rectified() const {
   const cv::Mat d(distortion, /*copyData=*/true);
   const cv::Size size(width, height);
   const cv::Matx33d k_new = cv::getOptimalNewCameraMatrix(k, d, size, 0.0, size);
-  CameraIntrinsics r = *this;
-  r.distortion = {0, 0, 0, 0, 0};
-  r.fx = k_new(0, 0);
-  r.fy = k_new(1, 1);
-  r.cx = k_new(0, 2);
-  r.cy = k_new(1, 2);
-  // On a lens whose model folds, getOptimalNewCameraMatrix's inner rectangle can come out
-  // inverted: start from the input's camera matrix then.
-  if (!(std::isfinite(r.fx) && std::isfinite(r.fy) && r.fx > 0 && r.fy > 0 && r.cx > 0 &&
-        r.cy > 0 && r.cx < width - 1 && r.cy < height - 1)) {
-    r.fx = fx;
-    r.fy = fy;
-    r.cx = cx;
-    r.cy = cy;
+  CameraIntrinsics own = *this;  // the input's camera matrix without the distortion
+  own.distortion = {0, 0, 0, 0, 0};
+  CameraIntrinsics r = own;
+  // An estimate that is no camera of this image (not finite, not positive, its principal point
+  // outside): start from the input's camera matrix instead.
+  if (std::isfinite(k_new(0, 0)) && std::isfinite(k_new(1, 1)) && k_new(0, 0) > 0 &&
+      k_new(1, 1) > 0 && k_new(0, 2) > 0 && k_new(1, 2) > 0 && k_new(0, 2) < width - 1 &&
+      k_new(1, 2) < height - 1) {
+    r.fx = k_new(0, 0);
+    r.fy = k_new(1, 1);
+    r.cx = k_new(0, 2);
+    r.cy = k_new(1, 2);
   }
   // getOptimalNewCameraMatrix bounds the view by a coarse grid of points; check every border
-  // pixel and narrow the view (larger focal lengths) until all of them lie inside the input and
-  // the radial polynomial rises over every radius out to the farthest of them (past a fold it
-  // turns back, and two rays would show the same input pixel).
+  // pixel and narrow the view (larger focal lengths) until all of them lie inside the input. (On a
+  // lens model that folds, its view already stays well inside the fold: k1 -1, k2 0.4 folds at
+  // r^2 = 0.5, and its view reaches r^2 = 0.003.)
   std::vector<cv::Point3d> border;
   for (int x = 0; x < width; ++x) {
     border.emplace_back(x, 0, 1);
@@ -332,26 +329,15 @@ CameraIntrinsics CameraIntrinsics::Rectified() const {
     border.emplace_back(0, y, 1);
     border.emplace_back(width - 1, y, 1);
   }
-  const auto rising_out_to = [&](double r2_max) {
-    for (int step = 1; step <= 200; ++step) {
-      const double r2 = r2_max * step / 200.0;
-      if (!(1 + r2 * (3 * distortion[0] + r2 * (5 * distortion[1] + r2 * 7 * distortion[4])) > 0)) {
-        return false;
-      }
-    }
-    return true;
-  };
   for (int attempt = 0; attempt < 400; ++attempt) {  // up to 7.3 times the focal lengths
     std::vector<cv::Point3d> rays;
     rays.reserve(border.size());
-    double r2_max = 0;
     for (const cv::Point3d& p : border) {
       rays.emplace_back((p.x - r.cx) / r.fx, (p.y - r.cy) / r.fy, 1.0);
-      r2_max = std::max(r2_max, rays.back().x * rays.back().x + rays.back().y * rays.back().y);
     }
     std::vector<cv::Point2d> in_input;
     cv::projectPoints(rays, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), k, d, in_input);
-    bool inside = rising_out_to(r2_max);
+    bool inside = true;
     for (const cv::Point2d& q : in_input) {
       inside = inside && q.x >= 0 && q.y >= 0 && q.x <= width - 1 && q.y <= height - 1;
     }
@@ -359,13 +345,9 @@ CameraIntrinsics CameraIntrinsics::Rectified() const {
     r.fx *= 1.005;
     r.fy *= 1.005;
   }
-  // No such view (a lens model that folds near the image's centre): the input's own camera
-  // matrix, whose view may reach past the input (those pixels stay empty) or past the fold.
-  r.fx = fx;
-  r.fy = fy;
-  r.cx = cx;
-  r.cy = cy;
-  return r;
+  // No such view: the input's own camera matrix, whose view may reach past the input (those
+  // pixels stay empty).
+  return own;
 }
 
 CameraCalibration RectifiedCalibration(const CameraCalibration& calibration) {
