@@ -51,6 +51,11 @@ void ClassificationOptions::Describe(OptionVisitor& v) {
   v.Integer("edge_floor_unknown_samples", &edge_floor_unknown_samples,
             R::AtLeast(0).Note("0 = off"),
             "floor samples this close to an obstacle in their column are unknown");
+  v.Integer("drop_off_edge_floor_unknown_samples", &drop_off_edge_floor_unknown_samples,
+            R::AtLeast(0).Note("0 = off"),
+            "floor samples this close below a drop-off's edge in their column are unknown ...");
+  v.Real("drop_off_edge_floor_unknown_m", &drop_off_edge_floor_unknown_m,
+         R::AtLeast(0).Note("0 = off"), "... when their floor lies this close to the edge's, m");
   v.Integer("column_min_samples", &column_min_samples,
             R::AtLeast(0).Note("0 = off: each at its own footprint"),
             "top view: obstacle samples are placed on the surface their image column shows when it "

@@ -112,6 +112,14 @@ struct ClassificationOptions {
   // window straddles the edge, and next to an obstacle the floor label reaches onto its lowest
   // pixels. More samples label fewer obstacle pixels floor and cover less of the floor. 0 = off.
   int edge_floor_unknown_samples = 1;
+  // Labels: floor just below a drop-off's edge in its image column (a run of floor_edge_samples
+  // drop-off samples), within this many samples and this many metres (along the floor) of the
+  // edge, is unknown. At a step's edge the upper floor's texture holds the windows that straddle
+  // it (the coarse levels' wider ones too), and the floor label reaches up to about 20 px onto
+  // the lower surface beyond, where the robot would fall. From farther away those pixels span more
+  // floor than the map needs to lose (its votes settle the edge): hence the metres. 0 = off.
+  int drop_off_edge_floor_unknown_samples = 5;
+  double drop_off_edge_floor_unknown_m = 0.15;
   // Labels: unmeasured samples between two labelled ones in an image column are filled where the
   // two bound what lies between (one vertical surface, an obstacle standing on the floor, or
   // floor on both sides of a gap too short to hide an obstacle): FillColumnGaps in the .cc says

@@ -171,6 +171,15 @@ void FillColumnGaps(const CameraModel& camera, const ClassificationOptions& co, 
 void UnknownFloorNextToObstacles(const SampleGrid& grid, int reach,
                                  std::vector<PixelLabel>* labels);
 
+// Floor just below a drop-off's edge in its image column (a run of at least `min_run` drop-off
+// samples; a lone one is noise more often than a step): within `reach_samples` and `reach_m` of
+// the edge's floor point, unknown. At a step's edge the upper floor's texture holds the windows
+// that straddle it, so the floor label reaches onto the lower surface beyond the edge, where the
+// robot would fall.
+void UnknownFloorBeforeDropOffEdges(const std::vector<Sample>& samples, const SampleGrid& grid,
+                                    int reach_samples, int min_run, double reach_m,
+                                    std::vector<PixelLabel>* labels);
+
 // Phase 5 (top_view.cc).
 
 // 1 for the obstacle and drop-off samples on a surface (ClassificationOptions::

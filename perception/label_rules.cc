@@ -297,4 +297,33 @@ void UnknownFloorNextToObstacles(const SampleGrid& grid, int reach,
   }
 }
 
+void UnknownFloorBeforeDropOffEdges(const std::vector<Sample>& samples, const SampleGrid& grid,
+                                    int reach_samples, int min_run, double reach_m,
+                                    std::vector<PixelLabel>* labels) {
+  for (int j = 0; j < grid.cols; ++j) {
+    // Bottom to top: the floor samples below a drop-off run of min_run samples, nearest first.
+    int i = grid.rows - 1;
+    while (i >= 0) {
+      if ((*labels)[grid.Index(i, j)] != PixelLabel::kDropOff) {
+        --i;
+        continue;
+      }
+      int top = i;
+      while (top >= 0 && (*labels)[grid.Index(top, j)] == PixelLabel::kDropOff) --top;
+      if (i - top >= min_run) {
+        // The run's lowest sample is the edge as this column sees it.
+        const Eigen::Vector2d edge = samples[grid.Index(i, j)].floor_in_base2;
+        for (int d = i + 1; d <= std::min(grid.rows - 1, i + reach_samples); ++d) {
+          const std::size_t k = grid.Index(d, j);
+          if ((*labels)[k] == PixelLabel::kFloor &&
+              (samples[k].floor_in_base2 - edge).norm() <= reach_m) {
+            (*labels)[k] = PixelLabel::kUnknown;
+          }
+        }
+      }
+      i = top;
+    }
+  }
+}
+
 }  // namespace monoplane::detector_stages

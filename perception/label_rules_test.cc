@@ -1,6 +1,7 @@
 // The moving mask onto the labels: the regions' own evidence over anything but floor, the pixels
 // grown into around them only over samples without a label, the pixels carried from earlier
-// frames over obstacles whose height is not known from several pairs.
+// frames over obstacles whose height is not known from several pairs. The floor next to an
+// obstacle or a drop-off's edge unknown.
 #include <gtest/gtest.h>
 
 #include <opencv2/core.hpp>
@@ -106,6 +107,35 @@ TEST(LabelMovingMask, TheRuleForEachMaskValue) {
     EXPECT_FALSE(TakesMovingLabel(kCarriedRegion, PixelLabel::kDropOff, young));
     EXPECT_EQ(TakesMovingLabel(kCarriedRegion, PixelLabel::kObstacle, young), young);
   }
+}
+
+// A step's edge in one image column, bottom to top: the upper floor, then the lower floor beyond
+// the edge, whose first samples the straddling windows labelled floor, then the drop-off's run.
+// Floor within the reach (samples and metres) below that run is unknown; floor above it, a lone
+// drop-off sample (the far floor's noise) and floor farther from the edge than reach_m keep their
+// labels.
+TEST(UnknownFloorBeforeDropOffEdges, FloorJustBelowADropOffEdgeIsUnknown) {
+  detector_stages::SampleGrid grid;
+  grid.rows = 11;
+  grid.cols = 1;
+  grid.stride = 2;
+  // Row i's floor point 0.05 m nearer for each row down: row 10 at 1.0 m, row 0 at 1.5 m; the
+  // edge (row 3) at 1.35 m, rows 4-6 within 0.16 m of it.
+  std::vector<detector_stages::Sample> samples(11);
+  for (int i = 0; i < 11; ++i) samples[i].floor_in_base2 = {1.0 + 0.05 * (10 - i), 0.0};
+  const PixelLabel F = PixelLabel::kFloor, D = PixelLabel::kDropOff, U = PixelLabel::kUnknown;
+  const std::vector<PixelLabel> step = {F, D, D, D, F, F, F, F, F, F, F};
+  std::vector<PixelLabel> labels = step;
+  detector_stages::UnknownFloorBeforeDropOffEdges(samples, grid, 5, 3, 0.16, &labels);
+  EXPECT_EQ(labels, (std::vector<PixelLabel>{F, D, D, D, U, U, U, F, F, F, F}));
+  labels = step;
+  detector_stages::UnknownFloorBeforeDropOffEdges(samples, grid, 2, 3, 0.16, &labels);
+  EXPECT_EQ(labels, (std::vector<PixelLabel>{F, D, D, D, U, U, F, F, F, F, F}));
+
+  const std::vector<PixelLabel> lone = {F, F, F, D, F, F, F, F, F, F, F};
+  labels = lone;
+  detector_stages::UnknownFloorBeforeDropOffEdges(samples, grid, 5, 3, 0.16, &labels);
+  EXPECT_EQ(labels, lone);
 }
 
 }  // namespace

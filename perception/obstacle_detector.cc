@@ -494,6 +494,11 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
   if (co.edge_floor_unknown_samples > 0) {
     UnknownFloorNextToObstacles(grid, co.edge_floor_unknown_samples, &labels);
   }
+  if (co.drop_off_edge_floor_unknown_samples > 0 && co.drop_off_edge_floor_unknown_m > 0) {
+    UnknownFloorBeforeDropOffEdges(samples, grid, co.drop_off_edge_floor_unknown_samples,
+                                   std::max(1, co.floor_edge_samples),
+                                   co.drop_off_edge_floor_unknown_m, &labels);
+  }
 
   // Phase 5: the top view. Obstacle points on a surface (not mixed "veil" points at a depth
   // edge) whose footprint is known well enough to be placed at all (far, tall points whose rays

@@ -128,6 +128,7 @@ std::string LabelMetricsJson(const LabelMetrics& m, bool texture_scored) {
       .Add("gt_drop", c.gt_drop)
       .Add("gt_drop_shallow", c.gt_drop_shallow)
       .Add("drop_as_drop", c.drop_as_drop)
+      .Add("drop_as_floor", c.drop_as_floor)
       .Add("gt_moving", c.gt_moving)
       .Add("moving_as_moving", c.moving_as_moving)
       .Add("height_error_samples", c.height_error_samples);
@@ -143,6 +144,7 @@ std::string LabelMetricsJson(const LabelMetrics& m, bool texture_scored) {
       .Add("moving_recall", m.moving_recall)
       .Add("coverage", m.coverage)
       .Add("dangerous_rate", m.dangerous_rate)
+      .Add("dropoff_dangerous_rate", m.dropoff_dangerous_rate)
       .Add("height_error_median_m", m.height_error_median_m)
       .Add("height_error_mean_m", m.height_error_mean_m);
   if (texture_scored) {
@@ -195,23 +197,23 @@ std::string TrackMetricsJson(const TrackMetrics& m) {
 }  // namespace
 
 std::string LabelReportTable(const LabelEvalResult& result) {
-  const std::vector<int> w{9, 9, 9, 9, 9, 9, 9, 9, 9, 9, 9, 10, 10};
+  const std::vector<int> w{9, 9, 9, 9, 9, 9, 9, 9, 9, 9, 9, 9, 10, 10};
   std::string out = "frames scored: " + std::to_string(result.frames_scored) +
                     ", missing: " + std::to_string(result.frames_missing) + "\n";
   out += Row({"band", "obst.rec", "+moving", "floorFP", "floorFPall", "drop.rec", "mov.rec",
-              "coverage", "danger", "h.med_m", "h.mean_m", "gt_obst", "gt_floor"},
+              "coverage", "danger", "drop.fl", "h.med_m", "h.mean_m", "gt_obst", "gt_floor"},
              w);
   std::vector<LabelMetrics> rows = result.bands;
   rows.push_back(result.overall);
   rows.push_back(result.near);
   for (const LabelMetrics& m : rows) {
-    out += Row(
-        {m.name, Percent(m.obstacle_recall), Percent(m.obstacle_recall_with_moving),
-         Percent(m.floor_false_obstacle_rate), Percent(m.floor_false_obstacle_rate_all),
-         Percent(m.dropoff_recall), Percent(m.moving_recall), Percent(m.coverage),
-         Percent(m.dangerous_rate), Fixed(m.height_error_median_m), Fixed(m.height_error_mean_m),
-         std::to_string(m.counts.gt_obstacle), std::to_string(m.counts.gt_floor)},
-        w);
+    out += Row({m.name, Percent(m.obstacle_recall), Percent(m.obstacle_recall_with_moving),
+                Percent(m.floor_false_obstacle_rate), Percent(m.floor_false_obstacle_rate_all),
+                Percent(m.dropoff_recall), Percent(m.moving_recall), Percent(m.coverage),
+                Percent(m.dangerous_rate), Percent(m.dropoff_dangerous_rate),
+                Fixed(m.height_error_median_m), Fixed(m.height_error_mean_m),
+                std::to_string(m.counts.gt_obstacle), std::to_string(m.counts.gt_floor)},
+               w);
   }
   if (result.texture_scored) {
     out += "obstacle pixels with weak texture: " + Percent(result.overall.weak_texture_share) +

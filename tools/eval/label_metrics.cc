@@ -69,6 +69,7 @@ void LabelCounts::Add(const LabelCounts& o) {
   gt_drop += o.gt_drop;
   gt_drop_shallow += o.gt_drop_shallow;
   drop_as_drop += o.drop_as_drop;
+  drop_as_floor += o.drop_as_floor;
   gt_moving += o.gt_moving;
   moving_as_moving += o.moving_as_moving;
   height_error_samples += o.height_error_samples;
@@ -239,6 +240,7 @@ bool TallyLabelFrame(const LabelFrame& frame, const CameraModel& camera,
           }
           ++counts->gt_drop;
           if (pl == kLabelDropOff) ++counts->drop_as_drop;
+          if (pl == kLabelFloor) ++counts->drop_as_floor;
           break;
         case kLabelMoving:
           ++counts->gt_moving;
@@ -279,6 +281,7 @@ LabelMetrics MetricsOf(const std::string& name, double min_m, double max_m, cons
   m.moving_recall = Ratio(d(c.moving_as_moving), d(c.gt_moving));
   m.coverage = Ratio(d(c.gt_surface_predicted), d(c.gt_surface));
   m.dangerous_rate = Ratio(d(c.obstacle_as_floor), d(c.gt_obstacle));
+  m.dropoff_dangerous_rate = Ratio(d(c.drop_as_floor), d(c.gt_drop));
   if (texture_scored) {
     m.weak_texture_share = Ratio(d(c.gt_obstacle_weak), d(c.gt_obstacle));
     m.obstacle_recall_textured = Ratio(d(c.obstacle_as_obstacle - c.weak_obstacle_as_obstacle),

@@ -61,6 +61,7 @@ struct LabelCounts {
   std::int64_t gt_drop = 0;             // GT drop-off with GT height <= -min_drop_m
   std::int64_t gt_drop_shallow = 0;     // GT drop-off shallower or without height
   std::int64_t drop_as_drop = 0;
+  std::int64_t drop_as_floor = 0;  // dangerous too: driving over the edge
   std::int64_t gt_moving = 0;
   std::int64_t moving_as_moving = 0;
   std::int64_t height_error_samples = 0;  // see LabelMetrics::height_error_*
@@ -111,6 +112,7 @@ struct LabelMetrics {
   std::optional<double> moving_recall;                  // moving_as_moving / gt_moving
   std::optional<double> coverage;                       // gt_surface_predicted / gt_surface
   std::optional<double> dangerous_rate;                 // obstacle_as_floor / gt_obstacle
+  std::optional<double> dropoff_dangerous_rate;         // drop_as_floor / gt_drop
   // |pred height - GT height| over GT obstacle pixels (>= min height, within
   // max_height_error_distance_m) with a predicted height.
   std::optional<double> height_error_median_m;

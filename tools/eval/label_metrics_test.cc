@@ -36,6 +36,7 @@ TEST(LabelMetrics, HandCountedFrame) {
   EXPECT_DOUBLE_EQ(*all.floor_false_obstacle_rate, 2.0 / 4.0);
   EXPECT_DOUBLE_EQ(*all.floor_false_obstacle_rate_all, 2.0 / 5.0);
   EXPECT_DOUBLE_EQ(*all.dropoff_recall, 1.0);
+  EXPECT_DOUBLE_EQ(*all.dropoff_dangerous_rate, 0.0);
   EXPECT_DOUBLE_EQ(*all.moving_recall, 0.0);
   EXPECT_EQ(all.counts.gt_surface, 11);
   EXPECT_DOUBLE_EQ(*all.coverage, 9.0 / 11.0);
@@ -62,6 +63,23 @@ TEST(LabelMetrics, HandCountedFrame) {
   LabelTally near_tally;
   ASSERT_TRUE(TallyLabelFrame(HandCountedFrame(), camera, near_only, &near_tally, &error));
   EXPECT_FALSE(SummarizeLabels(near_tally, near_only).overall.height_error_median_m.has_value());
+}
+
+// A drop-off predicted floor is as dangerous as an obstacle predicted floor: the robot drives over
+// the edge. Counted apart (drop_as_floor), over the scored drop-off pixels.
+TEST(LabelMetrics, DropOffPredictedFloorIsDangerous) {
+  const CameraModel camera(TinyCalibration());
+  LabelFrame f = HandCountedFrame();
+  f.pred_labels.setTo(kLabelFloor, f.gt_labels == kLabelDropOff);
+  LabelTally tally;
+  std::string error;
+  ASSERT_TRUE(TallyLabelFrame(f, camera, LabelEvalOptions{}, &tally, &error)) << error;
+  const LabelMetrics all = SummarizeLabels(tally, LabelEvalOptions{}).overall;
+  ASSERT_GT(all.counts.gt_drop, 0);
+  EXPECT_EQ(all.counts.drop_as_floor, all.counts.gt_drop);
+  EXPECT_DOUBLE_EQ(*all.dropoff_dangerous_rate, 1.0);
+  EXPECT_DOUBLE_EQ(*all.dropoff_recall, 0.0);
+  EXPECT_DOUBLE_EQ(*all.dangerous_rate, 1.0 / 3.0);  // the obstacles' own, unchanged
 }
 
 TEST(LabelMetrics, PerfectPredictionScoresOneAndZero) {
