@@ -115,14 +115,14 @@ OptionTable::OptionTable(AppConfig* config) : config_(config) {
   AddSection("output", [&](OptionVisitor& v) { config->output.Describe(v); });
   // ScaleDefaultsToCamera: the sizes of what the camera sees, and the motion fit's tolerance of
   // the camera pitching between frames.
-  ScaleWith(
-      Entry::Scale::kCameraHeight,
-      {"ground_motion.strip_min_x_m", "ground_motion.strip_max_x_m",
-       "ground_motion.strip_half_width_m", "pair_selection.min_baseline_m",
-       "pair_selection.far_min_baseline_m", "pair_selection.turn_min_baseline_m",
-       "pair_selection.turn_side_min_baseline_m", "direct_alignment.max_correction_m",
-       "ground_motion.lowest_surface_tolerance_m", "ground_motion.lowest_surface_max_m_per_px",
-       "ground_motion.lowest_surface_min_offset_m", "mapping.window_floor_max_height_m"});
+  ScaleWith(Entry::Scale::kCameraHeight,
+            {"ground_motion.strip_min_x_m", "ground_motion.strip_max_x_m",
+             "ground_motion.strip_half_width_m", "pair_selection.min_baseline_m",
+             "pair_selection.far_min_baseline_m", "pair_selection.turn_min_baseline_m",
+             "pair_selection.turn_side_min_baseline_m", "pair_selection.close_min_baseline_m",
+             "direct_alignment.max_correction_m", "ground_motion.lowest_surface_tolerance_m",
+             "ground_motion.lowest_surface_max_m_per_px",
+             "ground_motion.lowest_surface_min_offset_m", "mapping.window_floor_max_height_m"});
   ScaleWith(Entry::Scale::kCameraHeightUp,
             {"classification.max_range_m", "local_map.resolution_m", "local_map.min_x_m",
              "local_map.max_x_m", "local_map.min_y_m", "local_map.max_y_m"});

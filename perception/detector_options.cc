@@ -122,6 +122,10 @@ void PairSelectionOptions::Describe(OptionVisitor& v) {
   v.Real("far_min_baseline_m", &far_min_baseline_m, R::AtLeast(0).Note("0 = off"),
          "far pair: also matched against a frame this far back, each sample keeping the more "
          "precise pair, m");
+  v.Real("close_min_baseline_m", &close_min_baseline_m, R::AtLeast(0).Note("0 = off"),
+         "close pair: the newest frame at least this far back measures the near rows, m");
+  v.Real("close_max_range_baselines", &close_max_range_baselines, R::Above(0),
+         "close pair: rows whose floor lies within this many main-pair baselines");
   v.Real("turn_min_baseline_m", &turn_min_baseline_m, R::Above(0),
          "turning: narrower pairs allowed down to this camera travel, m");
   v.Real("turn_max_rotation_rad", &turn_max_rotation_rad, R::AtLeast(0).Note("0 = off"),

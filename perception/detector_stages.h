@@ -96,6 +96,12 @@ void KeepMorePrecise(const std::vector<Sample>& far, std::vector<Sample>* sample
 // saw neither a change nor motion (FarPair::unseen_only: a turning pair's newer, narrower one).
 void TakeWhereUnmeasured(const std::vector<Sample>& other, std::vector<Sample>* samples);
 
+// A shorter pair's samples (the same grid) into `samples` from sample row first_row down, wherever
+// the shorter pair measured the sample or saw a change or motion there (the close pair, where this
+// pair's baseline is too long for the near floor's change of scale).
+void TakeFromRow(const std::vector<Sample>& other, int first_row, int cols,
+                 std::vector<Sample>* samples);
+
 // Evidence over frames (HeightFilterOptions): each sample's measurement is fused with the earlier
 // estimate in front of the others that project into it (occluded ones lose), or starts a new one;
 // estimates not measured again are carried while they match what is seen. The samples then carry

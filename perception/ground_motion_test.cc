@@ -220,5 +220,36 @@ TEST(ZeroDisparity, FloorEstimatesAreTightAndDoNotDriftWithIterations) {
   EXPECT_LT(ten, 1.2f * three);
 }
 
+// Searching only the rows from first_row down (the close pair's near rows): the same field there
+// as the whole image's search, away from the cut (whose windows and coarse levels see less), and
+// nothing measured above it. A box near the camera gives the field something besides the floor.
+TEST(ZeroDisparity, RowsFromFirstRowMatchTheWholeImagesSearch) {
+  const CameraModel camera(DefaultCalibration());
+  Scene scene;
+  scene.boxes.push_back({{0.9, -0.2, 0.0}, {1.1, 0.2, 0.1}});
+  const Pose2 p1{0.0, 0.0, 0.0}, p2{0.05, 0.0, 0.0};
+  const Rendered a = Render(scene, camera, p1), b = Render(scene, camera, p2);
+  const Pose2 motion = KnownMotion(p1, p2).base2_from_base1;
+  const ZeroDisparityOptions options;
+  const ZeroDisparityField whole = ComputeZeroDisparity(a.image, b.image, camera, motion, options);
+  const int first_row = 250;  // rounded down to 240 (blocks of 16 input px at the defaults)
+  const ZeroDisparityField part =
+      ComputeZeroDisparity(a.image, b.image, camera, motion, options, first_row);
+  ASSERT_EQ(part.s_px.size(), whole.s_px.size());
+  const int row0 = 240 / static_cast<int>(part.scale);
+  EXPECT_EQ(cv::countNonZero(part.texture.rowRange(0, row0)), 0);
+  // Below the cut by two coarsest blocks: the same estimates.
+  int compared = 0, differ = 0;
+  for (int y = row0 + 16; y < part.s_px.rows; ++y) {
+    for (int x = 0; x < part.s_px.cols; ++x) {
+      ++compared;
+      differ += std::abs(part.s_px.at<float>(y, x) - whole.s_px.at<float>(y, x)) > 0.05f;
+    }
+  }
+  EXPECT_GT(compared, 10000);
+  EXPECT_LT(differ, compared / 100) << differ << " of " << compared;
+  EXPECT_GT(cv::countNonZero(part.texture.rowRange(row0, part.texture.rows) > 0), compared / 2);
+}
+
 }  // namespace
 }  // namespace monoplane

@@ -258,6 +258,35 @@ void MergeFarPair(const CameraModel& camera, const DetectorOptions& options,
                   !fitted);
 }
 
+// The close pair's samples (a newer frame, a shorter baseline) in the rows whose floor lies
+// within close_max_range_baselines of the main pair's baseline (TakeFromRow): there the main
+// pair's near floor changes scale by more than 1 / close_max_range_baselines between its frames,
+// and a low obstacle's top moves by several pixels against the floor around it; the windows
+// match it where it stood in the reference. Only those rows are searched (and a margin above
+// them for the windows); only with a fitted motion, and only for a pair shorter than the main one.
+void MergeClosePair(const CameraModel& camera, const DetectorOptions& options,
+                    const cv::Mat& strip_mask, const FarPair& close_pair, const cv::Mat& current,
+                    const AlignmentImage& current_aligned, const SampleGrid& grid,
+                    double main_baseline_m, std::vector<Sample>* samples) {
+  if (close_pair.motion.status != GroundMotion::Status::kOk) return;
+  const auto aligned =
+      AlignSecondPair(camera, options, strip_mask, close_pair, current, current_aligned);
+  if (!aligned) return;
+  const Pose2& t = aligned->base2_from_base1;
+  const double baseline_m = CameraTravelM(camera, t);
+  if (!(baseline_m >= kMinTravelM && baseline_m < main_baseline_m)) return;
+  const ZeroDisparityOptions& zo = options.zero_disparity;
+  const int near_from = RowsBeyondFloorRange(
+      camera, options.pair_selection.close_max_range_baselines * main_baseline_m);
+  const int first_sample_row = near_from / static_cast<int>(grid.SamplePx());
+  if (first_sample_row >= grid.rows) return;
+  const int margin = 2 * zo.window_px * (1 << zo.finest_level);
+  const ZeroDisparityField field =
+      ComputeZeroDisparity(close_pair.reference, current, camera, t, zo, near_from - margin);
+  TakeFromRow(MeasureSamples(camera, field, grid, t, options.classification), first_sample_row,
+              grid.cols, samples);
+}
+
 // A turning pair's newer, narrower pair (FarPair::unseen_only): over the whole image, with its
 // motion refined on the floor's texture as the main pair's; its measurements go only to the
 // samples the main pair measured nothing at (not to mismatched or moving ones: what the main
@@ -396,7 +425,8 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
                                      const std::vector<Eigen::Vector2d>& moving_pixels,
                                      const AlignmentImage& current_alignment,
                                      const std::vector<HeightSeed>* prior_in_base,
-                                     const cv::Mat& moving_mask, const FarPair* far_pair) const {
+                                     const cv::Mat& moving_mask, const FarPair* far_pair,
+                                     const FarPair* close_pair) const {
   const CameraIntrinsics& in = camera_.calibration().intrinsics;
   const cv::Size size(in.width, in.height);
   const ClassificationOptions& co = options_.classification;
@@ -458,6 +488,10 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
       MergeFarPair(camera_, options_, strip_mask_, *far_pair, current, current_aligned, grid,
                    baseline_m, &samples);
     }
+  }
+  if (close_pair != nullptr && !pitched) {
+    MergeClosePair(camera_, options_, strip_mask_, *close_pair, current, current_aligned, grid,
+                   baseline_m, &samples);
   }
 
   // Phase 2: evidence over frames.

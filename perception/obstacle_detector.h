@@ -31,6 +31,9 @@ FrameResult UnknownResult(const cv::Size& size, const LocalMapOptions& map_optio
 // - A turning pair's newer, narrower one (PairSelectionOptions::turn_side_min_baseline_m;
 //   unseen_only true): it measures only the samples the main pair did not (most of them on the
 //   side the turn brings into view, which the main pair's reference did not see).
+// - A shorter pair (PairSelectionOptions::close_min_baseline_m; passed as close_pair): it measures
+//   the rows whose floor lies within close_max_range_baselines of the main pair's baseline, where
+//   the main pair's near floor and low obstacles change scale too much between the frames.
 struct FarPair {
   cv::Mat reference;
   GroundMotion motion;
@@ -78,12 +81,14 @@ class ObstacleDetector {
   // far_pair: `current` against an older frame with a longer baseline
   // (PairSelectionOptions::far_min_baseline_m); each sample keeps the more precise of the two
   // measurements where they agree.
+  // close_pair: `current` against a newer frame with a shorter baseline
+  // (PairSelectionOptions::close_min_baseline_m), for the near rows.
   FrameResult Detect(const cv::Mat& reference, const cv::Mat& current, const GroundMotion& motion,
                      const std::vector<Eigen::Vector2d>& moving_pixels = {},
                      const AlignmentImage& current_alignment = {},
                      const std::vector<HeightSeed>* prior_in_base = nullptr,
-                     const cv::Mat& moving_mask = cv::Mat(),
-                     const FarPair* far_pair = nullptr) const;
+                     const cv::Mat& moving_mask = cv::Mat(), const FarPair* far_pair = nullptr,
+                     const FarPair* close_pair = nullptr) const;
 
   // The floor features of a result whose computation was deferred (see defer_floor_features);
   // the same as Detect would have given. Empty for an empty source.
@@ -130,8 +135,9 @@ class SequenceDetector {
       std::vector<Eigen::Vector2d> moving_pixels;
       AlignmentImage current_alignment;
       bool turn_pair = false;
-      Pose2 odom_from_base;             // of the current frame, to carry the height estimates
-      std::optional<FarPair> far_pair;  // PairSelectionOptions::far_min_baseline_m
+      Pose2 odom_from_base;               // of the current frame, to carry the height estimates
+      std::optional<FarPair> far_pair;    // PairSelectionOptions::far_min_baseline_m
+      std::optional<FarPair> close_pair;  // PairSelectionOptions::close_min_baseline_m
     };
     std::optional<PendingDetection> pending;
     // Where things move on their own in this frame (MotionEvidence; CV_8U, 255, kGrownRegion or

@@ -154,6 +154,15 @@ void TakeWhereUnmeasured(const std::vector<Sample>& other, std::vector<Sample>* 
   }
 }
 
+void TakeFromRow(const std::vector<Sample>& other, int first_row, int cols,
+                 std::vector<Sample>* samples) {
+  const std::size_t begin = static_cast<std::size_t>(std::max(first_row, 0)) * cols;
+  for (std::size_t k = begin; k < samples->size() && k < other.size(); ++k) {
+    const Sample& o = other[k];
+    if (o.measured || o.mismatched || o.raw == PixelLabel::kMoving) (*samples)[k] = o;
+  }
+}
+
 void FuseHeights(const CameraModel& camera, const ClassificationOptions& co,
                  const HeightFilterOptions& hf, const std::vector<HeightSeed>& prior, int rows,
                  int cols, double sample_px, std::vector<Sample>* samples,

@@ -1,5 +1,6 @@
 // FuseHeights: an earlier estimate taken up by the sample it projects into; KeepMorePrecise: the
-// far pair's samples merged into the near pair's; TakeWhereUnmeasured: a turning pair's newer one.
+// far pair's samples merged into the near pair's; TakeWhereUnmeasured: a turning pair's newer one;
+// TakeFromRow: the close pair's near rows.
 #include <gtest/gtest.h>
 
 #include <Eigen/Core>
@@ -133,6 +134,33 @@ TEST(TakeWhereUnmeasured, FillsOnlyWhatThePairMeasuredNothingAt) {
   EXPECT_TRUE(samples[2].mismatched);
   EXPECT_EQ(samples[3].raw, PixelLabel::kMoving);
   EXPECT_FALSE(samples[4].measured);
+}
+
+// The close pair's samples from a sample row down (one column here): there they replace the near
+// pair's wherever the close pair measured the sample or saw a change or motion; where it saw
+// nothing the near pair's stays; above that row nothing changes.
+TEST(TakeFromRow, ReplacesFromTheRowDownWhereTheOtherPairSawSomething) {
+  using detector_stages::Sample;
+  Sample floor;
+  floor.measured = true;
+  floor.raw = PixelLabel::kFloor;
+  Sample obstacle;
+  obstacle.measured = true;
+  obstacle.raw = PixelLabel::kObstacle;
+  Sample mismatched;
+  mismatched.mismatched = true;
+  Sample moving;
+  moving.raw = PixelLabel::kMoving;
+  std::vector<Sample> samples = {floor, floor, floor, floor, floor};
+  const std::vector<Sample> other = {obstacle, obstacle, mismatched, moving, Sample()};
+  detector_stages::TakeFromRow(other, 1, 1, &samples);
+  EXPECT_EQ(samples[0].raw, PixelLabel::kFloor);  // above the row
+  EXPECT_EQ(samples[1].raw, PixelLabel::kObstacle);
+  EXPECT_TRUE(samples[2].mismatched);
+  EXPECT_FALSE(samples[2].measured);
+  EXPECT_EQ(samples[3].raw, PixelLabel::kMoving);
+  EXPECT_EQ(samples[4].raw, PixelLabel::kFloor);  // the close pair saw nothing there
+  EXPECT_TRUE(samples[4].measured);
 }
 
 // The far pair's measurements replace the near pair's where they are more precise and agree, or

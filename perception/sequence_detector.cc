@@ -203,7 +203,8 @@ void SequenceDetector::Finish(Output* output) {
   }
   output->result = detector_.Detect(p.reference, p.current, p.motion, p.moving_pixels,
                                     p.current_alignment, fuse ? &prior : nullptr,
-                                    output->moving_mask, p.far_pair ? &*p.far_pair : nullptr);
+                                    output->moving_mask, p.far_pair ? &*p.far_pair : nullptr,
+                                    p.close_pair ? &*p.close_pair : nullptr);
   output->result->turn_pair = p.turn_pair;
   if (fuse) {
     // Without a pair nothing was measured: what was seen is kept.
@@ -505,9 +506,31 @@ SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, Timesta
           }
           far_pair = FarPair{far->image, m};
         }
-        out.pending = Output::PendingDetection{reference->image,  prepared,           motion,
-                                               std::move(moving), alignment,          turn_pair,
-                                               odom_from_base_,   std::move(far_pair)};
+        // The close pair for the near rows: the newest frame at least close_min_baseline_m back,
+        // with a fitted motion, and only when the near pair's was fitted too: where the near pair
+        // found no floor plane, a short pair's fit may be of a low obstacle's top (on a plain
+        // floor its only texture; textureless_floor's 5 cm box then read as floor). Not for a
+        // turning pair, whose baseline is short already.
+        std::optional<FarPair> close_pair;
+        if (!turn_pair && motion.status == GroundMotion::Status::kOk &&
+            ps.close_min_baseline_m > 0 && ps.close_min_baseline_m < ps.min_baseline_m) {
+          const Frame* close = newest_with(ps.close_min_baseline_m, ps.max_rotation_rad);
+          if (close != nullptr && close != reference) {
+            const PairFit close_fit = fit_pair(*close);
+            if (close_fit.motion.status == GroundMotion::Status::kOk) {
+              close_pair = FarPair{close->image, close_fit.motion};
+            }
+          }
+        }
+        out.pending = Output::PendingDetection{reference->image,
+                                               prepared,
+                                               motion,
+                                               std::move(moving),
+                                               alignment,
+                                               turn_pair,
+                                               odom_from_base_,
+                                               std::move(far_pair),
+                                               std::move(close_pair)};
         if (!defer_detection) Finish(&out);
         if (!turn_pair) {
           frames_since_detection_ = 0;

@@ -157,12 +157,19 @@ std::optional<TrackHeight> TriangulateTrackHeight(const MotionTriangulator& tria
   return TrackHeight{*point, std::abs(moved->point_in_base1.z() - point->point_in_base1.z())};
 }
 
-ZeroDisparityField ComputeZeroDisparity(const cv::Mat& image1, const cv::Mat& image2,
+ZeroDisparityField ComputeZeroDisparity(const cv::Mat& image1, const cv::Mat& full_image2,
                                         const CameraModel& camera, const Pose2& base2_from_base1,
-                                        const ZeroDisparityOptions& options) {
+                                        const ZeroDisparityOptions& options, int first_row) {
   const int finest = options.finest_level;
   const int coarsest = finest + options.num_levels - 1;
   ZeroDisparityField field = EmptyField(finest, image1, options);
+  // The rows searched: image 2 from row0 down, row0 a whole block of the coarsest level so that
+  // every level's rows start at a whole pixel of it.
+  const int block = 1 << coarsest;
+  const int row0 = options.method == ZeroDisparityOptions::Method::kEpipolar
+                       ? std::clamp(first_row, 0, full_image2.rows - 1) / block * block
+                       : 0;
+  const cv::Mat image2 = row0 > 0 ? full_image2.rowRange(row0, full_image2.rows) : full_image2;
 
   const Eigen::Vector3d epipole = EpipoleInImage2(camera, base2_from_base1);
   const double baseline = (camera.K().inverse() * epipole).norm();
@@ -188,9 +195,13 @@ ZeroDisparityField ComputeZeroDisparity(const cv::Mat& image1, const cv::Mat& im
     pyr2[level].convertTo(i2, CV_32F);
     const int rows = i2.rows, cols = i2.cols;
     const double f = 1.0 / (1 << level);
-    const Eigen::Matrix3d h_inv = HomographyAtLevel(h_full_inv, level);
-    // The epipole at this level: scale its inhomogeneous part.
-    const Eigen::Vector3d e(epipole.x() * f, epipole.y() * f, epipole.z());
+    // This level's pixel (x, y) is (x, y + offset) of the whole image's level.
+    const double offset = row0 * f;
+    Eigen::Matrix3d to_whole = Eigen::Matrix3d::Identity();
+    to_whole(1, 2) = offset;
+    const Eigen::Matrix3d h_inv = HomographyAtLevel(h_full_inv, level) * to_whole;
+    // The epipole at this level: scale its inhomogeneous part (and shift it with the rows).
+    const Eigen::Vector3d e(epipole.x() * f, epipole.y() * f - epipole.z() * offset, epipole.z());
 
     // The per-pixel loops below read plain locals and write through unaliased row pointers, so
     // that the compiler vectorises them.
@@ -369,6 +380,18 @@ ZeroDisparityField ComputeZeroDisparity(const cv::Mat& image1, const cv::Mat& im
       field.s_px = s * static_cast<float>(1 << level);
       field.ux = ux;
       field.uy = uy;
+    }
+  }
+  if (row0 > 0) {
+    // Onto the whole image's rows: zeros above (no texture: nothing measured there).
+    const int above = row0 >> finest;
+    for (cv::Mat* m : {&field.s_px, &field.texture, &field.residual, &field.residual_fine,
+                       &field.floor_residual_fine, &field.perpendicular_px, &field.sigma_px,
+                       &field.perpendicular_sigma_px, &field.ux, &field.uy}) {
+      if (m->empty()) continue;
+      cv::Mat whole(above + m->rows, m->cols, m->type(), cv::Scalar::all(0));
+      m->copyTo(whole.rowRange(above, whole.rows));
+      *m = whole;
     }
   }
   return field;
