@@ -50,10 +50,11 @@ void ClassificationOptions::Describe(OptionVisitor& v) {
             "top view: non-floor samples above the floor's last one that keep its cell not free");
   v.Integer("edge_floor_unknown_samples", &edge_floor_unknown_samples,
             R::AtLeast(0).Note("0 = off"),
-            "floor samples this close to an obstacle in their column are unknown");
+            "floor samples this close to an obstacle in their column or row are unknown");
   v.Integer("drop_off_edge_floor_unknown_samples", &drop_off_edge_floor_unknown_samples,
             R::AtLeast(0).Note("0 = off"),
-            "floor samples this close below a drop-off's edge in their column are unknown ...");
+            "floor samples this close below a drop-off's edge (3 drop-off samples in their "
+            "column) are unknown ...");
   v.Real("drop_off_edge_floor_unknown_m", &drop_off_edge_floor_unknown_m,
          R::AtLeast(0).Note("0 = off"), "... when their floor lies this close to the edge's, m");
   v.Integer("column_min_samples", &column_min_samples,
@@ -123,7 +124,8 @@ void PairSelectionOptions::Describe(OptionVisitor& v) {
          "far pair: also matched against a frame this far back, each sample keeping the more "
          "precise pair, m");
   v.Real("close_min_baseline_m", &close_min_baseline_m, R::AtLeast(0).Note("0 = off"),
-         "close pair: the newest frame at least this far back measures the near rows, m");
+         "close pair: the newest frame at least this far back (below min_baseline_m) measures "
+         "the near rows, m");
   v.Real("close_max_range_baselines", &close_max_range_baselines, R::Above(0),
          "close pair: rows whose floor lies within this many main-pair baselines");
   v.Real("turn_min_baseline_m", &turn_min_baseline_m, R::Above(0),

@@ -112,8 +112,8 @@ struct ClassificationOptions {
   // window straddles the edge, and next to an obstacle the floor label reaches onto its lowest
   // pixels. More samples label fewer obstacle pixels floor and cover less of the floor. 0 = off.
   int edge_floor_unknown_samples = 1;
-  // Labels: floor just below a drop-off's edge in its image column (a run of floor_edge_samples
-  // drop-off samples), within this many samples and this many metres (along the floor) of the
+  // Labels: floor just below a drop-off's edge in its image column (a run of 3 drop-off
+  // samples), within this many samples and this many metres (along the floor) of the
   // edge, is unknown. At a step's edge the upper floor's texture holds the windows that straddle
   // it (the coarse levels' wider ones too), and the floor label reaches up to about 20 px onto
   // the lower surface beyond, where the robot would fall. From farther away those pixels span more
@@ -226,12 +226,13 @@ struct PairSelectionOptions {
   // obstacle, while the near floor needs a short one (it was below the far frame's view).
   double far_min_baseline_m = 0.30;
   // Close pair: a detected frame is also matched against the newest frame at least
-  // close_min_baseline_m back (m, below min_baseline_m; 0 = off), in the image rows whose floor
-  // lies within close_max_range_baselines baselines of the main pair's (where the main pair's
-  // near floor changes scale by more than their inverse between its frames); there its samples
-  // replace the main pair's. A 5 cm box 0.6 m ahead moves 14 % farther than the floor around it:
-  // over 0.1 m that is several pixels under a 17 % change of scale, and the windows match it
-  // where it stood in the reference.
+  // close_min_baseline_m back (m; 0 = off, and unused unless below min_baseline_m), in the image
+  // rows whose floor lies within close_max_range_baselines baselines of the main pair's (where
+  // the main pair's near floor changes scale by more than 1 / close_max_range_baselines between
+  // its frames); there its samples replace the main pair's. Only when both pairs' motions were
+  // fitted, not for a turning or pitched pair. A 5 cm box 0.6 m ahead moves 14 % farther than the
+  // floor around it: over 0.1 m that is several pixels under a 17 % change of scale, and the
+  // windows match it where it stood in the reference.
   double close_min_baseline_m = 0.05;
   double close_max_range_baselines = 8.0;
 

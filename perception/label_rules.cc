@@ -315,8 +315,11 @@ void UnknownFloorBeforeDropOffEdges(const std::vector<Sample>& samples, const Sa
         const Eigen::Vector2d edge = samples[grid.Index(i, j)].floor_in_base2;
         for (int d = i + 1; d <= std::min(grid.rows - 1, i + reach_samples); ++d) {
           const std::size_t k = grid.Index(d, j);
-          if ((*labels)[k] == PixelLabel::kFloor &&
-              (samples[k].floor_in_base2 - edge).norm() <= reach_m) {
+          const PixelLabel label = (*labels)[k];
+          // Down to whatever else stands nearer (an obstacle, a moving thing): the floor below it
+          // is not next to the edge.
+          if (label != PixelLabel::kFloor && label != PixelLabel::kUnknown) break;
+          if (label == PixelLabel::kFloor && (samples[k].floor_in_base2 - edge).norm() <= reach_m) {
             (*labels)[k] = PixelLabel::kUnknown;
           }
         }

@@ -136,6 +136,14 @@ TEST(UnknownFloorBeforeDropOffEdges, FloorJustBelowADropOffEdgeIsUnknown) {
   labels = lone;
   detector_stages::UnknownFloorBeforeDropOffEdges(samples, grid, 5, 3, 0.16, &labels);
   EXPECT_EQ(labels, lone);
+
+  // Two edges in one column, the lower touching the image's bottom; an obstacle between an edge
+  // and the floor below it stops the reach.
+  const PixelLabel O = PixelLabel::kObstacle;
+  const std::vector<PixelLabel> two = {D, D, D, F, O, F, F, F, D, D, D};
+  labels = two;
+  detector_stages::UnknownFloorBeforeDropOffEdges(samples, grid, 5, 3, 0.16, &labels);
+  EXPECT_EQ(labels, (std::vector<PixelLabel>{D, D, D, U, O, F, F, F, D, D, D}));
 }
 
 }  // namespace

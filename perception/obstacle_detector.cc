@@ -195,6 +195,10 @@ int RowsBeyondFloorRange(const CameraModel& camera, double range_m) {
   return std::clamp(static_cast<int>(std::ceil(lowest)), 0, in.height);
 }
 
+// Drop-off samples in a column that make an edge for UnknownFloorBeforeDropOffEdges: a lone one
+// is the far floor's noise more often than a step.
+constexpr int kDropOffEdgeMinRun = 3;
+
 // How far the camera centre moved between the frames of a pair (m); below kMinTravelM a pair
 // has no parallax to measure.
 constexpr double kMinTravelM = 0.01;
@@ -262,8 +266,10 @@ void MergeFarPair(const CameraModel& camera, const DetectorOptions& options,
 // within close_max_range_baselines of the main pair's baseline (TakeFromRow): there the main
 // pair's near floor changes scale by more than 1 / close_max_range_baselines between its frames,
 // and a low obstacle's top moves by several pixels against the floor around it; the windows
-// match it where it stood in the reference. Only those rows are searched (and a margin above
-// them for the windows); only with a fitted motion, and only for a pair shorter than the main one.
+// match it where it stood in the reference. The main pair's mismatches there come from that
+// change of scale too, so the close pair's measurements replace them. Only those rows are
+// searched (and a margin above them for the windows); only with a fitted motion, and only for a
+// pair shorter than the main one.
 void MergeClosePair(const CameraModel& camera, const DetectorOptions& options,
                     const cv::Mat& strip_mask, const FarPair& close_pair, const cv::Mat& current,
                     const AlignmentImage& current_aligned, const SampleGrid& grid,
@@ -278,9 +284,13 @@ void MergeClosePair(const CameraModel& camera, const DetectorOptions& options,
   const ZeroDisparityOptions& zo = options.zero_disparity;
   const int near_from = RowsBeyondFloorRange(
       camera, options.pair_selection.close_max_range_baselines * main_baseline_m);
-  const int first_sample_row = near_from / static_cast<int>(grid.SamplePx());
+  const int sample_px = static_cast<int>(grid.SamplePx());
+  const int first_sample_row = (near_from + sample_px - 1) / sample_px;
   if (first_sample_row >= grid.rows) return;
-  const int margin = 2 * zo.window_px * (1 << zo.finest_level);
+  // Searched from a margin above: the coarsest level's half window (what a cut in the image can
+  // reach into), at least two finest windows.
+  const int coarsest = zo.finest_level + zo.num_levels - 1;
+  const int margin = std::max(2 * zo.window_px << zo.finest_level, (zo.window_px << coarsest) / 2);
   const ZeroDisparityField field =
       ComputeZeroDisparity(close_pair.reference, current, camera, t, zo, near_from - margin);
   TakeFromRow(MeasureSamples(camera, field, grid, t, options.classification), first_sample_row,
@@ -480,6 +490,12 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
   std::vector<Sample> samples = MeasureSamples(camera_, field, grid, t, co);
   // The far pair, on the same sample grid of the current image (not for a pitched camera: the
   // chain works on the current image at the near reference's pitch).
+  // The close pair first: where its near rows reach the far pair's (a long near baseline), the far
+  // pair's more precise samples still win.
+  if (close_pair != nullptr && !pitched) {
+    MergeClosePair(camera_, options_, strip_mask_, *close_pair, current, current_aligned, grid,
+                   baseline_m, &samples);
+  }
   if (far_pair != nullptr && !pitched) {
     if (far_pair->unseen_only) {
       MergeUnseen(camera_, options_, strip_mask_, *far_pair, current, current_aligned, grid,
@@ -488,10 +504,6 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
       MergeFarPair(camera_, options_, strip_mask_, *far_pair, current, current_aligned, grid,
                    baseline_m, &samples);
     }
-  }
-  if (close_pair != nullptr && !pitched) {
-    MergeClosePair(camera_, options_, strip_mask_, *close_pair, current, current_aligned, grid,
-                   baseline_m, &samples);
   }
 
   // Phase 2: evidence over frames.
@@ -530,8 +542,7 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
   }
   if (co.drop_off_edge_floor_unknown_samples > 0 && co.drop_off_edge_floor_unknown_m > 0) {
     UnknownFloorBeforeDropOffEdges(samples, grid, co.drop_off_edge_floor_unknown_samples,
-                                   std::max(1, co.floor_edge_samples),
-                                   co.drop_off_edge_floor_unknown_m, &labels);
+                                   kDropOffEdgeMinRun, co.drop_off_edge_floor_unknown_m, &labels);
   }
 
   // Phase 5: the top view. Obstacle points on a surface (not mixed "veil" points at a depth

@@ -509,8 +509,8 @@ SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, Timesta
         // The close pair for the near rows: the newest frame at least close_min_baseline_m back,
         // with a fitted motion, and only when the near pair's was fitted too: where the near pair
         // found no floor plane, a short pair's fit may be of a low obstacle's top (on a plain
-        // floor its only texture; textureless_floor's 5 cm box then read as floor). Not for a
-        // turning pair, whose baseline is short already.
+        // floor its only texture), which would then read as floor. Not for a turning pair, whose
+        // baseline is short already.
         std::optional<FarPair> close_pair;
         if (!turn_pair && motion.status == GroundMotion::Status::kOk &&
             ps.close_min_baseline_m > 0 && ps.close_min_baseline_m < ps.min_baseline_m) {

@@ -167,7 +167,7 @@ ZeroDisparityField ComputeZeroDisparity(const cv::Mat& image1, const cv::Mat& fu
   // every level's rows start at a whole pixel of it.
   const int block = 1 << coarsest;
   const int row0 = options.method == ZeroDisparityOptions::Method::kEpipolar
-                       ? std::clamp(first_row, 0, full_image2.rows - 1) / block * block
+                       ? std::clamp(first_row, 0, std::max(full_image2.rows - 1, 0)) / block * block
                        : 0;
   const cv::Mat image2 = row0 > 0 ? full_image2.rowRange(row0, full_image2.rows) : full_image2;
 

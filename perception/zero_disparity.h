@@ -80,8 +80,9 @@ struct ZeroDisparityField {
 // Dense, multi-resolution matching of image 2 against image 1 warped by the floor homography,
 // constrained to the epipolar lines. Images are grey CV_8U of the calibration's size (undistorted).
 // With first_row > 0 only image 2's rows from first_row down are searched (first_row rounded
-// down to a whole block of the coarsest level); the field still covers the whole image, with no
-// texture (nothing measured) above. Epipolar method only (the Farneback field ignores it).
+// down to a whole block of the coarsest level, at most the last row's block); the field still
+// covers the whole image, with no texture (nothing measured) above. Epipolar method only (the
+// Farneback field ignores it).
 ZeroDisparityField ComputeZeroDisparity(const cv::Mat& image1, const cv::Mat& image2,
                                         const CameraModel& camera, const Pose2& base2_from_base1,
                                         const ZeroDisparityOptions& options, int first_row = 0);
