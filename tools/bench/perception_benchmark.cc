@@ -87,8 +87,9 @@ DetectorOptions OptionsFor(int method) {
                                         : ZeroDisparityOptions::Method::kEpipolar;
   // 2: epipolar without the dense motion evidence (its share of the per-frame time).
   if (method == 2) o.motion_evidence.enabled = false;
-  // 3: epipolar without the far pair (its share).
+  // 3: epipolar without the far pair (its share); 4: without the close pair (its share).
   if (method == 3) o.pair_selection.far_min_baseline_m = 0.0;
+  if (method == 4) o.pair_selection.close_min_baseline_m = 0.0;
   return o;
 }
 
@@ -224,9 +225,10 @@ void BM_SequenceFrame(benchmark::State& state) {
   state.SetLabel(state.range(0) == 0   ? "epipolar"
                  : state.range(0) == 1 ? "farneback"
                  : state.range(0) == 2 ? "epipolar, no motion evidence"
-                                       : "epipolar, no far pair");
+                 : state.range(0) == 3 ? "epipolar, no far pair"
+                                       : "epipolar, no close pair");
 }
-BENCHMARK(BM_SequenceFrame)->Arg(0)->Arg(1)->Arg(2)->Arg(3)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_SequenceFrame)->Arg(0)->Arg(1)->Arg(2)->Arg(3)->Arg(4)->Unit(benchmark::kMillisecond);
 
 // The dense motion evidence alone (MotionEvidence: two DIS flows and the static world's test) on
 // consecutive frames of person_crossing, with the fitted steps taken as known (the sequence
