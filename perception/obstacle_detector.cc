@@ -488,10 +488,10 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
 
   // Phase 1: measure every sample on its own.
   std::vector<Sample> samples = MeasureSamples(camera_, field, grid, t, co);
-  // The far pair, on the same sample grid of the current image (not for a pitched camera: the
-  // chain works on the current image at the near reference's pitch).
-  // The close pair first: where its near rows reach the far pair's (a long near baseline), the far
-  // pair's more precise samples still win.
+  // The second pairs, on the same sample grid of the current image (not for a pitched camera: the
+  // chain works on the current image at the near reference's pitch). The close pair first: where
+  // its near rows reach the far pair's (a long near baseline), the far pair's more precise
+  // samples still win.
   if (close_pair != nullptr && !pitched) {
     MergeClosePair(camera_, options_, strip_mask_, *close_pair, current, current_aligned, grid,
                    baseline_m, &samples);

@@ -483,20 +483,25 @@ SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, Timesta
           moving = OffEpipolarCorners(camera, motion.base2_from_base1, near.p_ref, near.p_cur,
                                       options.classification.moving_track_min_px);
         }
+        // A newer frame at least min_baseline_m away within max_rotation_rad, as a second pair,
+        // when its motion fits the tracks both share (kOk).
+        const auto fitted_pair = [&](double min_baseline_m, double max_rotation_rad,
+                                     bool unseen_only) -> std::optional<FarPair> {
+          const Frame* frame = newest_with(min_baseline_m, max_rotation_rad);
+          if (frame == nullptr || frame == reference) return std::nullopt;
+          const PairFit fit = fit_pair(*frame);
+          if (fit.motion.status != GroundMotion::Status::kOk) return std::nullopt;
+          return FarPair{frame->image, fit.motion, unseen_only};
+        };
         // The far pair, with its fitted motion, or else with the odometry since its frame
         // (kFallback: ObstacleDetector takes only its floor, and only where the direct alignment
-        // refines that motion).
+        // refines that motion). A turning pair has none; it takes the side the turn brings into
+        // view from a newer frame instead (turn_side_min_baseline_m).
         std::optional<FarPair> far_pair;
         if (turn_pair && ps.turn_side_min_baseline_m > 0 &&
             ps.turn_side_min_baseline_m < ps.turn_min_baseline_m) {
-          // The side the turn brings into view, from a newer frame (turn_side_min_baseline_m).
-          const Frame* side = newest_with(ps.turn_side_min_baseline_m, ps.turn_max_rotation_rad);
-          if (side != nullptr && side != reference) {
-            PairFit side_fit = fit_pair(*side);
-            if (side_fit.motion.status == GroundMotion::Status::kOk) {
-              far_pair = FarPair{side->image, side_fit.motion, /*unseen_only=*/true};
-            }
-          }
+          far_pair = fitted_pair(ps.turn_side_min_baseline_m, ps.turn_max_rotation_rad,
+                                 /*unseen_only=*/true);
         }
         if (far_fit) {
           GroundMotion m = far_fit->motion;
@@ -506,21 +511,14 @@ SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, Timesta
           }
           far_pair = FarPair{far->image, m};
         }
-        // The close pair for the near rows: the newest frame at least close_min_baseline_m back,
-        // with a fitted motion, and only when the near pair's was fitted too: where the near pair
-        // found no floor plane, a short pair's fit may be of a low obstacle's top (on a plain
-        // floor its only texture), which would then read as floor. Not for a turning pair, whose
-        // baseline is short already.
+        // The close pair for the near rows, only when the near pair's motion was fitted too: where
+        // the near pair found no floor plane, a short pair's fit may be of a low obstacle's top (on
+        // a plain floor its only texture), which would then read as floor. Not for a turning
+        // pair, whose baseline is short already.
         std::optional<FarPair> close_pair;
         if (!turn_pair && motion.status == GroundMotion::Status::kOk &&
             ps.close_min_baseline_m > 0 && ps.close_min_baseline_m < ps.min_baseline_m) {
-          const Frame* close = newest_with(ps.close_min_baseline_m, ps.max_rotation_rad);
-          if (close != nullptr && close != reference) {
-            const PairFit close_fit = fit_pair(*close);
-            if (close_fit.motion.status == GroundMotion::Status::kOk) {
-              close_pair = FarPair{close->image, close_fit.motion};
-            }
-          }
+          close_pair = fitted_pair(ps.close_min_baseline_m, ps.max_rotation_rad, false);
         }
         out.pending = Output::PendingDetection{reference->image,
                                                prepared,

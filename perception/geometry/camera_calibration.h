@@ -23,9 +23,9 @@ struct CameraIntrinsics {
   // The distortion-free camera of the same image size that images are undistorted into for the
   // detector: the widest view in which every pixel still shows a pixel of the input (OpenCV's
   // getOptimalNewCameraMatrix with alpha 0, narrowed until no border pixel falls outside the
-  // input). Keeping the input's K instead loses
-  // its periphery: with k1 -0.28 a fifth of a 640x480 image lies outside. Without distortion:
-  // these intrinsics; with no such view, the input's K without the distortion.
+  // input). Keeping the input's K instead loses its periphery: with k1 -0.28 a fifth of a 640x480
+  // image lies outside. Without distortion: these intrinsics; with no such view, the input's K
+  // without the distortion.
   CameraIntrinsics Rectified() const;
 };
 
