@@ -58,6 +58,14 @@ struct ClassificationOptions {
   // floor); and weakly textured floor is where a thing the camera sees only in part hides (the
   // floor under a table top above the view reads free).
   double floor_min_texture = 1.0;
+  // ... or with at least this much texture across the epipolar line (grey levels^2 per pixel^2;
+  // 0 = off). A floor whose grain or seams run along the lines of forward motion (floorboards,
+  // radial from the focus of expansion) has little texture along them but is a textured surface:
+  // its parallax is weakly constrained, which its height sigma says, but it is not a plain face
+  // whose zero parallax the coarse levels took from its base. Such floor labels the image; it
+  // gives the local map no free cells (ClassificationOptions::floor_min_texture's free-space
+  // concern: what the camera sees only in part, a table top above the view, stands over it).
+  double floor_min_texture_across = 4.0;
   // Maximum mean |difference| after alignment, grey levels; above it unknown (or moving).
   double max_residual = 12.0;
   // Dense test: an offset perpendicular to the epipolar line of at least this many input pixels

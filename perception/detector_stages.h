@@ -42,6 +42,8 @@ struct Sample {
   // Texture along the epipolar line, grey levels^2 per pixel^2 (measured from min_texture, floor
   // from floor_min_texture).
   float texture = 0.f;
+  // The same across the epipolar line (ZeroDisparityField::texture_across).
+  float texture_across = 0.f;
   // Labelled from an earlier frame's estimate without a measurement in this pair: it labels the
   // image, but gives the top view no vote (the map counted it when it was measured).
   bool carried = false;
@@ -72,6 +74,11 @@ struct Placement {
 
 // The label of one sample from its own height (its raw label when it measured nothing).
 PixelLabel Classify(const Sample& s, const ClassificationOptions& co, double camera_height_m);
+
+// Whether a measured sample with less texture along its epipolar line than floor_min_texture but
+// floor_min_texture_across across it is floor by its own height and sigma
+// (ClassificationOptions::floor_min_texture_across).
+bool FloorAcrossTheLines(const Sample& s, const ClassificationOptions& co, double camera_height_m);
 
 // The median of `values` (reorders them); NaN when empty.
 float Median(std::vector<float>* values);

@@ -327,6 +327,44 @@ TEST_F(DetectorOnSyntheticScene, WeakTextureShowsObstaclesButNoFloor) {
   EXPECT_LE(c.box_floor, c_any.box_floor);
 }
 
+// A floor whose grain runs along the direction of travel has little texture along the epipolar
+// lines of forward motion, much across them: floor by ClassificationOptions::
+// floor_min_texture_across in the labels, but the local map is the same as without the rule (no
+// free cell from it).
+TEST_F(DetectorOnSyntheticScene, FloorWithGrainAlongTheLinesIsFloorInTheLabelsOnly) {
+  Scene scene;
+  scene.floor_grain_x = 12.0;
+  scene.boxes.push_back({{1.6, -0.3, 0.0}, {1.9, 0.3, 0.3}});
+  const Pose2 p1{0, 0, 0}, p2{0.12, 0.0, 0.0};
+  DetectorOptions without = options_;
+  without.classification.floor_min_texture_across = 0.0;
+  const auto [b, r, r0] = DetectBoth(scene, p1, p2, without);
+  ASSERT_EQ(r.status, PairStatus::kOk) << r.message;
+  MaybeDump("grain", b.image, r);
+  const BoxFloorCounts c = CountBoxAndFloor(b, r.labels);
+  const BoxFloorCounts c0 = CountBoxAndFloor(b, r0.labels);
+  int floor_labelled = 0, floor_labelled0 = 0;
+  for (int y = 0; y < b.height_m.rows; ++y) {
+    for (int x = 0; x < b.height_m.cols; ++x) {
+      if (b.height_m.at<float>(y, x) != 0.0f) continue;
+      floor_labelled += r.labels.at<std::uint8_t>(y, x) == static_cast<int>(PixelLabel::kFloor);
+      floor_labelled0 += r0.labels.at<std::uint8_t>(y, x) == static_cast<int>(PixelLabel::kFloor);
+    }
+  }
+  int differing_cells = 0;
+  for (std::size_t k = 0; k < r.local_map.cells.size(); ++k) {
+    differing_cells += r.local_map.cells[k] != r0.local_map.cells[k];
+  }
+  std::printf(
+      "grained floor labelled floor %d of %d (%d without the rule); box labelled floor %d / %d of "
+      "%d; local map cells differing %d\n",
+      floor_labelled, c.floor, floor_labelled0, c.box_floor, c0.box_floor, c.box, differing_cells);
+  ASSERT_GT(c.floor, 100000);
+  EXPECT_GT(floor_labelled, floor_labelled0 * 5 / 4);
+  EXPECT_LE(c.box_floor, c0.box_floor + c.box / 100);
+  EXPECT_EQ(differing_cells, 0);
+}
+
 // Beside a tall box the coarse levels carry its parallax onto the floor, and where the floor's
 // texture is weak the finest level's damped steps leave it there: counted in the error
 // (ZeroDisparityOptions::unconverged_sigma), fewer of those samples are called obstacle. The

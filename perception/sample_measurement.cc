@@ -29,6 +29,16 @@ PixelLabel Classify(const Sample& s, const ClassificationOptions& co, double cam
   return PixelLabel::kUnknown;
 }
 
+bool FloorAcrossTheLines(const Sample& s, const ClassificationOptions& co, double camera_height_m) {
+  if (!s.measured || !(co.floor_min_texture_across > 0) || s.texture >= co.floor_min_texture ||
+      s.texture_across < co.floor_min_texture_across) {
+    return false;
+  }
+  Sample textured = s;
+  textured.texture = static_cast<float>(co.floor_min_texture);
+  return Classify(textured, co, camera_height_m) == PixelLabel::kFloor;
+}
+
 namespace {
 
 // How much worse the floor hypothesis fits the neighbourhood of level pixel (x, y) than its zero
@@ -78,6 +88,8 @@ std::vector<Sample> MeasureSamples(const CameraModel& camera, const ZeroDisparit
       sample.below_horizon_px = horizon_sign * horizon.dot(q.homogeneous()) / horizon_norm;
       if (auto f = camera.PixelToFloor(q)) sample.floor_in_base2 = *f;
       sample.texture = field.texture.at<float>(y, x);
+      if (!field.texture_across.empty())
+        sample.texture_across = field.texture_across.at<float>(y, x);
       if (sample.texture < co.min_texture) continue;  // unknown, never floor
       const double s = field.s_px.at<float>(y, x);
       const double sigma_px =

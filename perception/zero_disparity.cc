@@ -346,6 +346,7 @@ ZeroDisparityField ComputeZeroDisparity(const cv::Mat& image1, const cv::Mat& fu
       cv::split(sums, channels);
       field.texture = channels[0];
       field.residual = channels[1];
+      field.texture_across = channels[3];
       field.perpendicular_px.create(rows, cols, CV_32F);
       field.sigma_px.create(rows, cols, CV_32F);
       field.perpendicular_sigma_px.create(rows, cols, CV_32F);
@@ -386,8 +387,8 @@ ZeroDisparityField ComputeZeroDisparity(const cv::Mat& image1, const cv::Mat& fu
     // Onto the whole image's rows: zeros above (no texture: nothing measured there).
     const int above = row0 >> finest;
     for (cv::Mat* m : {&field.s_px, &field.texture, &field.residual, &field.residual_fine,
-                       &field.floor_residual_fine, &field.perpendicular_px, &field.sigma_px,
-                       &field.perpendicular_sigma_px, &field.ux, &field.uy}) {
+                       &field.floor_residual_fine, &field.perpendicular_px, &field.texture_across,
+                       &field.sigma_px, &field.perpendicular_sigma_px, &field.ux, &field.uy}) {
       if (m->empty()) continue;
       cv::Mat whole(above + m->rows, m->cols, m->type(), cv::Scalar::all(0));
       m->copyTo(whole.rowRange(above, whole.rows));

@@ -63,6 +63,9 @@ struct ZeroDisparityField {
   // has carried a neighbour's parallax onto it (obstacle boundaries) or the texture cannot tell.
   cv::Mat residual_fine;
   cv::Mat floor_residual_fine;
+  // CV_32F, as texture but of the gradient across the epipolar line (where the floor's grain runs
+  // along the lines, the surface is textured although the search along them has little to go on).
+  cv::Mat texture_across;
   cv::Mat perpendicular_px;  // CV_32F, best offset perpendicular to the epipolar line (input px)
   // CV_32F, standard deviation of s_px (input px) from the alignment residual and the texture:
   // sigma_noise / sqrt(window area * texture), as for a Lucas-Kanade estimate; at least the step

@@ -70,6 +70,9 @@ struct Scene {
   Texture box_texture{2};
   std::vector<Box> boxes;
   double floor_contrast = 1.0;
+  // The floor's texture stretched this many times along the world's x axis: a grain that runs
+  // along the direction of travel (floorboards), as the epipolar lines of forward motion do.
+  double floor_grain_x = 1.0;
   double box_offset = 0.0;  // grey levels added to every box face (< 0: dark posts)
 };
 
@@ -100,7 +103,7 @@ inline Rendered Render(const Scene& scene, const CameraModel& camera,
             const double s = -origin.z() / dir.z();
             const Eigen::Vector3d p = origin + s * dir;
             best = s;
-            value = 128 + scene.floor.At(p.x(), p.y()) * scene.floor_contrast;
+            value = 128 + scene.floor.At(p.x() / scene.floor_grain_x, p.y()) * scene.floor_contrast;
             height = 0.0;
           }
           for (const Box& b : scene.boxes) {
