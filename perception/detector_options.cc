@@ -53,6 +53,10 @@ void ClassificationOptions::Describe(OptionVisitor& v) {
   v.Integer("edge_floor_unknown_samples", &edge_floor_unknown_samples,
             R::AtLeast(0).Note("0 = off"),
             "floor samples this close to an obstacle in their column or row are unknown");
+  v.Integer("plain_edge_floor_unknown_samples", &plain_edge_floor_unknown_samples,
+            R::AtLeast(0).Note("0 = off"),
+            "floor samples this close below a plain face (floor_edge_samples unmeasured samples "
+            "in their column, not a hole in the floor) are unknown");
   v.Integer("drop_off_edge_floor_unknown_samples", &drop_off_edge_floor_unknown_samples,
             R::AtLeast(0).Note("0 = off"),
             "floor samples this close below a drop-off's edge (3 drop-off samples in their "

@@ -58,13 +58,13 @@ struct ClassificationOptions {
   // floor); and weakly textured floor is where a thing the camera sees only in part hides (the
   // floor under a table top above the view reads free).
   double floor_min_texture = 1.0;
-  // ... or with at least this much texture across the epipolar line (grey levels^2 per pixel^2;
-  // 0 = off). A floor whose grain or seams run along the lines of forward motion (floorboards,
-  // radial from the focus of expansion) has little texture along them but is a textured surface:
-  // its parallax is weakly constrained, which its height sigma says, but it is not a plain face
-  // whose zero parallax the coarse levels took from its base. Such floor labels the image; it
-  // gives the local map no free cells (ClassificationOptions::floor_min_texture's free-space
-  // concern: what the camera sees only in part, a table top above the view, stands over it).
+  // ... or, for a measured sample the rules leave unknown, with at least this much texture across
+  // the epipolar line (grey levels^2 per pixel^2; 0 = off), in the image's labels only. A floor
+  // whose grain or seams run along the lines of forward motion (floorboards laid along the way,
+  // radial from the focus of expansion like the lines) has little texture along them, which its
+  // height sigma says, but is textured; a faint floor with little texture in any direction is not
+  // floor by this. The local map is built from the labels without it (the floor under a table top
+  // above the view may be grained too: floor_min_texture's free-space concern).
   double floor_min_texture_across = 4.0;
   // Maximum mean |difference| after alignment, grey levels; above it unknown (or moving).
   double max_residual = 12.0;
@@ -126,6 +126,12 @@ struct ClassificationOptions {
   // it (the coarse levels' wider ones too), and the floor label reaches up to about 20 px onto
   // the lower surface beyond, where the robot would fall. From farther away those pixels span more
   // floor than the map needs to lose (its votes settle the edge): hence the metres. 0 = off.
+  // Labels of the image: floor within this many samples below a plain face in its image column
+  // (a run of floor_edge_samples samples too weakly textured to be measured, not a hole in the
+  // floor's texture) is unknown: the floor label climbs onto the base of a plain wall or box,
+  // which nothing else detects. (The local map has its own rule for the floor's last samples
+  // below something: floor_edge_samples.) 0 = off.
+  int plain_edge_floor_unknown_samples = 2;
   int drop_off_edge_floor_unknown_samples = 5;
   double drop_off_edge_floor_unknown_m = 0.15;
   // Labels: unmeasured samples between two labelled ones in an image column are filled where the

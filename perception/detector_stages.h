@@ -39,8 +39,10 @@ struct Sample {
   // After alignment the sample did not match (max_residual): what was there may have changed or
   // been covered (a moving thing); an earlier estimate is not carried onto it.
   bool mismatched = false;
+  // Placed on the surface the samples around it in its column bound (FillColumnGaps).
+  bool filled = false;
   // Texture along the epipolar line, grey levels^2 per pixel^2 (measured from min_texture, floor
-  // from floor_min_texture).
+  // from floor_min_texture, or with floor_min_texture_across across it).
   float texture = 0.f;
   // The same across the epipolar line (ZeroDisparityField::texture_across).
   float texture_across = 0.f;
@@ -192,6 +194,15 @@ void UnknownFloorNextToObstacles(const SampleGrid& grid, int reach,
 void UnknownFloorBeforeDropOffEdges(const std::vector<Sample>& samples, const SampleGrid& grid,
                                     int reach_samples, int min_run, double reach_m,
                                     std::vector<PixelLabel>* labels);
+
+// Floor just below something without texture in its image column (a run of at least `min_run`
+// samples too weakly textured to be measured, with no floor again above within `max_gap`: not a
+// hole in the floor's texture): within `reach` samples of it, unknown. The windows of the floor
+// samples there hold the floor's texture and not the plain face's, so the floor label climbs onto
+// the base of a plain wall or box, which nothing else detects.
+void UnknownFloorBelowPlainFaces(const std::vector<Sample>& samples, const SampleGrid& grid,
+                                 double min_texture, int reach, int min_run, int max_gap,
+                                 std::vector<PixelLabel>* labels);
 
 // Phase 5 (top_view.cc).
 

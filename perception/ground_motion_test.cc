@@ -238,6 +238,7 @@ TEST(ZeroDisparity, RowsFromFirstRowMatchTheWholeImagesSearch) {
   ASSERT_EQ(part.s_px.size(), whole.s_px.size());
   const int row0 = 240 / static_cast<int>(part.scale);
   EXPECT_EQ(cv::countNonZero(part.texture.rowRange(0, row0)), 0);
+  EXPECT_EQ(cv::countNonZero(part.texture_across.rowRange(0, row0)), 0);
   // Below the cut by two coarsest blocks: the same estimates.
   int compared = 0, differ = 0;
   for (int y = row0 + 16; y < part.s_px.rows; ++y) {

@@ -231,6 +231,7 @@ void FillColumnGaps(const CameraModel& camera, const ClassificationOptions& co, 
     const double t = (footprint - c).norm() / horizontal;
     Sample& s = (*samples)[at(i, j)];
     s.measured = true;
+    s.filled = true;
     s.significant = true;
     s.height_m = centre.z() + t * ray.z();
     s.height_sigma_m = bound.height_sigma_m;
@@ -325,6 +326,37 @@ void UnknownFloorBeforeDropOffEdges(const std::vector<Sample>& samples, const Sa
         }
       }
       i = top;
+    }
+  }
+}
+
+void UnknownFloorBelowPlainFaces(const std::vector<Sample>& samples, const SampleGrid& grid,
+                                 double min_texture, int reach, int min_run, int max_gap,
+                                 std::vector<PixelLabel>* labels) {
+  const auto plain = [&](int i, int j) {
+    const std::size_t k = grid.Index(i, j);
+    return (*labels)[k] == PixelLabel::kUnknown && !samples[k].measured &&
+           samples[k].texture < min_texture;
+  };
+  for (int j = 0; j < grid.cols; ++j) {
+    // Top to bottom: each floor sample that starts a run of floor below something else.
+    for (int i = 1; i < grid.rows; ++i) {
+      if ((*labels)[grid.Index(i, j)] != PixelLabel::kFloor ||
+          (*labels)[grid.Index(i - 1, j)] == PixelLabel::kFloor) {
+        continue;
+      }
+      // The run above: plain samples only, at least min_run of them, and no floor within
+      // max_gap above its start (that would be a hole in the floor's texture).
+      int run = 0;
+      while (i - 1 - run >= 0 && plain(i - 1 - run, j)) ++run;
+      if (run < min_run) continue;
+      const int top = i - 1 - run;  // the first sample above the run, or -1
+      if (top >= 0 && run < max_gap && (*labels)[grid.Index(top, j)] == PixelLabel::kFloor)
+        continue;
+      for (int d = i; d < std::min(grid.rows, i + reach); ++d) {
+        if ((*labels)[grid.Index(d, j)] != PixelLabel::kFloor) break;
+        (*labels)[grid.Index(d, j)] = PixelLabel::kUnknown;
+      }
     }
   }
 }

@@ -526,57 +526,66 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
 
   // Phase 4: the labels' own rules: things that move, gaps the labels around them bound, floor
   // whose window straddled an obstacle's edge.
-  const auto label_rules = [&](std::vector<Sample>* rule_samples,
-                               std::vector<PixelLabel>* rule_labels) {
-    if (co.moving_track_radius_px > 0) {
-      LabelAroundMovingCorners(moving_level, grid, co.moving_track_radius_px, rule_labels);
+  if (co.moving_track_radius_px > 0) {
+    LabelAroundMovingCorners(moving_level, grid, co.moving_track_radius_px, &labels);
+  }
+  if (moving_mask.size() == size && moving_mask.type() == CV_8U) {
+    LabelMovingMask(moving_mask, grid, pitched ? &level.pitch_h : nullptr, samples,
+                    co.moving_carried_max_measurements, r.segments, co.moving_segment_fraction,
+                    &labels);
+  }
+  // Floor measured only across the epipolar line (ClassificationOptions::floor_min_texture_across)
+  // is added to the image's labels after the rules below, where they left the sample unknown: the
+  // top view takes the labels without it.
+  std::vector<std::uint8_t> across;
+  for (std::size_t k = 0; k < samples.size(); ++k) {
+    if (labels[k] == PixelLabel::kUnknown && FloorAcrossTheLines(samples[k], co, camera_height)) {
+      if (across.empty()) across.assign(samples.size(), 0);
+      across[k] = 1;
     }
-    if (moving_mask.size() == size && moving_mask.type() == CV_8U) {
-      LabelMovingMask(moving_mask, grid, pitched ? &level.pitch_h : nullptr, *rule_samples,
-                      co.moving_carried_max_measurements, r.segments, co.moving_segment_fraction,
-                      rule_labels);
-    }
-    if (co.fill_max_gap_samples > 0) {
-      FillColumnGaps(camera_, co, grid.rows, grid.cols, grid.SamplePx(), rule_samples, rule_labels);
-    }
+  }
+  if (co.fill_max_gap_samples > 0) {
+    FillColumnGaps(camera_, co, grid.rows, grid.cols, grid.SamplePx(), &samples, &labels);
+  }
+  // The rules that only take floor away; for the image's labels again below.
+  const auto unknown_floor_at_edges = [&](std::vector<PixelLabel>* rule_labels) {
     if (co.edge_floor_unknown_samples > 0) {
       UnknownFloorNextToObstacles(grid, co.edge_floor_unknown_samples, rule_labels);
     }
     if (co.drop_off_edge_floor_unknown_samples > 0 && co.drop_off_edge_floor_unknown_m > 0) {
-      UnknownFloorBeforeDropOffEdges(*rule_samples, grid, co.drop_off_edge_floor_unknown_samples,
+      UnknownFloorBeforeDropOffEdges(samples, grid, co.drop_off_edge_floor_unknown_samples,
                                      kDropOffEdgeMinRun, co.drop_off_edge_floor_unknown_m,
                                      rule_labels);
     }
   };
-  // Floor measured only across the epipolar line (ClassificationOptions::floor_min_texture_across)
-  // labels the image; the top view takes the labels without it (the rules applied to both), so
-  // the local map is what it would be without it.
-  std::vector<Sample> map_samples;
-  std::vector<PixelLabel> map_labels;
-  for (std::size_t k = 0; k < samples.size(); ++k) {
-    if (labels[k] == PixelLabel::kUnknown && FloorAcrossTheLines(samples[k], co, camera_height)) {
-      if (map_labels.empty()) map_labels = labels;
-      labels[k] = PixelLabel::kFloor;
+  unknown_floor_at_edges(&labels);
+  // The image's labels: the top view's, with the floor across the lines, and without the floor
+  // below plain faces (the top view has its own rule for the floor's last samples below
+  // something: ClassificationOptions::floor_edge_samples).
+  std::vector<PixelLabel> image_labels = labels;
+  if (!across.empty()) {
+    for (std::size_t k = 0; k < samples.size(); ++k) {
+      if (across[k] && !samples[k].filled && image_labels[k] == PixelLabel::kUnknown) {
+        image_labels[k] = PixelLabel::kFloor;
+      }
     }
+    unknown_floor_at_edges(&image_labels);
   }
-  if (!map_labels.empty()) {
-    map_samples = samples;
-    label_rules(&map_samples, &map_labels);
+  if (co.plain_edge_floor_unknown_samples > 0) {
+    UnknownFloorBelowPlainFaces(samples, grid, co.min_texture, co.plain_edge_floor_unknown_samples,
+                                co.floor_edge_samples, co.fill_max_gap_samples, &image_labels);
   }
-  label_rules(&samples, &labels);
-  const std::vector<Sample>& top_samples = map_labels.empty() ? samples : map_samples;
-  const std::vector<PixelLabel>& top_labels = map_labels.empty() ? labels : map_labels;
 
   // Phase 5: the top view. Obstacle points on a surface (not mixed "veil" points at a depth
   // edge) whose footprint is known well enough to be placed at all (far, tall points whose rays
   // graze their height are not), on the surface their image column shows.
-  const Placement placement = PlaceSamples(camera_, top_samples, top_labels, grid, co);
+  const Placement placement = PlaceSamples(camera_, samples, labels, grid, co);
   const int edge_reach_samples = 1 + options_.zero_disparity.window_px / 2 / grid.stride;
-  BuildTopView(top_samples, top_labels, placement, grid, edge_reach_samples, co, &r.local_map,
+  BuildTopView(samples, labels, placement, grid, edge_reach_samples, co, &r.local_map,
                &r.obstacle_points_in_base);
 
   // Phase 6: the per-pixel outputs.
-  WritePixels(samples, labels, grid, &r);
+  WritePixels(samples, image_labels, grid, &r);
   // Floor features from the image and labels the chain worked on (camera 1's pitch).
   if (options_.defer_floor_features) {
     // Mapping the labels back below writes into r.labels' buffer: a pitched frame keeps a copy.

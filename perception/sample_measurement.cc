@@ -30,8 +30,8 @@ PixelLabel Classify(const Sample& s, const ClassificationOptions& co, double cam
 }
 
 bool FloorAcrossTheLines(const Sample& s, const ClassificationOptions& co, double camera_height_m) {
-  if (!s.measured || !(co.floor_min_texture_across > 0) || s.texture >= co.floor_min_texture ||
-      s.texture_across < co.floor_min_texture_across) {
+  if (!s.measured || s.carried || !(co.floor_min_texture_across > 0) ||
+      s.texture >= co.floor_min_texture || s.texture_across < co.floor_min_texture_across) {
     return false;
   }
   Sample textured = s;
@@ -88,8 +88,7 @@ std::vector<Sample> MeasureSamples(const CameraModel& camera, const ZeroDisparit
       sample.below_horizon_px = horizon_sign * horizon.dot(q.homogeneous()) / horizon_norm;
       if (auto f = camera.PixelToFloor(q)) sample.floor_in_base2 = *f;
       sample.texture = field.texture.at<float>(y, x);
-      if (!field.texture_across.empty())
-        sample.texture_across = field.texture_across.at<float>(y, x);
+      sample.texture_across = field.texture_across.at<float>(y, x);
       if (sample.texture < co.min_texture) continue;  // unknown, never floor
       const double s = field.s_px.at<float>(y, x);
       const double sigma_px =

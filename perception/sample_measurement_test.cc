@@ -60,6 +60,45 @@ detector_stages::Sample Fuse(const CameraModel& camera, const Eigen::Vector3d& m
   return samples[static_cast<std::size_t>(i) * kCols + j];
 }
 
+// Floor across the epipolar lines (ClassificationOptions::floor_min_texture_across): a measured
+// sample at the floor's height, too little texture along its line for floor_min_texture, is floor
+// when it has enough across it; not when it has enough along it anyway (the ordinary rule), not
+// with too little across, not when carried from an earlier frame, not when unmeasured, not with
+// the rule off, and not when its height could be an obstacle's.
+TEST(FloorAcrossTheLines, OnlyMeasuredFloorWithTextureAcrossTheLine) {
+  const ClassificationOptions co;
+  const double camera_height = 0.4;
+  detector_stages::Sample s;
+  s.measured = true;
+  s.texture = 0.5f;
+  s.texture_across = 10.f;
+  s.height_m = 0.002;
+  s.height_sigma_m = 0.004;
+  s.below_horizon_px = 100.0;
+  s.point_in_base2 = Eigen::Vector2d(1.5, 0.0);
+  ASSERT_EQ(detector_stages::Classify(s, co, camera_height), PixelLabel::kUnknown);
+  EXPECT_TRUE(detector_stages::FloorAcrossTheLines(s, co, camera_height));
+  detector_stages::Sample t = s;
+  t.texture = 2.f;  // floor by the ordinary rule, not this one
+  EXPECT_EQ(detector_stages::Classify(t, co, camera_height), PixelLabel::kFloor);
+  EXPECT_FALSE(detector_stages::FloorAcrossTheLines(t, co, camera_height));
+  t = s;
+  t.texture_across = 3.f;
+  EXPECT_FALSE(detector_stages::FloorAcrossTheLines(t, co, camera_height));
+  t = s;
+  t.carried = true;
+  EXPECT_FALSE(detector_stages::FloorAcrossTheLines(t, co, camera_height));
+  t = s;
+  t.measured = false;
+  EXPECT_FALSE(detector_stages::FloorAcrossTheLines(t, co, camera_height));
+  t = s;
+  t.height_sigma_m = 0.01;  // 0.002 + 3 x 0.01 m could be a 3 cm obstacle
+  EXPECT_FALSE(detector_stages::FloorAcrossTheLines(t, co, camera_height));
+  ClassificationOptions off = co;
+  off.floor_min_texture_across = 0.0;
+  EXPECT_FALSE(detector_stages::FloorAcrossTheLines(s, off, camera_height));
+}
+
 // A wall 3 m ahead, an earlier estimate of a point about 0.1 m below the camera on it, 3 px above
 // the centre of the sample it now projects into. Moved onto the centre's ray at its height, it
 // would land about 0.6 m in front of the wall; moved to that ray's nearest point, it stays on it.

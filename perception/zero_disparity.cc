@@ -90,8 +90,8 @@ ZeroDisparityField FarnebackField(const cv::Mat& image1, const cv::Mat& image2,
   cv::Mat gu = gx.mul(field.ux) + gy.mul(field.uy);
   cv::Mat gp = gy.mul(field.ux) - gx.mul(field.uy);
   cv::boxFilter(gu.mul(gu), field.texture, CV_32F, box);
-  cv::Mat spp;
-  cv::boxFilter(gp.mul(gp), spp, CV_32F, box);
+  cv::boxFilter(gp.mul(gp), field.texture_across, CV_32F, box);
+  const cv::Mat& spp = field.texture_across;
   cv::Mat mean2, mean_w;
   cv::boxFilter(i2f, mean2, CV_32F, box);
   cv::boxFilter(warped, mean_w, CV_32F, box);
