@@ -102,7 +102,7 @@ void KeepMorePrecise(const std::vector<Sample>& far, std::vector<Sample>* sample
                      bool floor_only = false);
 
 // Another pair's samples (the same grid) into `samples` only where this pair measured nothing and
-// saw neither a change nor motion (FarPair::unseen_only: a turning pair's newer, narrower one).
+// saw neither a change nor motion (SecondPair::unseen_only: a turning pair's newer, narrower one).
 void TakeWhereUnmeasured(const std::vector<Sample>& other, std::vector<Sample>* samples);
 
 // A shorter pair's samples (the same grid) into `samples` from sample row first_row down, wherever

@@ -212,7 +212,7 @@ double CameraTravelM(const CameraModel& camera, const Pose2& base2_from_base1) {
 // chain works on the current image at the main reference's pitch).
 std::optional<DirectAlignment> AlignSecondPair(const CameraModel& camera,
                                                const DetectorOptions& options,
-                                               const cv::Mat& strip_mask, const FarPair& pair,
+                                               const cv::Mat& strip_mask, const SecondPair& pair,
                                                const cv::Mat& current,
                                                const AlignmentImage& current_aligned) {
   if (pair.motion.status == GroundMotion::Status::kFailed ||
@@ -228,14 +228,14 @@ std::optional<DirectAlignment> AlignSecondPair(const CameraModel& camera,
   return aligned;
 }
 
-// The far pair's samples (FarPair) merged into the near pair's (KeepMorePrecise), on the same
+// The far pair's samples (SecondPair) merged into the near pair's (KeepMorePrecise), on the same
 // sample grid of the current image. Only the rows whose floor lies at least 4 far baselines ahead
 // are searched: nearer, the floor's scale changes by more than a quarter between the frames and
 // the windows no longer match (the near pair measures it there). Without a fitted motion (the
 // odometry's, kFallback) only where the direct alignment refines it, and only its floor; nothing
 // with the Farneback search, for a pitched pair or one no longer than 1.5 near baselines.
 void MergeFarPair(const CameraModel& camera, const DetectorOptions& options,
-                  const cv::Mat& strip_mask, const FarPair& far_pair, const cv::Mat& current,
+                  const cv::Mat& strip_mask, const SecondPair& far_pair, const cv::Mat& current,
                   const AlignmentImage& current_aligned, const SampleGrid& grid,
                   double near_baseline_m, std::vector<Sample>* samples) {
   const ZeroDisparityOptions& zo = options.zero_disparity;
@@ -271,7 +271,7 @@ void MergeFarPair(const CameraModel& camera, const DetectorOptions& options,
 // searched (and a margin above them for the windows); only with a fitted motion, and only for a
 // pair shorter than the main one.
 void MergeClosePair(const CameraModel& camera, const DetectorOptions& options,
-                    const cv::Mat& strip_mask, const FarPair& close_pair, const cv::Mat& current,
+                    const cv::Mat& strip_mask, const SecondPair& close_pair, const cv::Mat& current,
                     const AlignmentImage& current_aligned, const SampleGrid& grid,
                     double main_baseline_m, std::vector<Sample>* samples) {
   if (close_pair.motion.status != GroundMotion::Status::kOk) return;
@@ -297,12 +297,12 @@ void MergeClosePair(const CameraModel& camera, const DetectorOptions& options,
               grid.cols, samples);
 }
 
-// A turning pair's newer, narrower pair (FarPair::unseen_only): over the whole image, with its
+// A turning pair's newer, narrower pair (SecondPair::unseen_only): over the whole image, with its
 // motion refined on the floor's texture as the main pair's; its measurements go only to the
 // samples the main pair measured nothing at (not to mismatched or moving ones: what the main
 // pair saw change stays unknown). Nothing for a pitched pair or one without parallax.
 void MergeUnseen(const CameraModel& camera, const DetectorOptions& options,
-                 const cv::Mat& strip_mask, const FarPair& side_pair, const cv::Mat& current,
+                 const cv::Mat& strip_mask, const SecondPair& side_pair, const cv::Mat& current,
                  const AlignmentImage& current_aligned, const SampleGrid& grid,
                  std::vector<Sample>* samples) {
   const auto aligned =
@@ -435,8 +435,8 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
                                      const std::vector<Eigen::Vector2d>& moving_pixels,
                                      const AlignmentImage& current_alignment,
                                      const std::vector<HeightSeed>* prior_in_base,
-                                     const cv::Mat& moving_mask, const FarPair* far_pair,
-                                     const FarPair* close_pair) const {
+                                     const cv::Mat& moving_mask, const SecondPair* far_pair,
+                                     const SecondPair* close_pair) const {
   const CameraIntrinsics& in = camera_.calibration().intrinsics;
   const cv::Size size(in.width, in.height);
   const ClassificationOptions& co = options_.classification;

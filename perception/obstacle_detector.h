@@ -34,7 +34,7 @@ FrameResult UnknownResult(const cv::Size& size, const LocalMapOptions& map_optio
 // - A shorter pair (PairSelectionOptions::close_min_baseline_m; passed as close_pair): it measures
 //   the rows whose floor lies within close_max_range_baselines of the main pair's baseline, where
 //   the main pair's near floor and low obstacles change scale too much between the frames.
-struct FarPair {
+struct SecondPair {
   cv::Mat reference;
   GroundMotion motion;
   bool unseen_only = false;
@@ -87,8 +87,8 @@ class ObstacleDetector {
                      const std::vector<Eigen::Vector2d>& moving_pixels = {},
                      const AlignmentImage& current_alignment = {},
                      const std::vector<HeightSeed>* prior_in_base = nullptr,
-                     const cv::Mat& moving_mask = cv::Mat(), const FarPair* far_pair = nullptr,
-                     const FarPair* close_pair = nullptr) const;
+                     const cv::Mat& moving_mask = cv::Mat(), const SecondPair* far_pair = nullptr,
+                     const SecondPair* close_pair = nullptr) const;
 
   // The floor features of a result whose computation was deferred (see defer_floor_features);
   // the same as Detect would have given. Empty for an empty source.
@@ -135,9 +135,9 @@ class SequenceDetector {
       std::vector<Eigen::Vector2d> moving_pixels;
       AlignmentImage current_alignment;
       bool turn_pair = false;
-      Pose2 odom_from_base;               // of the current frame, to carry the height estimates
-      std::optional<FarPair> far_pair;    // PairSelectionOptions::far_min_baseline_m
-      std::optional<FarPair> close_pair;  // PairSelectionOptions::close_min_baseline_m
+      Pose2 odom_from_base;                  // of the current frame, to carry the height estimates
+      std::optional<SecondPair> far_pair;    // PairSelectionOptions::far_min_baseline_m
+      std::optional<SecondPair> close_pair;  // PairSelectionOptions::close_min_baseline_m
     };
     std::optional<PendingDetection> pending;
     // Where things move on their own in this frame (MotionEvidence; CV_8U, 255, kGrownRegion or

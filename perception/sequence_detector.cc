@@ -486,18 +486,18 @@ SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, Timesta
         // A newer frame at least min_baseline_m away within max_rotation_rad, as a second pair,
         // when its motion fits the tracks both share (kOk).
         const auto fitted_pair = [&](double min_baseline_m, double max_rotation_rad,
-                                     bool unseen_only) -> std::optional<FarPair> {
+                                     bool unseen_only) -> std::optional<SecondPair> {
           const Frame* frame = newest_with(min_baseline_m, max_rotation_rad);
           if (frame == nullptr || frame == reference) return std::nullopt;
           const PairFit fit = fit_pair(*frame);
           if (fit.motion.status != GroundMotion::Status::kOk) return std::nullopt;
-          return FarPair{frame->image, fit.motion, unseen_only};
+          return SecondPair{frame->image, fit.motion, unseen_only};
         };
         // The far pair, with its fitted motion, or else with the odometry since its frame
         // (kFallback: ObstacleDetector takes only its floor, and only where the direct alignment
         // refines that motion). A turning pair has none; it takes the side the turn brings into
         // view from a newer frame instead (turn_side_min_baseline_m).
-        std::optional<FarPair> far_pair;
+        std::optional<SecondPair> far_pair;
         if (turn_pair && ps.turn_side_min_baseline_m > 0 &&
             ps.turn_side_min_baseline_m < ps.turn_min_baseline_m) {
           far_pair = fitted_pair(ps.turn_side_min_baseline_m, ps.turn_max_rotation_rad,
@@ -509,13 +509,13 @@ SequenceDetector::Output SequenceDetector::Process(const cv::Mat& image, Timesta
             m.status = GroundMotion::Status::kFallback;
             m.base2_from_base1 = far_fit->prior;
           }
-          far_pair = FarPair{far->image, m};
+          far_pair = SecondPair{far->image, m};
         }
         // The close pair for the near rows, only when the near pair's motion was fitted too: where
         // the near pair found no floor plane, a short pair's fit may be of a low obstacle's top (on
         // a plain floor its only texture), which would then read as floor. Not for a turning
         // pair, whose baseline is short already.
-        std::optional<FarPair> close_pair;
+        std::optional<SecondPair> close_pair;
         if (!turn_pair && motion.status == GroundMotion::Status::kOk &&
             ps.close_min_baseline_m > 0 && ps.close_min_baseline_m < ps.min_baseline_m) {
           close_pair = fitted_pair(ps.close_min_baseline_m, ps.max_rotation_rad, false);
