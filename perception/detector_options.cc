@@ -50,13 +50,12 @@ void ClassificationOptions::Describe(OptionVisitor& v) {
             "top view: neighbours an obstacle point needs on its surface");
   v.Integer("floor_edge_samples", &floor_edge_samples, R::AtLeast(0).Note("0 = off"),
             "top view: non-floor samples above the floor's last one that keep its cell not free");
+  v.Flag("floor_edge_unknown", &floor_edge_unknown,
+         "labels: the floor samples whose cells floor_edge_samples keeps from reading free are "
+         "unknown");
   v.Integer("edge_floor_unknown_samples", &edge_floor_unknown_samples,
             R::AtLeast(0).Note("0 = off"),
             "floor samples this close to an obstacle in their column or row are unknown");
-  v.Integer("plain_edge_floor_unknown_samples", &plain_edge_floor_unknown_samples,
-            R::AtLeast(0).Note("0 = off"),
-            "floor samples this close below a plain face (floor_edge_samples unmeasured samples "
-            "in their column, not a hole in the floor) are unknown");
   v.Integer("drop_off_edge_floor_unknown_samples", &drop_off_edge_floor_unknown_samples,
             R::AtLeast(0).Note("0 = off"),
             "floor samples this close below a drop-off's edge (3 drop-off samples in their "

@@ -115,6 +115,10 @@ struct ClassificationOptions {
   // samples that are not floor, those cells are not free in the local map; below fewer (a seam, a
   // textureless spot in the floor) they just give no free vote. 0 = off.
   int floor_edge_samples = 3;
+  // ... and in the image's labels those floor samples are unknown: the label says what the map
+  // does. The floor label otherwise climbs onto the base of a plain wall or box, which nothing
+  // else detects (the dangerous error).
+  bool floor_edge_unknown = true;
   // Labels: a floor sample within this many samples of an obstacle sample in its image column (the
   // obstacle's base below it, its top edge above it) or row (its sides) is unknown: its matching
   // window straddles the edge, and next to an obstacle the floor label reaches onto its lowest
@@ -126,12 +130,6 @@ struct ClassificationOptions {
   // it (the coarse levels' wider ones too), and the floor label reaches up to about 20 px onto
   // the lower surface beyond, where the robot would fall. From farther away those pixels span more
   // floor than the map needs to lose (its votes settle the edge): hence the metres. 0 = off.
-  // Labels of the image: floor within this many samples below a plain face in its image column
-  // (a run of floor_edge_samples samples too weakly textured to be measured, not a hole in the
-  // floor's texture) is unknown: the floor label climbs onto the base of a plain wall or box,
-  // which nothing else detects. (The local map has its own rule for the floor's last samples
-  // below something: floor_edge_samples.) 0 = off.
-  int plain_edge_floor_unknown_samples = 2;
   int drop_off_edge_floor_unknown_samples = 5;
   double drop_off_edge_floor_unknown_m = 0.15;
   // Labels: unmeasured samples between two labelled ones in an image column are filled where the

@@ -195,14 +195,27 @@ void UnknownFloorBeforeDropOffEdges(const std::vector<Sample>& samples, const Sa
                                     int reach_samples, int min_run, double reach_m,
                                     std::vector<PixelLabel>* labels);
 
-// Floor just below something without texture in its image column (a run of at least `min_run`
-// samples too weakly textured to be measured, with no floor again above within `max_gap`: not a
-// hole in the floor's texture): within `reach` samples of it, unknown. The windows of the floor
-// samples there hold the floor's texture and not the plain face's, so the floor label climbs onto
-// the base of a plain wall or box, which nothing else detects.
-void UnknownFloorBelowPlainFaces(const std::vector<Sample>& samples, const SampleGrid& grid,
-                                 double min_texture, int reach, int min_run, int max_gap,
-                                 std::vector<PixelLabel>* labels);
+// What stands above floor sample (i, j) in its image column when a sample that is not floor
+// starts within `reach` samples of it (the floor samples in between are within the matching
+// window's reach of it too): the length of that run, up to max_run, and whether it is a hole in
+// the floor's texture: only unmeasured (unknown) samples, with floor again above them within
+// max_gap samples. Something standing in a hole is bounded by the floor seen behind it; the floor's
+// edge below a hole is a texture edge, not the base of a structure. {0, false} when nothing is.
+struct NotFloorAbove {
+  int run = 0;
+  bool texture_hole = false;
+};
+NotFloorAbove NotFloorRunAbove(const std::vector<PixelLabel>& labels, const SampleGrid& grid, int i,
+                               int j, int reach, int max_run, int max_gap);
+
+// Floor where its image column ends below something (NotFloorRunAbove: a run of at least
+// `min_run` samples that are not floor, not a hole in the floor's texture), within `reach`
+// samples of it, unknown: the matching windows there straddle the edge and the floor label
+// climbs onto the base of what stands there (a plain wall or box, which nothing else detects).
+// The top view's rule for the same edge (ClassificationOptions::floor_edge_samples) keeps those
+// cells from reading free.
+void UnknownFloorBelowItsEdge(const SampleGrid& grid, int reach, int min_run, int max_gap,
+                              std::vector<PixelLabel>* labels);
 
 // Phase 5 (top_view.cc).
 

@@ -330,32 +330,36 @@ void UnknownFloorBeforeDropOffEdges(const std::vector<Sample>& samples, const Sa
   }
 }
 
-void UnknownFloorBelowPlainFaces(const std::vector<Sample>& samples, const SampleGrid& grid,
-                                 double min_texture, int reach, int min_run, int max_gap,
-                                 std::vector<PixelLabel>* labels) {
-  const auto plain = [&](int i, int j) {
-    const std::size_t k = grid.Index(i, j);
-    return (*labels)[k] == PixelLabel::kUnknown && !samples[k].measured &&
-           samples[k].texture < min_texture;
-  };
-  for (int j = 0; j < grid.cols; ++j) {
-    // Top to bottom: each floor sample that starts a run of floor below something else.
-    for (int i = 1; i < grid.rows; ++i) {
-      if ((*labels)[grid.Index(i, j)] != PixelLabel::kFloor ||
-          (*labels)[grid.Index(i - 1, j)] == PixelLabel::kFloor) {
-        continue;
-      }
-      // The run above: plain samples only, at least min_run of them, and no floor within
-      // max_gap above its start (that would be a hole in the floor's texture).
-      int run = 0;
-      while (i - 1 - run >= 0 && plain(i - 1 - run, j)) ++run;
-      if (run < min_run) continue;
-      const int top = i - 1 - run;  // the first sample above the run, or -1
-      if (top >= 0 && run < max_gap && (*labels)[grid.Index(top, j)] == PixelLabel::kFloor)
-        continue;
-      for (int d = i; d < std::min(grid.rows, i + reach); ++d) {
-        if ((*labels)[grid.Index(d, j)] != PixelLabel::kFloor) break;
-        (*labels)[grid.Index(d, j)] = PixelLabel::kUnknown;
+NotFloorAbove NotFloorRunAbove(const std::vector<PixelLabel>& labels, const SampleGrid& grid, int i,
+                               int j, int reach, int max_run, int max_gap) {
+  int edge = i - 1;
+  while (edge >= 0 && i - edge <= reach && labels[grid.Index(edge, j)] == PixelLabel::kFloor)
+    --edge;
+  NotFloorAbove out;
+  if (edge < 0 || i - edge > reach) return out;
+  bool only_unknown = true;
+  for (int n = 0; n < std::max(max_run, max_gap) && edge - n >= 0; ++n) {
+    const PixelLabel label = labels[grid.Index(edge - n, j)];
+    if (label == PixelLabel::kFloor) {
+      out.texture_hole = only_unknown && n < max_gap;
+      break;
+    }
+    if (n < max_run) ++out.run;
+    only_unknown = only_unknown && label == PixelLabel::kUnknown;
+    if (!only_unknown && n + 1 >= max_run) break;
+  }
+  return out;
+}
+
+void UnknownFloorBelowItsEdge(const SampleGrid& grid, int reach, int min_run, int max_gap,
+                              std::vector<PixelLabel>* labels) {
+  const std::vector<PixelLabel> before = *labels;
+  for (int i = 0; i < grid.rows; ++i) {
+    for (int j = 0; j < grid.cols; ++j) {
+      if (before[grid.Index(i, j)] != PixelLabel::kFloor) continue;
+      const NotFloorAbove above = NotFloorRunAbove(before, grid, i, j, reach, min_run, max_gap);
+      if (above.run >= min_run && !above.texture_hole) {
+        (*labels)[grid.Index(i, j)] = PixelLabel::kUnknown;
       }
     }
   }

@@ -1,7 +1,7 @@
 // The moving mask onto the labels: the regions' own evidence over anything but floor, the pixels
 // grown into around them only over samples without a label, the pixels carried from earlier
 // frames over obstacles whose height is not known from several pairs. The floor next to an
-// obstacle, below a drop-off's edge or below a plain face unknown.
+// obstacle, below a drop-off's edge or where the floor ends below something unknown.
 #include <gtest/gtest.h>
 
 #include <opencv2/core.hpp>
@@ -146,42 +146,30 @@ TEST(UnknownFloorBeforeDropOffEdges, FloorJustBelowADropOffEdgeIsUnknown) {
   EXPECT_EQ(labels, (std::vector<PixelLabel>{D, D, D, U, O, F, F, F, D, D, D}));
 }
 
-// A plain face standing on the floor in one image column, bottom to top: floor, then three samples
-// too weakly textured to be measured. The two floor samples below them are unknown; below a run
-// with floor again above it (a hole in the floor's texture), below measured unknown samples (far
-// floor not yet known) and below a shorter run, the floor keeps its label.
-TEST(UnknownFloorBelowPlainFaces, FloorJustBelowAPlainFaceIsUnknown) {
+// Where the floor ends in one image column below a run of 3 samples that are not floor (a plain
+// face: unknown; or an obstacle), the 2 floor samples below it are unknown, as the top view keeps
+// their cells from reading free. Below a hole in the floor's texture (unknown samples with floor
+// again above them) and below a shorter run, the floor keeps its label.
+TEST(UnknownFloorBelowItsEdge, FloorJustBelowWhatStandsThereIsUnknown) {
   detector_stages::SampleGrid grid;
   grid.rows = 10;
   grid.cols = 1;
   grid.stride = 2;
-  const PixelLabel F = PixelLabel::kFloor, U = PixelLabel::kUnknown;
-  std::vector<detector_stages::Sample> samples(10);
-  for (auto& s : samples) s.texture = 5.f;
-  for (int i = 0; i < 4; ++i) samples[i].texture = 0.1f;  // rows 0-3: plain, unmeasured
-  const std::vector<PixelLabel> face = {U, U, U, U, F, F, F, F, F, F};
-  std::vector<PixelLabel> labels = face;
-  detector_stages::UnknownFloorBelowPlainFaces(samples, grid, 0.25, 2, 3, 24, &labels);
+  const PixelLabel F = PixelLabel::kFloor, U = PixelLabel::kUnknown, O = PixelLabel::kObstacle;
+  std::vector<PixelLabel> labels = {U, U, U, U, F, F, F, F, F, F};
+  detector_stages::UnknownFloorBelowItsEdge(grid, 2, 3, 24, &labels);
   EXPECT_EQ(labels, (std::vector<PixelLabel>{U, U, U, U, U, U, F, F, F, F}));
+  labels = {F, O, O, O, F, F, F, F, F, F};
+  detector_stages::UnknownFloorBelowItsEdge(grid, 2, 3, 24, &labels);
+  EXPECT_EQ(labels, (std::vector<PixelLabel>{F, O, O, O, U, U, F, F, F, F}));
 
   const std::vector<PixelLabel> hole = {F, U, U, U, F, F, F, F, F, F};
-  std::vector<detector_stages::Sample> holed = samples;
-  holed[0].texture = 5.f;
   labels = hole;
-  detector_stages::UnknownFloorBelowPlainFaces(holed, grid, 0.25, 2, 3, 24, &labels);
+  detector_stages::UnknownFloorBelowItsEdge(grid, 2, 3, 24, &labels);
   EXPECT_EQ(labels, hole);
-
-  std::vector<detector_stages::Sample> measured = samples;
-  for (int i = 0; i < 4; ++i) measured[i].measured = true;
-  labels = face;
-  detector_stages::UnknownFloorBelowPlainFaces(measured, grid, 0.25, 2, 3, 24, &labels);
-  EXPECT_EQ(labels, face);
-
   const std::vector<PixelLabel> short_run = {F, F, U, U, F, F, F, F, F, F};
-  std::vector<detector_stages::Sample> two = samples;
-  two[0].texture = two[1].texture = 5.f;
   labels = short_run;
-  detector_stages::UnknownFloorBelowPlainFaces(two, grid, 0.25, 2, 3, 24, &labels);
+  detector_stages::UnknownFloorBelowItsEdge(grid, 2, 3, 24, &labels);
   EXPECT_EQ(labels, short_run);
 }
 

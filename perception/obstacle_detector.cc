@@ -560,8 +560,7 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
   };
   unknown_floor_at_edges(&labels);
   // The image's labels: the top view's, with the floor across the lines, and without the floor
-  // below plain faces (the top view has its own rule for the floor's last samples below
-  // something: ClassificationOptions::floor_edge_samples).
+  // at its edge whose cells the top view keeps from reading free (floor_edge_unknown).
   std::vector<PixelLabel> image_labels = labels;
   if (!across.empty()) {
     for (std::size_t k = 0; k < samples.size(); ++k) {
@@ -571,16 +570,18 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
     }
     unknown_floor_at_edges(&image_labels);
   }
-  if (co.plain_edge_floor_unknown_samples > 0) {
-    UnknownFloorBelowPlainFaces(samples, grid, co.min_texture, co.plain_edge_floor_unknown_samples,
-                                co.floor_edge_samples, co.fill_max_gap_samples, &image_labels);
+  // The matching window's reach in samples: floor samples this close below the floor's edge
+  // straddle it (the top view's rule and the labels' the same).
+  const int edge_reach_samples = 1 + options_.zero_disparity.window_px / 2 / grid.stride;
+  if (co.floor_edge_unknown && co.floor_edge_samples > 0) {
+    UnknownFloorBelowItsEdge(grid, edge_reach_samples, co.floor_edge_samples,
+                             co.fill_max_gap_samples, &image_labels);
   }
 
   // Phase 5: the top view. Obstacle points on a surface (not mixed "veil" points at a depth
   // edge) whose footprint is known well enough to be placed at all (far, tall points whose rays
   // graze their height are not), on the surface their image column shows.
   const Placement placement = PlaceSamples(camera_, samples, labels, grid, co);
-  const int edge_reach_samples = 1 + options_.zero_disparity.window_px / 2 / grid.stride;
   BuildTopView(samples, labels, placement, grid, edge_reach_samples, co, &r.local_map,
                &r.obstacle_points_in_base);
 

@@ -15,37 +15,6 @@ namespace {
 // count as an overhang: its footprint's scatter at a few metres.
 constexpr double kOverhangToleranceM = 0.10;
 
-// What stands above floor sample (i, j) in its image column when a sample that is not floor
-// starts within `reach` samples of it (the floor samples in between are within the matching
-// window's reach of it too): the length of that run, up to max_run, and whether it is a hole in
-// the floor's texture: only unmeasured (unknown) samples, with floor again above them within
-// max_gap samples. Something standing in a hole is bounded by the floor seen behind it; the floor's
-// edge below a hole is a texture edge, not the base of a structure. {0, false} when nothing is.
-struct NotFloorAbove {
-  int run = 0;
-  bool texture_hole = false;
-};
-NotFloorAbove NotFloorRunAbove(const std::vector<PixelLabel>& labels, const SampleGrid& grid, int i,
-                               int j, int reach, int max_run, int max_gap) {
-  int edge = i - 1;
-  while (edge >= 0 && i - edge <= reach && labels[grid.Index(edge, j)] == PixelLabel::kFloor)
-    --edge;
-  NotFloorAbove out;
-  if (edge < 0 || i - edge > reach) return out;
-  bool only_unknown = true;
-  for (int n = 0; n < std::max(max_run, max_gap) && edge - n >= 0; ++n) {
-    const PixelLabel label = labels[grid.Index(edge - n, j)];
-    if (label == PixelLabel::kFloor) {
-      out.texture_hole = only_unknown && n < max_gap;
-      break;
-    }
-    if (n < max_run) ++out.run;
-    only_unknown = only_unknown && label == PixelLabel::kUnknown;
-    if (!only_unknown && n + 1 >= max_run) break;
-  }
-  return out;
-}
-
 }  // namespace
 
 std::vector<std::uint8_t> SamplesOnSurfaces(const CameraModel& camera,

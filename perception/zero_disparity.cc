@@ -91,7 +91,6 @@ ZeroDisparityField FarnebackField(const cv::Mat& image1, const cv::Mat& image2,
   cv::Mat gp = gy.mul(field.ux) - gx.mul(field.uy);
   cv::boxFilter(gu.mul(gu), field.texture, CV_32F, box);
   cv::boxFilter(gp.mul(gp), field.texture_across, CV_32F, box);
-  const cv::Mat& spp = field.texture_across;
   cv::Mat mean2, mean_w;
   cv::boxFilter(i2f, mean2, CV_32F, box);
   cv::boxFilter(warped, mean_w, CV_32F, box);
@@ -107,7 +106,7 @@ ZeroDisparityField FarnebackField(const cv::Mat& image1, const cv::Mat& image2,
           noise / std::sqrt(area * std::max(field.texture.at<float>(y, x), 1e-6f)) *
           static_cast<float>(field.scale);
       field.perpendicular_sigma_px.at<float>(y, x) =
-          noise / std::sqrt(area * std::max(spp.at<float>(y, x), 1e-6f)) *
+          noise / std::sqrt(area * std::max(field.texture_across.at<float>(y, x), 1e-6f)) *
           static_cast<float>(field.scale);
     }
   }
