@@ -20,7 +20,11 @@ void ClassificationOptions::Describe(OptionVisitor& v) {
   v.Real("floor_min_texture", &floor_min_texture, R::AtLeast(0),
          "texture a floor sample needs (weaker ones may be obstacles, not floor), grey^2/px^2");
   v.Real("floor_min_texture_across", &floor_min_texture_across, R::AtLeast(0).Note("0 = off"),
-         "... or this much across the epipolar line (labels only, no free cells), grey^2/px^2");
+         "... or this much across the epipolar line, grey^2/px^2");
+  v.Real(
+      "floor_across_free_clearance_m", &floor_across_free_clearance_m,
+      R::AtLeast(0).Note("0 = labels only"),
+      "... that floor is free in the local map only this far from the pair's obstacle points, m");
   v.Real("max_residual", &max_residual, R::Above(0), "largest alignment residual, grey levels");
   v.Flag("check_floor_hypothesis", &check_floor_hypothesis,
          "an obstacle needs the floor hypothesis to misfit it (min_floor_misfit)");

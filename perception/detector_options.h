@@ -59,13 +59,16 @@ struct ClassificationOptions {
   // floor under a table top above the view reads free).
   double floor_min_texture = 1.0;
   // ... or, for a measured sample the rules leave unknown, with at least this much texture across
-  // the epipolar line (grey levels^2 per pixel^2; 0 = off), in the image's labels only. A floor
-  // whose grain or seams run along the lines of forward motion (floorboards laid along the way,
-  // radial from the focus of expansion like the lines) has little texture along them, which its
-  // height sigma says, but is textured; a faint floor with little texture in any direction is not
-  // floor by this. The local map is built from the labels without it (the floor under a table top
-  // above the view may be grained too: floor_min_texture's free-space concern).
+  // the epipolar line (grey levels^2 per pixel^2; 0 = off). A floor whose grain or seams run
+  // along the lines of forward motion (floorboards laid along the way, radial from the focus of
+  // expansion like the lines) has little texture along them, which its height sigma says, but is
+  // textured; a faint floor with little texture in any direction is not floor by this.
   double floor_min_texture_across = 4.0;
+  // That floor votes free in the local map only where it lies farther than this from every
+  // measured obstacle point of the pair (m; 0 = in the image's labels only). Near what stands on
+  // the floor the camera may see the floor under something it does not see: a table top above
+  // the view over its legs.
+  double floor_across_free_clearance_m = 0.6;
   // Maximum mean |difference| after alignment, grey levels; above it unknown (or moving).
   double max_residual = 12.0;
   // Dense test: an offset perpendicular to the epipolar line of at least this many input pixels

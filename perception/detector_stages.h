@@ -217,6 +217,12 @@ NotFloorAbove NotFloorRunAbove(const std::vector<PixelLabel>& labels, const Samp
 void UnknownFloorBelowItsEdge(const SampleGrid& grid, int reach, int min_run, int max_gap,
                               std::vector<PixelLabel>* labels);
 
+// Clears the `candidates` (1 per sample) that lie, at their floor point, within `clearance_m` of
+// a measured obstacle sample's footprint.
+void KeepAwayFromObstacles(const std::vector<Sample>& samples,
+                           const std::vector<PixelLabel>& labels, double clearance_m,
+                           std::vector<std::uint8_t>* candidates);
+
 // Phase 5 (top_view.cc).
 
 // 1 for the obstacle and drop-off samples on a surface (ClassificationOptions::

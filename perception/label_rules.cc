@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/ximgproc/slic.hpp>
 #include <vector>
@@ -360,6 +361,45 @@ void UnknownFloorBelowItsEdge(const SampleGrid& grid, int reach, int min_run, in
       const NotFloorAbove above = NotFloorRunAbove(before, grid, i, j, reach, min_run, max_gap);
       if (above.run >= min_run && !above.texture_hole) {
         (*labels)[grid.Index(i, j)] = PixelLabel::kUnknown;
+      }
+    }
+  }
+}
+
+void KeepAwayFromObstacles(const std::vector<Sample>& samples,
+                           const std::vector<PixelLabel>& labels, double clearance_m,
+                           std::vector<std::uint8_t>* candidates) {
+  if (!(clearance_m > 0)) return;
+  // The obstacle footprints in bins of clearance_m: a candidate looks in its bin's 3 x 3.
+  const auto bin_of = [&](const Eigen::Vector2d& p) {
+    return std::pair<long, long>(static_cast<long>(std::floor(p.x() / clearance_m)),
+                                 static_cast<long>(std::floor(p.y() / clearance_m)));
+  };
+  std::map<std::pair<long, long>, std::vector<Eigen::Vector2d>> bins;
+  for (std::size_t k = 0; k < samples.size(); ++k) {
+    const Sample& s = samples[k];
+    if (labels[k] == PixelLabel::kObstacle && s.measured && s.point_in_base2.allFinite())
+      bins[bin_of(s.point_in_base2)].push_back(s.point_in_base2);
+  }
+  const double c2 = clearance_m * clearance_m;
+  for (std::size_t k = 0; k < samples.size(); ++k) {
+    if (!(*candidates)[k]) continue;
+    const Eigen::Vector2d& f = samples[k].floor_in_base2;
+    if (!f.allFinite()) {
+      (*candidates)[k] = 0;
+      continue;
+    }
+    const auto [bx, by] = bin_of(f);
+    for (long dx = -1; dx <= 1 && (*candidates)[k]; ++dx) {
+      for (long dy = -1; dy <= 1 && (*candidates)[k]; ++dy) {
+        const auto it = bins.find({bx + dx, by + dy});
+        if (it == bins.end()) continue;
+        for (const Eigen::Vector2d& o : it->second) {
+          if ((o - f).squaredNorm() < c2) {
+            (*candidates)[k] = 0;
+            break;
+          }
+        }
       }
     }
   }

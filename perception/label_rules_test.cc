@@ -4,6 +4,8 @@
 // obstacle, below a drop-off's edge or where the floor ends below something unknown.
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <cstdint>
 #include <opencv2/core.hpp>
 #include <vector>
 
@@ -171,6 +173,28 @@ TEST(UnknownFloorBelowItsEdge, FloorJustBelowWhatStandsThereIsUnknown) {
   labels = short_run;
   detector_stages::UnknownFloorBelowItsEdge(grid, 2, 3, 24, &labels);
   EXPECT_EQ(labels, short_run);
+}
+
+// Candidates within the clearance of a measured obstacle sample's footprint are cleared, and those
+// without a floor point; those beyond it, or near an obstacle sample that measured nothing, stay.
+TEST(KeepAwayFromObstacles, ClearsCandidatesNearMeasuredObstacles) {
+  std::vector<detector_stages::Sample> samples(6);
+  std::vector<PixelLabel> labels(6, PixelLabel::kUnknown);
+  samples[0].measured = true;  // a measured obstacle at (2, 0)
+  samples[0].point_in_base2 = {2.0, 0.0};
+  labels[0] = PixelLabel::kObstacle;
+  samples[1].point_in_base2 = {4.0, 0.0};  // an obstacle by the rules, not measured
+  labels[1] = PixelLabel::kObstacle;
+  samples[2].floor_in_base2 = {2.0, 0.59};   // within 0.6 m of the measured obstacle
+  samples[3].floor_in_base2 = {2.0, -0.61};  // beyond it, across a bin's boundary
+  samples[4].floor_in_base2 = {4.0, 0.1};    // beside the unmeasured one
+  samples[5].floor_in_base2 = {NAN, NAN};    // no floor point
+  std::vector<std::uint8_t> candidates = {0, 0, 1, 1, 1, 1};
+  detector_stages::KeepAwayFromObstacles(samples, labels, 0.6, &candidates);
+  EXPECT_EQ(candidates, (std::vector<std::uint8_t>{0, 0, 0, 1, 1, 0}));
+  std::vector<std::uint8_t> off = {0, 0, 1, 1, 1, 1};
+  detector_stages::KeepAwayFromObstacles(samples, labels, 0.0, &off);  // 0: nothing cleared
+  EXPECT_EQ(off, (std::vector<std::uint8_t>{0, 0, 1, 1, 1, 1}));
 }
 
 }  // namespace

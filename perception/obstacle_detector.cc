@@ -534,9 +534,9 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
                     co.moving_carried_max_measurements, r.segments, co.moving_segment_fraction,
                     &labels);
   }
-  // Floor measured only across the epipolar line (ClassificationOptions::floor_min_texture_across)
-  // is added to the image's labels after the rules below, where they left the sample unknown: the
-  // top view takes the labels without it.
+  // Floor measured only across the epipolar line (ClassificationOptions::floor_min_texture_across):
+  // where the rules below leave the sample unknown and the gap fill did not place it, in the
+  // image's labels, and in the top view's away from the pair's obstacles.
   std::vector<std::uint8_t> across;
   for (std::size_t k = 0; k < samples.size(); ++k) {
     if (labels[k] == PixelLabel::kUnknown && FloorAcrossTheLines(samples[k], co, camera_height)) {
@@ -558,18 +558,28 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
                                      rule_labels);
     }
   };
-  unknown_floor_at_edges(&labels);
-  // The image's labels: the top view's, with the floor across the lines, and without the floor
-  // at its edge whose cells the top view keeps from reading free (floor_edge_unknown).
-  std::vector<PixelLabel> image_labels = labels;
-  if (!across.empty()) {
+  const auto add_floor = [&](const std::vector<std::uint8_t>& where, std::vector<PixelLabel>* to) {
     for (std::size_t k = 0; k < samples.size(); ++k) {
-      if (across[k] && !samples[k].filled && image_labels[k] == PixelLabel::kUnknown) {
-        image_labels[k] = PixelLabel::kFloor;
+      if (where[k] && !samples[k].filled && (*to)[k] == PixelLabel::kUnknown) {
+        (*to)[k] = PixelLabel::kFloor;
       }
     }
+  };
+  // The image's labels: with the floor across the lines, and (below) without the floor at its
+  // edge whose cells the top view keeps from reading free (floor_edge_unknown). The top view's:
+  // without that floor near the pair's obstacles.
+  std::vector<PixelLabel> image_labels;
+  if (!across.empty()) {
+    image_labels = labels;
+    add_floor(across, &image_labels);
     unknown_floor_at_edges(&image_labels);
+    if (co.floor_across_free_clearance_m > 0) {
+      KeepAwayFromObstacles(samples, labels, co.floor_across_free_clearance_m, &across);
+      add_floor(across, &labels);
+    }
   }
+  unknown_floor_at_edges(&labels);
+  if (across.empty()) image_labels = labels;
   // The matching window's reach in samples: floor samples this close below the floor's edge
   // straddle it (the top view's rule and the labels' the same).
   const int edge_reach_samples = 1 + options_.zero_disparity.window_px / 2 / grid.stride;

@@ -2,6 +2,10 @@
 // box (exact geometry), seen from two known poses.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
 #include <string>
 
 #include "perception/testing/detector_scene.h"
@@ -352,10 +356,15 @@ class GrainedFloor : public DetectorOnSyntheticScene {
   }
 };
 
-// Floor in the labels, but the local map is the same as without the rule (no free cell from it).
-TEST_F(GrainedFloor, IsFloorInTheLabelsOnly) {
+// Floor in the labels, and free in the local map away from what stands on it: every cell the rule
+// makes free lies farther from the box than the clearance (0.15 m from it when the clearance is
+// ignored). With the clearance 0 it is floor in the labels only.
+TEST_F(GrainedFloor, IsFloorInTheLabelsAndFreeAwayFromObstacles) {
   Scene scene;
-  scene.boxes.push_back({{1.6, -0.3, 0.0}, {1.9, 0.3, 0.3}});
+  scene.boxes.push_back({{1.6, 0.4, 0.0}, {1.9, 1.0, 0.3}});
+  // A clearance small enough for this one pair's local map to gain cells beside the box.
+  options_.classification.floor_across_free_clearance_m = 0.3;
+  const Box& box = scene.boxes[0];
   const auto [b, r, r0] = DetectWithAndWithout(scene, "grain");
   ASSERT_EQ(r.status, PairStatus::kOk) << r.message;
   const BoxFloorCounts c = CountBoxAndFloor(b, r.labels);
@@ -368,15 +377,41 @@ TEST_F(GrainedFloor, IsFloorInTheLabelsOnly) {
       floor_labelled0 += r0.labels.at<std::uint8_t>(y, x) == static_cast<int>(PixelLabel::kFloor);
     }
   }
-  const int differing_cells = DifferingCells(r.local_map, r0.local_map);
+  // The cells free with the rule and not without, and the nearest of them to the box (world
+  // frame; the local map is in the base frame at x = 0.12 m).
+  const GridGeometry& g = r.local_map.geometry;
+  int gained = 0;
+  double nearest_m = std::numeric_limits<double>::infinity();
+  for (int row = 0; row < g.height; ++row) {
+    for (int col = 0; col < g.width; ++col) {
+      if (r.local_map.At(col, row) != kCellFree || r0.local_map.At(col, row) == kCellFree) continue;
+      ++gained;
+      const Eigen::Vector2d p = g.CellCenter(col, row) + Eigen::Vector2d(0.12, 0.0);
+      const double dx = std::max({box.min.x() - p.x(), 0.0, p.x() - box.max.x()});
+      const double dy = std::max({box.min.y() - p.y(), 0.0, p.y() - box.max.y()});
+      nearest_m = std::min(nearest_m, std::hypot(dx, dy));
+    }
+  }
+  DetectorOptions labels_only = options_;
+  labels_only.classification.floor_across_free_clearance_m = 0.0;
+  const ObstacleDetector labels_only_detector(calib_, labels_only);
+  scene.floor_grain_x = 12.0;  // as DetectWithAndWithout renders it
+  const FrameResult r_labels_only = labels_only_detector.Detect(
+      Render(scene, labels_only_detector.camera(), Pose2{0, 0, 0}).image, b.image,
+      KnownMotion(Pose2{0, 0, 0}, Pose2{0.12, 0.0, 0.0}));
   std::printf(
       "grained floor labelled floor %d of %d (%d without the rule); box labelled floor %d / %d of "
-      "%d; local map cells differing %d\n",
-      floor_labelled, c.floor, floor_labelled0, c.box_floor, c0.box_floor, c.box, differing_cells);
+      "%d; local map cells free by the rule %d, the nearest %.2f m from the box; with the "
+      "clearance 0: %d cells differ from the map without the rule\n",
+      floor_labelled, c.floor, floor_labelled0, c.box_floor, c0.box_floor, c.box, gained, nearest_m,
+      DifferingCells(r_labels_only.local_map, r0.local_map));
   ASSERT_GT(c.floor, 100000);
   EXPECT_GT(floor_labelled, floor_labelled0 * 5 / 4);
   EXPECT_LE(c.box_floor, c0.box_floor);
-  EXPECT_EQ(differing_cells, 0);
+  EXPECT_GE(gained, 5);
+  EXPECT_GE(nearest_m, options_.classification.floor_across_free_clearance_m);
+  EXPECT_EQ(DifferingCells(r_labels_only.local_map, r0.local_map), 0);
+  EXPECT_EQ(cv::countNonZero(r_labels_only.labels != r.labels), 0);
 }
 
 // Beside a tall box the coarse levels carry its parallax onto the floor, and where the floor's
