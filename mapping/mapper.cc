@@ -142,6 +142,8 @@ void Mapper::Options::Describe(OptionVisitor& v) {
          "floor that keyframe_free_min_frames frames (the keyframe's own view counted) saw free "
          "within this range of the camera, none an obstacle next to it, is free after one "
          "keyframe (fewer views: a share), m");
+  v.Real("free_clearance_m", &free_clearance_m, R::AtLeast(0).Note("0 = off"),
+         "... and floor they saw free at any range this far from every occupied cell they saw, m");
   RenamedOptions log_odds_keys(&v,
                                {{"hit", "log_odds_hit"},
                                 {"miss", "log_odds_miss"},
@@ -273,18 +275,23 @@ namespace {
 // least min_frames of them, the keyframe included, saw free within near_range_m of the camera's
 // ground point (camera_in_base, x and y) and none saw an obstacle next to become
 // kCellFreeSeenNear; fewer such views (at least two) give a proportional share of its log-odds
-// (Options::near_free_range_m; 0 = off).
+// (Options::near_free_range_m; 0 = off). So do cells seen free at any range farther than
+// clearance_m from every cell the keyframe or those frames saw occupied (Options::
+// free_clearance_m; 0 = off).
 template <typename Recent>
 void AddFloorSeenSinceLastKeyframe(const std::vector<Recent>& recent,
                                    const Pose2& odom_from_keyframe, int min_frames,
-                                   double near_range_m, const Eigen::Vector2d& camera_in_base,
-                                   float miss, OccupancyGrid* local_map) {
+                                   double near_range_m, double clearance_m,
+                                   const Eigen::Vector2d& camera_in_base, float miss,
+                                   OccupancyGrid* local_map) {
   const GridGeometry& g = local_map->geometry;
   if (local_map->cells.size() != g.NumCells()) return;
   std::vector<std::uint16_t> free_votes(g.NumCells(), 0);
   std::vector<std::uint16_t> near_votes(g.NumCells(), 0);
   std::vector<std::uint8_t> blocked(g.NumCells(), 0);
+  std::vector<std::uint8_t> occupied(g.NumCells(), 0);  // seen occupied by any of them
   const auto block_around = [&](int col, int row) {
+    occupied[g.Index(col, row)] = 1;
     for (int r = std::max(0, row - 1); r <= std::min(g.height - 1, row + 1); ++r) {
       for (int c = std::max(0, col - 1); c <= std::min(g.width - 1, col + 1); ++c)
         blocked[g.Index(c, r)] = 1;
@@ -324,12 +331,35 @@ void AddFloorSeenSinceLastKeyframe(const std::vector<Recent>& recent,
       }
     }
   }
+  // Cells clear of everything seen occupied count their views at any range as near ones (the
+  // keyframe's own view included).
+  if (clearance_m > 0) {
+    const int reach = static_cast<int>(std::ceil(clearance_m / g.resolution_m));
+    const double reach2 = (clearance_m / g.resolution_m) * (clearance_m / g.resolution_m);
+    std::vector<std::uint8_t> near_obstacle(g.NumCells(), 0);
+    for (int row = 0; row < g.height; ++row) {
+      for (int col = 0; col < g.width; ++col) {
+        if (!occupied[g.Index(col, row)]) continue;
+        for (int r = std::max(0, row - reach); r <= std::min(g.height - 1, row + reach); ++r) {
+          for (int c = std::max(0, col - reach); c <= std::min(g.width - 1, col + reach); ++c) {
+            if ((r - row) * (r - row) + (c - col) * (c - col) <= reach2)
+              near_obstacle[g.Index(c, r)] = 1;
+          }
+        }
+      }
+    }
+    for (std::size_t i = 0; i < g.NumCells(); ++i) {
+      if (near_obstacle[i]) continue;
+      const int views = free_votes[i] + (local_map->cells[i] == kCellFree ? 1 : 0);
+      near_votes[i] = static_cast<std::uint16_t>(std::max<int>(near_votes[i], views));
+    }
+  }
   // n near views (n >= 2, never one alone): min(n / min_frames, 1) of kCellFreeSeenNear's
   // log-odds, as a probability (views split between two keyframes' windows still add up); only
   // where stronger than an ordinary miss, else kCellUnknown (nothing to write).
   const double near_logit = TiledGrid::LogOddsOf(kCellFreeSeenNear / 100.0);
   std::vector<std::int8_t> near_cell(static_cast<std::size_t>(min_frames) + 1, kCellUnknown);
-  for (int n = 2; near_range_m > 0 && n <= min_frames; ++n) {
+  for (int n = 2; (near_range_m > 0 || clearance_m > 0) && n <= min_frames; ++n) {
     const auto p = static_cast<std::int8_t>(
         std::lround(100.0 / (1.0 + std::exp(-near_logit * n / min_frames))));
     if (TiledGrid::LogOddsOf(p / 100.0) < miss) near_cell[n] = p;
@@ -405,8 +435,8 @@ void Mapper::AddKeyframe(const FrameObservation& frame, FrameUpdate* update) {
   if (options_.keyframe_free_min_frames > 0) {
     AddFloorSeenSinceLastKeyframe(since_keyframe_, frame.odom_from_base,
                                   options_.keyframe_free_min_frames, options_.near_free_range_m,
-                                  camera_.CameraCentreInBase().head<2>(), options_.log_odds.miss,
-                                  &kf.local_map);
+                                  options_.free_clearance_m, camera_.CameraCentreInBase().head<2>(),
+                                  options_.log_odds.miss, &kf.local_map);
   }
   kf.obstacle_points_in_base = frame.obstacle_points_in_base;
   kf.features = frame.features;

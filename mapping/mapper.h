@@ -133,6 +133,11 @@ class Mapper {
     // after (the view's lower edge), within fewer keyframes than the ordinary count needs;
     // farther floor keeps needing that count. m, 0 = off; needs keyframe_free_min_frames > 0.
     double near_free_range_m = 1.0;
+    // ... and so is floor that those frames saw free at any range farther than this from every
+    // cell that the keyframe or one of them saw occupied: away from what stands on the floor
+    // nothing the camera did not see hides above it (near it, a table top above the view over its
+    // legs may: 1 m covers furniture up to 2 m across). m, 0 = off.
+    double free_clearance_m = 1.0;
     LogOddsOptions log_odds;
     // Where a tracked thing that moves on its own went (FrameObservation::moving_objects that are
     // not coasting: its disc, at most 0.5 m in radius, swept between the positions of frames in

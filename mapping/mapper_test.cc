@@ -189,12 +189,15 @@ TEST(Mapper, AKeyframeKeepsTheFloorItsFramesSawFree) {
   // Seen free from near by frames 3 and 4 only (two views), by those and the second keyframe
   // (three), by frame 4 only (one).
   const Eigen::Vector2d two(0.975, -0.275), three(1.125, -0.375), one(0.825, 0.225);
+  // Seen free from 1.6-1.8 m by frames 1-4 (far_clear) and 3-4 (far_two), 0.67 m (0.60 m) from
+  // the nearest cell seen occupied (c_next; cell centres).
+  const Eigen::Vector2d far_clear(1.925, -0.375), far_two(1.925, -0.275);
   std::vector<FrameObservation> frames;
   frames.push_back(frame_at(0, 0.0, {}, {}));  // the first keyframe
   for (int k = 1; k <= 4; ++k) {               // 0.05 m apart: not keyframes
-    std::vector<Eigen::Vector2d> free = {a, c, d, e, a_blocked};
+    std::vector<Eigen::Vector2d> free = {a, c, d, e, a_blocked, far_clear};
     if (k == 1) free.push_back(b);  // b seen free once only
-    if (k >= 3) free.insert(free.end(), {two, three});
+    if (k >= 3) free.insert(free.end(), {two, three, far_two});
     if (k == 4) free.push_back(one);
     std::vector<Eigen::Vector2d> occupied;
     if (k == 3) occupied = {c_next, a_blocked_next};
@@ -203,11 +206,13 @@ TEST(Mapper, AKeyframeKeepsTheFloorItsFramesSawFree) {
   frames.push_back(frame_at(5, 0.35, {three}, {}));  // the second keyframe
   CameraCalibration camera = testing::TestCamera();
   camera.mount.x_m = 0.1;
+  double clearance_m = 0.6;  // Options::free_clearance_m
   const auto run = [&](int min_frames, double near_range_m) {
     Mapper::Options options;
     options.keyframe_min_shared_tracks = 0.0;
     options.keyframe_free_min_frames = min_frames;
     options.near_free_range_m = near_range_m;
+    options.free_clearance_m = clearance_m;
     auto mapper = std::make_unique<Mapper>(options, camera);
     for (const FrameObservation& f : frames) mapper->AddFrame(f);
     EXPECT_EQ(mapper->keyframes().size(), 2u);
@@ -236,6 +241,16 @@ TEST(Mapper, AKeyframeKeepsTheFloorItsFramesSawFree) {
   EXPECT_EQ(second_keyframe_cell(4, two, 1.0), 30);    // 2 of 4: logit(0.30) ~ logit(0.15) / 2
   EXPECT_EQ(second_keyframe_cell(4, three, 1.0), 21);  // 3 of 4
   EXPECT_EQ(second_keyframe_cell(4, one, 1.0), kCellUnknown);
+  // Farther, but clear of every cell seen occupied (free_clearance_m 0.6 m): as near floor.
+  EXPECT_EQ(second_keyframe_cell(4, far_clear, 1.0), kCellFreeSeenNear);
+  EXPECT_EQ(second_keyframe_cell(4, far_two, 1.0), 30);
+  clearance_m = 0.65;  // far_two within it
+  EXPECT_EQ(second_keyframe_cell(4, far_clear, 1.0), kCellFreeSeenNear);
+  EXPECT_EQ(second_keyframe_cell(4, far_two, 1.0), kCellUnknown);
+  clearance_m = 0.0;  // off: the ordinary count
+  EXPECT_EQ(second_keyframe_cell(4, far_clear, 1.0), kCellFree);
+  EXPECT_EQ(second_keyframe_cell(4, far_two, 1.0), kCellUnknown);
+  clearance_m = 0.6;
   // In the grid the near floor reads free after that one keyframe; the other floor needs more.
   const float free_at_most = TiledGrid::LogOddsOf(TrinaryThresholds{}.free);
   const auto grid_log_odds = [&](double near_range_m, const Eigen::Vector2d& p) {
