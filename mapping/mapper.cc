@@ -142,8 +142,9 @@ void Mapper::Options::Describe(OptionVisitor& v) {
          "floor that keyframe_free_min_frames frames (the keyframe's own view counted) saw free "
          "within this range of the camera, none an obstacle next to it, is free after one "
          "keyframe (fewer views: a share), m");
-  v.Real("free_clearance_m", &free_clearance_m, R::AtLeast(0).Note("0 = off"),
-         "... and floor they saw free at any range this far from every occupied cell they saw, m");
+  v.Real("free_clearance_m", &free_clearance_m, R::Closed(0, 10).Note("0 = off"),
+         "... and floor they saw free at any range farther than this from every cell they saw "
+         "occupied, m");
   RenamedOptions log_odds_keys(&v,
                                {{"hit", "log_odds_hit"},
                                 {"miss", "log_odds_miss"},
@@ -289,9 +290,22 @@ void AddFloorSeenSinceLastKeyframe(const std::vector<Recent>& recent,
   std::vector<std::uint16_t> free_votes(g.NumCells(), 0);
   std::vector<std::uint16_t> near_votes(g.NumCells(), 0);
   std::vector<std::uint8_t> blocked(g.NumCells(), 0);
-  std::vector<std::uint8_t> occupied(g.NumCells(), 0);  // seen occupied by any of them
+  // The cells seen occupied by any of them, on the grid padded by the clearance's reach (an
+  // obstacle just outside the keyframe's grid still keeps the cells near it from being clear).
+  const double reach_cells = clearance_m > 0 ? clearance_m / g.resolution_m : 0.0;
+  const int pad = static_cast<int>(std::ceil(reach_cells));
+  const int padded_width = g.width + 2 * pad, padded_height = g.height + 2 * pad;
+  std::vector<std::uint8_t> occupied(
+      clearance_m > 0 ? static_cast<std::size_t>(padded_width) * padded_height : 0, 0);
+  const auto mark_occupied = [&](const Eigen::Vector2d& p) {
+    if (occupied.empty()) return;
+    const double col = std::floor((p.x() - g.origin_x_m) / g.resolution_m) + pad;
+    const double row = std::floor((p.y() - g.origin_y_m) / g.resolution_m) + pad;
+    if (col >= 0 && row >= 0 && col < padded_width && row < padded_height)
+      occupied[static_cast<std::size_t>(row) * padded_width + static_cast<std::size_t>(col)] = 1;
+  };
   const auto block_around = [&](int col, int row) {
-    occupied[g.Index(col, row)] = 1;
+    mark_occupied(g.CellCenter(col, row));
     for (int r = std::max(0, row - 1); r <= std::min(g.height - 1, row + 1); ++r) {
       for (int c = std::max(0, col - 1); c <= std::min(g.width - 1, col + 1); ++c)
         blocked[g.Index(c, r)] = 1;
@@ -316,8 +330,12 @@ void AddFloorSeenSinceLastKeyframe(const std::vector<Recent>& recent,
         const std::int8_t v = r.local_map.At(col, row);
         if (v == kCellUnknown) continue;
         const Eigen::Vector2d in_frame = rg.CellCenter(col, row);
-        const auto cell = g.CellOf(keyframe_from_frame * in_frame);
-        if (!cell) continue;
+        const Eigen::Vector2d in_keyframe = keyframe_from_frame * in_frame;
+        const auto cell = g.CellOf(in_keyframe);
+        if (!cell) {
+          if (v == kCellOccupied) mark_occupied(in_keyframe);
+          continue;
+        }
         if (v == kCellOccupied) {
           block_around(cell->x(), cell->y());
           continue;
@@ -334,24 +352,37 @@ void AddFloorSeenSinceLastKeyframe(const std::vector<Recent>& recent,
   // Cells clear of everything seen occupied count their views at any range as near ones (the
   // keyframe's own view included).
   if (clearance_m > 0) {
-    const int reach = static_cast<int>(std::ceil(clearance_m / g.resolution_m));
-    const double reach2 = (clearance_m / g.resolution_m) * (clearance_m / g.resolution_m);
-    std::vector<std::uint8_t> near_obstacle(g.NumCells(), 0);
-    for (int row = 0; row < g.height; ++row) {
-      for (int col = 0; col < g.width; ++col) {
-        if (!occupied[g.Index(col, row)]) continue;
-        for (int r = std::max(0, row - reach); r <= std::min(g.height - 1, row + reach); ++r) {
-          for (int c = std::max(0, col - reach); c <= std::min(g.width - 1, col + reach); ++c) {
-            if ((r - row) * (r - row) + (c - col) * (c - col) <= reach2)
-              near_obstacle[g.Index(c, r)] = 1;
-          }
-        }
+    // Per padded row, the distance in cells to the nearest occupied cell of that row (capped);
+    // then a cell is near an obstacle when some row within reach has one within the disc.
+    const int far = pad + 1;
+    std::vector<int> across(occupied.size(), far);
+    for (int row = 0; row < padded_height; ++row) {
+      int* d = &across[static_cast<std::size_t>(row) * padded_width];
+      const std::uint8_t* o = &occupied[static_cast<std::size_t>(row) * padded_width];
+      for (int col = 0, last = -far; col < padded_width; ++col) {
+        if (o[col]) last = col;
+        d[col] = std::min(far, col - last);
+      }
+      for (int col = padded_width - 1, next = padded_width - 1 + far; col >= 0; --col) {
+        if (o[col]) next = col;
+        d[col] = std::min(d[col], next - col);
       }
     }
-    for (std::size_t i = 0; i < g.NumCells(); ++i) {
-      if (near_obstacle[i]) continue;
-      const int views = free_votes[i] + (local_map->cells[i] == kCellFree ? 1 : 0);
-      near_votes[i] = static_cast<std::uint16_t>(std::max<int>(near_votes[i], views));
+    // "More than clearance_m" away: a cell at exactly that distance is near (with a margin for
+    // the division's rounding).
+    const double reach2 = reach_cells * reach_cells * (1.0 + 1e-9);
+    for (int row = 0; row < g.height; ++row) {
+      for (int col = 0; col < g.width; ++col) {
+        bool near_obstacle = false;
+        for (int dr = -pad; dr <= pad && !near_obstacle; ++dr) {
+          const int h = across[static_cast<std::size_t>(row + pad + dr) * padded_width + col + pad];
+          near_obstacle = h < far && dr * dr + h * h <= reach2;
+        }
+        if (near_obstacle) continue;
+        const std::size_t i = g.Index(col, row);
+        const int views = free_votes[i] + (local_map->cells[i] == kCellFree ? 1 : 0);
+        near_votes[i] = static_cast<std::uint16_t>(std::max<int>(near_votes[i], views));
+      }
     }
   }
   // n near views (n >= 2, never one alone): min(n / min_frames, 1) of kCellFreeSeenNear's

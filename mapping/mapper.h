@@ -134,9 +134,12 @@ class Mapper {
     // farther floor keeps needing that count. m, 0 = off; needs keyframe_free_min_frames > 0.
     double near_free_range_m = 1.0;
     // ... and so is floor that those frames saw free at any range farther than this from every
-    // cell that the keyframe or one of them saw occupied: away from what stands on the floor
-    // nothing the camera did not see hides above it (near it, a table top above the view over its
-    // legs may: 1 m covers furniture up to 2 m across). m, 0 = off.
+    // cell that the keyframe or one of them saw occupied (cells just outside the keyframe's grid
+    // included): near what stands on the floor, the camera may see the floor under something it
+    // does not see (a table top above the view, over its legs). Only what was seen occupied keeps
+    // its surroundings to the ordinary count: an overhang none of whose legs was detected, or a
+    // pit seen as no drop-off at all, is not covered. m, 0 = off; needs
+    // keyframe_free_min_frames > 0.
     double free_clearance_m = 1.0;
     LogOddsOptions log_odds;
     // Where a tracked thing that moves on its own went (FrameObservation::moving_objects that are

@@ -192,15 +192,19 @@ TEST(Mapper, AKeyframeKeepsTheFloorItsFramesSawFree) {
   // Seen free from 1.6-1.8 m by frames 1-4 (far_clear) and 3-4 (far_two), 0.67 m (0.60 m) from
   // the nearest cell seen occupied (c_next; cell centres).
   const Eigen::Vector2d far_clear(1.925, -0.375), far_two(1.925, -0.275);
+  // Seen free by frames 1-4, 0.15 m from a cell frame 4 saw occupied just outside the second
+  // keyframe's grid (its x from 0.35 m).
+  const Eigen::Vector2d edge(0.425, -0.275), outside_occupied(0.275, -0.275);
   std::vector<FrameObservation> frames;
   frames.push_back(frame_at(0, 0.0, {}, {}));  // the first keyframe
   for (int k = 1; k <= 4; ++k) {               // 0.05 m apart: not keyframes
-    std::vector<Eigen::Vector2d> free = {a, c, d, e, a_blocked, far_clear};
+    std::vector<Eigen::Vector2d> free = {a, c, d, e, a_blocked, far_clear, edge};
     if (k == 1) free.push_back(b);  // b seen free once only
     if (k >= 3) free.insert(free.end(), {two, three, far_two});
     if (k == 4) free.push_back(one);
     std::vector<Eigen::Vector2d> occupied;
     if (k == 3) occupied = {c_next, a_blocked_next};
+    if (k == 4) occupied = {outside_occupied};
     frames.push_back(frame_at(k, 0.05 * k, free, occupied));
   }
   frames.push_back(frame_at(5, 0.35, {three}, {}));  // the second keyframe
@@ -244,6 +248,8 @@ TEST(Mapper, AKeyframeKeepsTheFloorItsFramesSawFree) {
   // Farther, but clear of every cell seen occupied (free_clearance_m 0.6 m): as near floor.
   EXPECT_EQ(second_keyframe_cell(4, far_clear, 1.0), kCellFreeSeenNear);
   EXPECT_EQ(second_keyframe_cell(4, far_two, 1.0), 30);
+  // An obstacle just outside the keyframe's grid counts too: the ordinary count (near range 0).
+  EXPECT_EQ(second_keyframe_cell(4, edge), kCellFree);
   clearance_m = 0.65;  // far_two within it
   EXPECT_EQ(second_keyframe_cell(4, far_clear, 1.0), kCellFreeSeenNear);
   EXPECT_EQ(second_keyframe_cell(4, far_two, 1.0), kCellUnknown);

@@ -21,10 +21,10 @@ void ClassificationOptions::Describe(OptionVisitor& v) {
          "texture a floor sample needs (weaker ones may be obstacles, not floor), grey^2/px^2");
   v.Real("floor_min_texture_across", &floor_min_texture_across, R::AtLeast(0).Note("0 = off"),
          "... or this much across the epipolar line, grey^2/px^2");
-  v.Real(
-      "floor_across_free_clearance_m", &floor_across_free_clearance_m,
-      R::AtLeast(0).Note("0 = labels only"),
-      "... that floor is free in the local map only this far from the pair's obstacle points, m");
+  v.Real("floor_across_free_clearance_m", &floor_across_free_clearance_m,
+         R::Closed(0, 10).Note("0 = labels only"),
+         "... that floor is free in the local map only farther than this from the pair's measured "
+         "obstacle points, m");
   v.Real("max_residual", &max_residual, R::Above(0), "largest alignment residual, grey levels");
   v.Flag("check_floor_hypothesis", &check_floor_hypothesis,
          "an obstacle needs the floor hypothesis to misfit it (min_floor_misfit)");

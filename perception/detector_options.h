@@ -65,9 +65,10 @@ struct ClassificationOptions {
   // textured; a faint floor with little texture in any direction is not floor by this.
   double floor_min_texture_across = 4.0;
   // That floor votes free in the local map only where it lies farther than this from every
-  // measured obstacle point of the pair (m; 0 = in the image's labels only). Near what stands on
-  // the floor the camera may see the floor under something it does not see: a table top above
-  // the view over its legs.
+  // measured obstacle point of the pair (m; 0 = in the image's labels only; the free rays between
+  // two such samples of a column may pass a little nearer). Near what stands on the floor the
+  // camera may see the floor under something it does not see: a table top above the view over
+  // its legs.
   double floor_across_free_clearance_m = 0.6;
   // Maximum mean |difference| after alignment, grey levels; above it unknown (or moving).
   double max_residual = 12.0;

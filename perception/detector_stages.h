@@ -218,7 +218,7 @@ void UnknownFloorBelowItsEdge(const SampleGrid& grid, int reach, int min_run, in
                               std::vector<PixelLabel>* labels);
 
 // Clears the `candidates` (1 per sample) that lie, at their floor point, within `clearance_m` of
-// a measured obstacle sample's footprint.
+// a measured obstacle sample's footprint (or have no floor point).
 void KeepAwayFromObstacles(const std::vector<Sample>& samples,
                            const std::vector<PixelLabel>& labels, double clearance_m,
                            std::vector<std::uint8_t>* candidates);

@@ -370,10 +370,12 @@ void KeepAwayFromObstacles(const std::vector<Sample>& samples,
                            const std::vector<PixelLabel>& labels, double clearance_m,
                            std::vector<std::uint8_t>* candidates) {
   if (!(clearance_m > 0)) return;
-  // The obstacle footprints in bins of clearance_m: a candidate looks in its bin's 3 x 3.
+  // The obstacle footprints in bins at least clearance_m wide: a candidate looks in its bin's
+  // 3 x 3.
+  const double bin_m = std::max(clearance_m, 0.05);
   const auto bin_of = [&](const Eigen::Vector2d& p) {
-    return std::pair<long, long>(static_cast<long>(std::floor(p.x() / clearance_m)),
-                                 static_cast<long>(std::floor(p.y() / clearance_m)));
+    return std::pair<long, long>(static_cast<long>(std::floor(p.x() / bin_m)),
+                                 static_cast<long>(std::floor(p.y() / bin_m)));
   };
   std::map<std::pair<long, long>, std::vector<Eigen::Vector2d>> bins;
   for (std::size_t k = 0; k < samples.size(); ++k) {
@@ -395,7 +397,7 @@ void KeepAwayFromObstacles(const std::vector<Sample>& samples,
         const auto it = bins.find({bx + dx, by + dy});
         if (it == bins.end()) continue;
         for (const Eigen::Vector2d& o : it->second) {
-          if ((o - f).squaredNorm() < c2) {
+          if ((o - f).squaredNorm() <= c2) {
             (*candidates)[k] = 0;
             break;
           }

@@ -178,23 +178,25 @@ TEST(UnknownFloorBelowItsEdge, FloorJustBelowWhatStandsThereIsUnknown) {
 // Candidates within the clearance of a measured obstacle sample's footprint are cleared, and those
 // without a floor point; those beyond it, or near an obstacle sample that measured nothing, stay.
 TEST(KeepAwayFromObstacles, ClearsCandidatesNearMeasuredObstacles) {
-  std::vector<detector_stages::Sample> samples(6);
-  std::vector<PixelLabel> labels(6, PixelLabel::kUnknown);
+  std::vector<detector_stages::Sample> samples(8);
+  std::vector<PixelLabel> labels(8, PixelLabel::kUnknown);
   samples[0].measured = true;  // a measured obstacle at (2, 0)
   samples[0].point_in_base2 = {2.0, 0.0};
   labels[0] = PixelLabel::kObstacle;
   samples[1].point_in_base2 = {4.0, 0.0};  // an obstacle by the rules, not measured
   labels[1] = PixelLabel::kObstacle;
-  samples[2].floor_in_base2 = {2.0, 0.59};   // within 0.6 m of the measured obstacle
-  samples[3].floor_in_base2 = {2.0, -0.61};  // beyond it, across a bin's boundary
+  samples[2].floor_in_base2 = {2.0, 0.59};   // within 0.6 m of the measured obstacle, same bin
+  samples[3].floor_in_base2 = {2.0, -0.61};  // beyond it
   samples[4].floor_in_base2 = {4.0, 0.1};    // beside the unmeasured one
   samples[5].floor_in_base2 = {NAN, NAN};    // no floor point
-  std::vector<std::uint8_t> candidates = {0, 0, 1, 1, 1, 1};
+  samples[6].floor_in_base2 = {2.0, -0.59};  // within it, in the bin below (bins of 0.6 m)
+  samples[7].floor_in_base2 = {2.5, 0.0};    // within it, in the bin to the right
+  std::vector<std::uint8_t> candidates = {0, 0, 1, 1, 1, 1, 1, 1};
   detector_stages::KeepAwayFromObstacles(samples, labels, 0.6, &candidates);
-  EXPECT_EQ(candidates, (std::vector<std::uint8_t>{0, 0, 0, 1, 1, 0}));
-  std::vector<std::uint8_t> off = {0, 0, 1, 1, 1, 1};
+  EXPECT_EQ(candidates, (std::vector<std::uint8_t>{0, 0, 0, 1, 1, 0, 0, 0}));
+  std::vector<std::uint8_t> off = {0, 0, 1, 1, 1, 1, 1, 1};
   detector_stages::KeepAwayFromObstacles(samples, labels, 0.0, &off);  // 0: nothing cleared
-  EXPECT_EQ(off, (std::vector<std::uint8_t>{0, 0, 1, 1, 1, 1}));
+  EXPECT_EQ(off, (std::vector<std::uint8_t>{0, 0, 1, 1, 1, 1, 1, 1}));
 }
 
 }  // namespace
