@@ -6,7 +6,9 @@
 #include <cstdlib>
 #include <opencv2/core/hal/hal.hpp>
 #include <random>
-#include <unordered_map>
+#include <vector>
+
+#include "perception/geometry/point_buckets.h"
 
 namespace monoplane {
 
@@ -184,18 +186,13 @@ FloorMatchResult MatchFloorFeatures(const FloorFeatures& source, const FloorFeat
   const double gate2 = options.gate_m * options.gate_m;
   // With a prior: the target's points bucketed in cells of gate_m, so that each source feature
   // meets only the target features near where the prior puts it (the 3 x 3 cells around it).
-  std::unordered_map<std::int64_t, std::vector<int>> cells;
-  auto key = [&](const Eigen::Vector2d& p, int dx, int dy) {
-    const auto cx = static_cast<std::int64_t>(std::floor(p.x() / options.gate_m)) + dx;
-    const auto cy = static_cast<std::int64_t>(std::floor(p.y() / options.gate_m)) + dy;
-    return cx * 1000003 + cy;
-  };
+  PointBuckets cells(options.gate_m);
   std::vector<Eigen::Vector2d> predicted(source.size());
   if (target_from_source_prior) {
     Eigen::Vector2d lo = Eigen::Vector2d::Constant(1e18), hi = -lo;
     for (int j = 0; j < target.size(); ++j) {
       const Eigen::Vector2d q = target.points_in_base[j].cast<double>();
-      cells[key(q, 0, 0)].push_back(j);
+      cells.Add(q, j);
       lo = lo.cwiseMin(q);
       hi = hi.cwiseMax(q);
     }
@@ -212,36 +209,28 @@ FloorMatchResult MatchFloorFeatures(const FloorFeatures& source, const FloorFeat
     }
   }
   std::vector<Eigen::Vector2d> ps, pt;
-  std::vector<int> all_targets(target.size());
-  for (int j = 0; j < target.size(); ++j) all_targets[j] = j;
   for (int i = 0; i < source.size(); ++i) {
     const std::uint8_t* a = source.descriptors.ptr<std::uint8_t>(i);
     int best = 1 << 30, second = 1 << 30, best_j = -1;
-    auto consider = [&](const std::vector<int>& js) {
-      for (int j : js) {
-        if (target_from_source_prior &&
-            (target.points_in_base[j].cast<double>() - predicted[i]).squaredNorm() > gate2) {
-          continue;
-        }
-        const int d = Hamming(a, target.descriptors.ptr<std::uint8_t>(j), bytes);
-        if (d < best) {
-          second = best;
-          best = d;
-          best_j = j;
-        } else if (d < second) {
-          second = d;
-        }
+    const auto consider = [&](int j) {
+      if (target_from_source_prior &&
+          (target.points_in_base[j].cast<double>() - predicted[i]).squaredNorm() > gate2) {
+        return true;
       }
+      const int d = Hamming(a, target.descriptors.ptr<std::uint8_t>(j), bytes);
+      if (d < best) {
+        second = best;
+        best = d;
+        best_j = j;
+      } else if (d < second) {
+        second = d;
+      }
+      return true;
     };
     if (target_from_source_prior) {
-      for (int dx = -1; dx <= 1; ++dx) {
-        for (int dy = -1; dy <= 1; ++dy) {
-          const auto it = cells.find(key(predicted[i], dx, dy));
-          if (it != cells.end()) consider(it->second);
-        }
-      }
+      cells.ForEachNear(predicted[i], consider);
     } else {
-      consider(all_targets);
+      for (int j = 0; j < target.size(); ++j) consider(j);
     }
     if (best_j < 0 || best > options.max_hamming) continue;
     if (second < (1 << 30) && best > options.ratio * second) continue;

@@ -305,7 +305,8 @@ void AddFloorSeenSinceLastKeyframe(const std::vector<Recent>& recent,
       occupied[static_cast<std::size_t>(row) * padded_width + static_cast<std::size_t>(col)] = 1;
   };
   const auto block_around = [&](int col, int row) {
-    mark_occupied(g.CellCenter(col, row));
+    if (!occupied.empty())
+      occupied[static_cast<std::size_t>(row + pad) * padded_width + col + pad] = 1;
     for (int r = std::max(0, row - 1); r <= std::min(g.height - 1, row + 1); ++r) {
       for (int c = std::max(0, col - 1); c <= std::min(g.width - 1, col + 1); ++c)
         blocked[g.Index(c, r)] = 1;

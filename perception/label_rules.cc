@@ -4,12 +4,12 @@
 
 #include <algorithm>
 #include <cmath>
-#include <map>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/ximgproc/slic.hpp>
 #include <vector>
 
 #include "perception/detector_stages.h"
+#include "perception/geometry/point_buckets.h"
 #include "perception/motion_evidence.h"
 
 namespace monoplane::detector_stages {
@@ -370,18 +370,12 @@ void KeepAwayFromObstacles(const std::vector<Sample>& samples,
                            const std::vector<PixelLabel>& labels, double clearance_m,
                            std::vector<std::uint8_t>* candidates) {
   if (!(clearance_m > 0)) return;
-  // The obstacle footprints in bins at least clearance_m wide: a candidate looks in its bin's
-  // 3 x 3.
-  const double bin_m = std::max(clearance_m, 0.05);
-  const auto bin_of = [&](const Eigen::Vector2d& p) {
-    return std::pair<long, long>(static_cast<long>(std::floor(p.x() / bin_m)),
-                                 static_cast<long>(std::floor(p.y() / bin_m)));
-  };
-  std::map<std::pair<long, long>, std::vector<Eigen::Vector2d>> bins;
+  // The measured obstacle footprints in buckets at least clearance_m wide.
+  PointBuckets obstacles(std::max(clearance_m, 0.05));
   for (std::size_t k = 0; k < samples.size(); ++k) {
     const Sample& s = samples[k];
     if (labels[k] == PixelLabel::kObstacle && s.measured && s.point_in_base2.allFinite())
-      bins[bin_of(s.point_in_base2)].push_back(s.point_in_base2);
+      obstacles.Add(s.point_in_base2, static_cast<int>(k));
   }
   const double c2 = clearance_m * clearance_m;
   for (std::size_t k = 0; k < samples.size(); ++k) {
@@ -391,19 +385,11 @@ void KeepAwayFromObstacles(const std::vector<Sample>& samples,
       (*candidates)[k] = 0;
       continue;
     }
-    const auto [bx, by] = bin_of(f);
-    for (long dx = -1; dx <= 1 && (*candidates)[k]; ++dx) {
-      for (long dy = -1; dy <= 1 && (*candidates)[k]; ++dy) {
-        const auto it = bins.find({bx + dx, by + dy});
-        if (it == bins.end()) continue;
-        for (const Eigen::Vector2d& o : it->second) {
-          if ((o - f).squaredNorm() <= c2) {
-            (*candidates)[k] = 0;
-            break;
-          }
-        }
-      }
-    }
+    obstacles.ForEachNear(f, [&](int o) {
+      if ((samples[o].point_in_base2 - f).squaredNorm() > c2) return true;
+      (*candidates)[k] = 0;
+      return false;
+    });
   }
 }
 
