@@ -6,6 +6,8 @@
 #include <opencv2/imgproc.hpp>
 #include <opencv2/video/tracking.hpp>
 
+#include "perception/connected_regions.h"
+
 namespace monoplane {
 namespace {
 
@@ -33,7 +35,7 @@ std::vector<std::uint8_t> LargeComponents(const cv::Mat& mask, const cv::Mat& di
                                           cv::Mat* components, cv::Rect* large_box = nullptr) {
   cv::Mat opened, stats, centroids;
   cv::morphologyEx(mask, opened, cv::MORPH_OPEN, disc);
-  const int n = cv::connectedComponentsWithStats(opened, *components, stats, centroids, 8, CV_32S);
+  const int n = ConnectedRegions(opened, components, &stats, &centroids);
   std::vector<std::uint8_t> large(n, 0);
   if (large_box) *large_box = cv::Rect();
   for (int c = 1; c < n; ++c) {
@@ -56,6 +58,13 @@ bool FlowAgreesBothWays(const cv::Vec2f& b, int xs, int ys, const cv::Mat& forwa
   return ex * ex + ey * ey <= max_error2;
 }
 
+// OpenCV's DIS flow, FAST preset, with the options' refinement.
+cv::Ptr<cv::DISOpticalFlow> CreateFlow(const MotionEvidenceOptions& options) {
+  cv::Ptr<cv::DISOpticalFlow> flow = cv::DISOpticalFlow::create(cv::DISOpticalFlow::PRESET_FAST);
+  flow->setVariationalRefinementIterations(options.refinement_iterations);
+  return flow;
+}
+
 }  // namespace
 
 void MotionEvidenceOptions::Describe(OptionVisitor& v) {
@@ -64,6 +73,8 @@ void MotionEvidenceOptions::Describe(OptionVisitor& v) {
   v.Integer("downscale", &downscale, R::Closed(1, 4).Note("1, 2 or 4"),
             "the flow runs on the image shrunk by this factor");
   v.Rule(downscale != 3, "downscale", "must be 1, 2 or 4");
+  v.Integer("refinement_iterations", &refinement_iterations, R::Closed(0, 20),
+            "variational refinement iterations of the flow (DIS) at each scale");
   v.Real("min_offset_px", &min_offset_px, R::Above(0),
          "flow this far from the static world's epipolar line moves on its own, px");
   v.Real("max_flow_error_px", &max_flow_error_px, R::Above(0),
@@ -115,7 +126,7 @@ cv::Mat FloorMotionResidual(const Eigen::Matrix3d& previous_from_current, const 
 
 MotionEvidence::MotionEvidence(const CameraModel& camera, const MotionEvidenceOptions& options)
     : camera_(camera), options_(options) {
-  if (options_.enabled) flow_ = cv::DISOpticalFlow::create(cv::DISOpticalFlow::PRESET_FAST);
+  if (options_.enabled) flow_ = CreateFlow(options_);
 }
 
 cv::Mat MotionEvidence::Compute(const cv::Mat& previous, const cv::Mat& current,
@@ -274,8 +285,7 @@ cv::Mat MotionEvidence::Compute(const cv::Mat& previous, const cv::Mat& current,
     // A solver of its own for each box: OpenCV's DIS reuses its buffers across calls and
     // corrupts memory when a call's pyramid is deeper than the last one's (opencv_contrib issue
     // 1355; a box after a whole image is shallower, the next whole image deeper).
-    cv::DISOpticalFlow::create(cv::DISOpticalFlow::PRESET_FAST)
-        ->calc(prev_small(box).clone(), cur_small(box).clone(), forward);
+    CreateFlow(options_)->calc(prev_small(box).clone(), cur_small(box).clone(), forward);
   }
   const float max_error2 =
       static_cast<float>(options_.max_flow_error_px * options_.max_flow_error_px) /
@@ -325,8 +335,7 @@ cv::Mat MotionEvidence::Compute(const cv::Mat& previous, const cv::Mat& current,
     }
     cv::morphologyEx(raw, raw, cv::MORPH_OPEN, disc);
     cv::Mat box_components, stats, centroids;
-    const int n =
-        cv::connectedComponentsWithStats(raw, box_components, stats, centroids, 8, CV_32S);
+    const int n = ConnectedRegions(raw, &box_components, &stats, &centroids);
     cv::Mat previous_dilated;
     if (!previous_regions_.empty()) {
       cv::dilate(previous_regions_(box), previous_dilated,

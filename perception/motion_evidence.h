@@ -27,6 +27,10 @@ struct MotionEvidenceOptions {
   bool enabled = true;
   // The flow runs on the image shrunk by this factor (1, 2 or 4): cost against detail.
   int downscale = 2;
+  // Variational refinement iterations of DIS (OpenCV's FAST preset has 5; 0 leaves the patches'
+  // flow as it is, densified): the refinement smooths the flow at each scale and costs about as
+  // much as the rest of the flow.
+  int refinement_iterations = 5;
   // Distance from the static world's epipolar line (or rotation-predicted point), input pixels,
   // at or above which a pixel moves on its own.
   double min_offset_px = 4.0;

@@ -6,6 +6,7 @@
 #include <opencv2/imgproc.hpp>
 #include <tuple>
 
+#include "perception/connected_regions.h"
 #include "perception/motion_evidence.h"
 
 namespace monoplane {
@@ -147,7 +148,7 @@ std::vector<MovingRegion> PlaceMovingRegions(const CameraModel& camera, const cv
   cv::Mat half, component, stats, centroids;
   cv::resize(moving_mask, half, cv::Size((moving_mask.cols + 1) / 2, (moving_mask.rows + 1) / 2), 0,
              0, cv::INTER_NEAREST);
-  const int n = cv::connectedComponentsWithStats(half, component, stats, centroids, 8, CV_32S);
+  const int n = ConnectedRegions(half, &component, &stats, &centroids);
   // Component of full-resolution pixel (v, u) when the mask is set there, else 0.
   const auto component_at = [&](int v, int u) {
     return moving_mask.at<std::uint8_t>(v, u) != 0 ? component.at<int>(v / 2, u / 2) : 0;
