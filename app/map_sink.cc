@@ -243,6 +243,48 @@ struct MapSink::Impl {
       return st.ok();
     });
   }
+  // A keyframe made of an earlier frame (Mapper::AddLastFrameAsKeyframe): that frame's record
+  // becomes a keyframe's (its row, already written as a plain frame, is updated), and the
+  // keyframe is written as AddFrame's are.
+  // (records holds one record per AddFrame, as the mapper's frames are counted.)
+  void RecordLateKeyframe(const Mapper::FrameUpdate& update) {
+    LogLoopClosures();
+    ++summary->keyframes;
+    summary->keyframes_culled += static_cast<int>(update.culled_keyframe_ids.size());
+    if (update.loop_closed) ++summary->loop_closures;
+    summary->loop_closure_attempts = mapper->counters().loop_closure_attempts;
+    DropMergedKeyframes(update.culled_keyframe_ids);
+    if (update.frame_index >= records.size()) return;  // not of this sink's frames
+    FrameRecord& record = records[update.frame_index];
+    record.is_keyframe = true;
+    record_of_keyframe[update.keyframe_id] = update.frame_index;
+    if (!db) return;
+    FlushFrames();
+    const Keyframe& k = mapper->keyframes().back();
+    Enqueue([this, record, local_map = k.local_map,
+             floor_features = k.floor_features.Clone()](std::string* e) {
+      const StorageStatus st = db->WriteKeyframe(run_id, record, local_map, floor_features);
+      if (!st.ok()) *e = st.message();
+      return st.ok();
+    });
+    FlushTiles();
+  }
+  // The mapper's loop-closure events since the last call: logged, and those to a saved map's
+  // keyframes counted.
+  void LogLoopClosures() {
+    const auto& events = mapper->loop_closures();
+    for (; loop_events_logged < events.size(); ++loop_events_logged) {
+      const LoopClosureEvent& e = events[loop_events_logged];
+      spdlog::debug("loop closure keyframe {} -> {}: score {:.3f}, second {:.3f}, {}",
+                    e.keyframe_id, e.anchor_id, e.score, e.second_score,
+                    e.accepted ? "accepted" : e.reason);
+      // Saved keyframes have the ids below the first of this run (ids only grow).
+      if (e.accepted && e.anchor_id < first_run_keyframe_id) {
+        ++summary->loop_closures_to_saved;
+        summary->loop_closures_to_saved_floor += e.source == "floor" ? 1 : 0;
+      }
+    }
+  }
   void PublishMap(TimestampNs stamp_ns, bool force) {
     if (!publisher) return;
     const double period_ns = request.config.dds.map_period_s * 1e9;
@@ -353,17 +395,7 @@ bool MapSink::Add(const InputFrame& frame, const SequenceDetector::Output& outpu
   }
   const Mapper::FrameUpdate update = m.mapper->AddFrame(observation);
   m.summary->mapping_ms += MsSince(t0);
-  const auto& events = m.mapper->loop_closures();
-  for (; m.loop_events_logged < events.size(); ++m.loop_events_logged) {
-    const LoopClosureEvent& e = events[m.loop_events_logged];
-    spdlog::debug("loop closure keyframe {} -> {}: score {:.3f}, second {:.3f}, {}", e.keyframe_id,
-                  e.anchor_id, e.score, e.second_score, e.accepted ? "accepted" : e.reason);
-    // Saved keyframes have the ids below the first of this run (ids only grow).
-    if (e.accepted && e.anchor_id < m.first_run_keyframe_id) {
-      ++m.summary->loop_closures_to_saved;
-      m.summary->loop_closures_to_saved_floor += e.source == "floor" ? 1 : 0;
-    }
-  }
+  m.LogLoopClosures();
 
   RunSummary& s = *m.summary;
   if (m.last_odom)
@@ -449,9 +481,19 @@ bool MapSink::Add(const InputFrame& frame, const SequenceDetector::Output& outpu
   return true;
 }
 
-bool MapSink::Close(std::string* error) {
+bool MapSink::Close(const ObstacleDetector& detector, std::string* error) {
   Impl& m = *impl_;
   RunSummary& s = *m.summary;
+  // What the frames after the last keyframe saw: the last of them with a result becomes one.
+  if (const FrameObservation* last = m.mapper->PendingLastFrame()) {
+    std::optional<FloorFeatures> features;
+    if (last->floor_features.empty() && !last->floor_feature_source.empty()) {
+      features = detector.ComputeFloorFeatures(last->floor_feature_source);
+    }
+    const Mapper::FrameUpdate update =
+        m.mapper->AddLastFrameAsKeyframe(features ? &*features : nullptr);
+    if (update.keyframe) m.RecordLateKeyframe(update);
+  }
   // The keyframes the last sliding window still held are merged where they repeat older ones.
   const std::vector<int> merged = m.mapper->FinishRun();
   s.keyframes_culled += static_cast<int>(merged.size());

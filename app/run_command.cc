@@ -326,7 +326,7 @@ int Run(const RunRequest& given, RunSummary* summary) {
   progress.Finish();
   summary->read_ms = read_ms;
   summary->dropped_live_frames = decoded.dropped();
-  if (!sink.Close(&error)) {
+  if (!sink.Close(detector.detector(), &error)) {
     std::cerr << "monoplane run: " << error << "\n";
     sink_failed = true;
   }

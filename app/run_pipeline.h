@@ -71,7 +71,10 @@ class MapSink {
   // for the frames that become keyframes.
   bool Add(const InputFrame& frame, const SequenceDetector::Output& output,
            const ObstacleDetector& detector, std::string* error);
-  bool Close(std::string* error);
+  // Ends the run: the last frame with a result since the last keyframe becomes one
+  // (Mapper::AddLastFrameAsKeyframe; `detector` computes its floor features), then the map is
+  // finished and written.
+  bool Close(const ObstacleDetector& detector, std::string* error);
 
  private:
   struct Impl;

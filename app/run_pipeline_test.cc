@@ -117,6 +117,32 @@ TEST_F(RunPipelineTest, TheSummaryAccountsForEveryFrameAndMatchesTheMap) {
   }
 }
 
+// A run that ends between keyframes: its last detected frame (every 2nd one from frame 3 on)
+// becomes a keyframe too, with its local map, so what the frames after the last regular keyframe
+// saw is in the map. Here the regular keyframes are every 4th frame (3, 7, ..., 31, 35: the
+// corners seen change fast), so 34 frames end after 31 and frame 33 is the last.
+TEST_F(RunPipelineTest, TheFramesAfterTheLastKeyframeReachTheMap) {
+  const std::string map_path = MapPath("tail.db");
+  RunRequest request = Request(Sequence(), map_path);
+  request.max_frames = 34;
+  RunSummary summary;
+  ASSERT_EQ(app::Run(request, &summary), kExitOk);
+  std::unique_ptr<MapDatabase> db;
+  ASSERT_TRUE(MapDatabase::Open(map_path, OpenMode::kReadOnly, &db).ok());
+  std::vector<TrajectoryPoint> trajectory;
+  ASSERT_TRUE(db->ReadTrajectory(std::nullopt, PoseSource::kRaw, &trajectory).ok());
+  std::vector<std::int64_t> keyframes;
+  for (const TrajectoryPoint& p : trajectory) {
+    if (p.is_keyframe) keyframes.push_back(p.index);
+  }
+  ASSERT_GE(keyframes.size(), 2u);
+  EXPECT_GE(keyframes.back(), 32);
+  EXPECT_EQ(static_cast<int>(keyframes.size()), summary.keyframes - summary.keyframes_culled);
+  OccupancyGrid local_map;
+  EXPECT_TRUE(db->ReadLocalMap(trajectory.back().run_id, keyframes.back(), &local_map).ok());
+  EXPECT_FALSE(local_map.cells.empty());
+}
+
 TEST_F(RunPipelineTest, AFrameThatIsNoImageIsSkippedByNameAndTheRunGoesOn) {
   RunSummary summary;
   ASSERT_EQ(app::Run(Request(Broken()), &summary), kExitOk);
@@ -167,7 +193,8 @@ TEST_F(RunPipelineTest, OneWriterPerMap) {
   // ... and so is a whole run, as bad input, leaving the map to the first.
   RunSummary run_summary;
   EXPECT_EQ(app::Run(Request(Sequence(), map_path), &run_summary), kExitBadInput);
-  ASSERT_TRUE(first.Close(&error)) << error;
+  const ObstacleDetector detector(calibration, DetectorOptions());
+  ASSERT_TRUE(first.Close(detector, &error)) << error;
   const std::vector<RunInfo> runs = RunsIn(map_path);
   ASSERT_EQ(runs.size(), 1u);
   EXPECT_EQ(runs[0].status, RunStatus::kFinished);

@@ -439,13 +439,21 @@ Mapper::FrameUpdate Mapper::AddFrame(const FrameObservation& frame) {
     frames_.back().keyframe_index = static_cast<int>(keyframes_.size()) - 1;
     frames_.back().keyframe_from_base = Pose2::Identity();
     since_keyframe_.clear();
-  } else if (options_.keyframe_free_min_frames > 0 && frame.has_result && !frame.turn_pair &&
+    pending_last_.reset();
+  } else if (frame.has_result && (!frame.turn_pair || options_.turn_pair_keyframes) &&
              frame.local_map.cells.size() == frame.local_map.geometry.NumCells() &&
              !frame.local_map.cells.empty()) {
-    // Bounded: a robot standing still between keyframes keeps only its latest views.
-    constexpr std::size_t kMaxRecent = 32;
-    if (since_keyframe_.size() == kMaxRecent) since_keyframe_.erase(since_keyframe_.begin());
-    since_keyframe_.push_back({frame.odom_from_base, frame.local_map});
+    const bool in_recent = options_.keyframe_free_min_frames > 0 && !frame.turn_pair;
+    if (in_recent) {
+      // Bounded: a robot standing still between keyframes keeps only its latest views.
+      constexpr std::size_t kMaxRecent = 32;
+      if (since_keyframe_.size() == kMaxRecent) since_keyframe_.erase(since_keyframe_.begin());
+      since_keyframe_.push_back({frame.odom_from_base, frame.local_map});
+    }
+    if (static_cast<int>(keyframes_.size()) > num_saved_) {
+      pending_last_ = PendingFrame{frame,           frames_.size() - 1, in_recent,
+                                   pending_var_xy_, pending_var_yaw_,   path_length_m_};
+    }
   }
   update.map_from_base = CurrentPose();
   // Before this run's first keyframe the pose is a guess (a saved map localises that keyframe).
@@ -456,7 +464,45 @@ Mapper::FrameUpdate Mapper::AddFrame(const FrameObservation& frame) {
   return update;
 }
 
-void Mapper::AddKeyframe(const FrameObservation& frame, FrameUpdate* update) {
+const FrameObservation* Mapper::PendingLastFrame() const {
+  if (!pending_last_ || finished_ || static_cast<int>(keyframes_.size()) <= num_saved_) {
+    return nullptr;
+  }
+  const Pose2 delta =
+      Between(keyframes_.back().odom_from_base, pending_last_->frame.odom_from_base);
+  // Standing still after the keyframe, the frames saw what it saw.
+  if (delta.TranslationNorm() < options_.keyframe_min_distance_m) return nullptr;
+  return &pending_last_->frame;
+}
+
+Mapper::FrameUpdate Mapper::AddLastFrameAsKeyframe(const FloorFeatures* floor_features) {
+  CheckOrDie(!finished_, "AddLastFrameAsKeyframe after FinishRun");
+  FrameUpdate update;
+  if (!PendingLastFrame()) return update;
+  PendingFrame pending = std::move(*pending_last_);
+  pending_last_.reset();
+  if (floor_features) pending.frame.floor_features = *floor_features;
+  // The keyframe is that frame: its own view is not one of the frames before it (it is the last
+  // of them: no frame with a result came after it), and its edge holds the odometry's noise up
+  // to it.
+  if (pending.in_recent && !since_keyframe_.empty()) since_keyframe_.pop_back();
+  const double var_xy = pending_var_xy_, var_yaw = pending_var_yaw_, path = path_length_m_;
+  pending_var_xy_ = pending.var_xy;
+  pending_var_yaw_ = pending.var_yaw;
+  path_length_m_ = pending.path_length_m;
+  // That frame and the ones after it ride on the new keyframe.
+  AddKeyframe(pending.frame, &update, pending.frame_index);
+  pending_var_xy_ = var_xy - pending.var_xy;
+  pending_var_yaw_ = var_yaw - pending.var_yaw;
+  path_length_m_ = path;
+  since_keyframe_.clear();
+  update.frame_index = pending.frame_index;
+  update.map_from_base = keyframes_.back().map_from_base;
+  return update;
+}
+
+void Mapper::AddKeyframe(const FrameObservation& frame, FrameUpdate* update,
+                         std::optional<std::size_t> reattach_from) {
   const bool first_of_run = static_cast<int>(keyframes_.size()) == num_saved_;
   Keyframe kf;
   kf.id = next_id_++;
@@ -501,6 +547,14 @@ void Mapper::AddKeyframe(const FrameObservation& frame, FrameUpdate* update) {
   keyframes_.push_back(std::move(kf));
   ++counters_.keyframes;
   const int index = static_cast<int>(keyframes_.size()) - 1;
+  // Before the window and a loop closure move the keyframes (a rebuild sweeps these frames' paths).
+  if (reattach_from) {
+    for (std::size_t i = *reattach_from; i < frames_.size(); ++i) {
+      frames_[i].keyframe_index = index;
+      frames_[i].keyframe_from_base =
+          Between(keyframes_[index].odom_from_base, frames_[i].odom_from_base);
+    }
+  }
 
   OptimizeWindow();
   fusion_.FuseKeyframe(keyframes_[index]);

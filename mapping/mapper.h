@@ -178,6 +178,8 @@ class Mapper {
     int keyframe_id = -1;
     bool loop_closed = false;  // an accepted loop closure corrected the poses
     bool map_rebuilt = false;  // the grid and the OctoMap were rebuilt from the keyframes
+    // The frame that became the keyframe, counted from this run's first AddFrame (0-based).
+    std::size_t frame_index = 0;
     // Keyframes merged into older ones (see Options::cull_redundant_keyframes) and so gone from
     // keyframes(); an earlier frame that was one of them is a plain frame now.
     std::vector<int> culled_keyframe_ids;
@@ -199,6 +201,18 @@ class Mapper {
   // Whether AddFrame(frame) would make the frame a keyframe (travel, rotation, shared tracks): a
   // caller that deferred the floor features computes them for these frames only.
   bool WantsKeyframe(const FrameObservation& frame) const;
+  // The last frame with a result since the last keyframe, when it lies at least
+  // keyframe_min_distance_m from that keyframe (else nullptr; a turn in place since then alone,
+  // less than keyframe_rotation_rad, saw what that keyframe's frames saw from the same place):
+  // what AddLastFrameAsKeyframe would make a keyframe. A caller that deferred the floor features
+  // computes them from it (its floor_features are empty then).
+  const FrameObservation* PendingLastFrame() const;
+  // Makes PendingLastFrame() a keyframe (with `floor_features` when given), after the run's last
+  // AddFrame and before FinishRun: what the frames after the last keyframe saw (up to
+  // keyframe_distance_m of travel, or all that a run with one keyframe saw after it) would
+  // otherwise never reach the map. The update names the keyframe; its map_from_base is that
+  // frame's pose. Nothing (no keyframe) without such a frame.
+  FrameUpdate AddLastFrameAsKeyframe(const FloorFeatures* floor_features = nullptr);
   // Ends the run, after its last AddFrame (none may follow): the keyframes still in the sliding
   // window, which no later window will hold now, are merged into older keyframes of the same place
   // as those that left it were (Options::cull_redundant_keyframes); the run's first keyframe too,
@@ -245,7 +259,9 @@ class Mapper {
   };
 
   double StepSigmaFactor(const GroundMotion& step) const;
-  void AddKeyframe(const FrameObservation& frame, FrameUpdate* update);
+  // Makes `frame` a keyframe; frames_ from reattach_from on (when given) ride on it from then on.
+  void AddKeyframe(const FrameObservation& frame, FrameUpdate* update,
+                   std::optional<std::size_t> reattach_from = std::nullopt);
   void OptimizeWindow();
   bool TryLoopClosure(int index);
   bool OptimizeAllAndMaybeRebuild();
@@ -283,6 +299,16 @@ class Mapper {
     OccupancyGrid local_map;
   };
   std::vector<RecentLocalMap> since_keyframe_;
+  // The last frame with a result since the last keyframe (AddLastFrameAsKeyframe), with its index
+  // in frames_, whether it is the last of since_keyframe_, and the odometry's variances and path
+  // length at it. It keeps the frame's local map, and its images' buffers, until the next keyframe.
+  struct PendingFrame {
+    FrameObservation frame;
+    std::size_t frame_index;
+    bool in_recent;
+    double var_xy, var_yaw, path_length_m;
+  };
+  std::optional<PendingFrame> pending_last_;
   std::optional<Pose2> map_from_odom_;  // fixed by the first frame (or localisation)
   Pose2 initial_map_from_base_;
   double path_length_m_ = 0;

@@ -154,33 +154,42 @@ TEST(Mapper, TheFootprintClearsTheCellsTheRobotDroveOver) {
     EXPECT_LT(log_odds_at(with, x + 0.01, 0.01), LogOddsOptions().miss * 2) << x;
 }
 
-// The floor seen by the frames between two keyframes goes into the second one's local map where
-// enough of them saw it free and none saw an obstacle next to it; near the camera as free seen
-// near (one keyframe makes it read free in the grid), farther as one ordinary free observation.
-TEST(Mapper, AKeyframeKeepsTheFloorItsFramesSawFree) {
+// A frame's local map in its base frame: 2 m ahead of the base, 1 m wide, 5 cm cells.
+GridGeometry FrameGrid() {
   GridGeometry g;
   g.resolution_m = 0.05;
   g.origin_x_m = 0.0;
   g.origin_y_m = -0.5;
   g.width = 40;
   g.height = 20;
-  // A frame at odom x with its local map (base frame), cells given by their odometry points.
-  const auto frame_at = [&](int k, double x, const std::vector<Eigen::Vector2d>& free,
-                            const std::vector<Eigen::Vector2d>& occupied) {
-    FrameObservation f;
-    f.stamp_ns = 100'000'000LL * (k + 1);
-    f.odom_from_base = {x, 0.0, 0.0};
-    f.step.status = GroundMotion::Status::kOk;
-    f.has_result = true;
-    f.local_map = OccupancyGrid(g, kCellUnknown);
-    const auto set = [&](const Eigen::Vector2d& p, std::int8_t value) {
-      const Eigen::Vector2i cell = *g.CellOf(p - Eigen::Vector2d(x, 0));
-      f.local_map.At(cell.x(), cell.y()) = value;
-    };
-    for (const auto& p : free) set(p, kCellFree);
-    for (const auto& p : occupied) set(p, kCellOccupied);
-    return f;
+  return g;
+}
+
+// Frame k (stamp 0.1 (k + 1) s) at odometry (x, 0) with a result whose local map (FrameGrid(), base
+// frame) holds the cells of the odometry points `free` free and of `occupied` occupied.
+FrameObservation FrameAt(int k, double x, const std::vector<Eigen::Vector2d>& free,
+                         const std::vector<Eigen::Vector2d>& occupied) {
+  const GridGeometry g = FrameGrid();
+  FrameObservation f;
+  f.stamp_ns = 100'000'000LL * (k + 1);
+  f.odom_from_base = {x, 0.0, 0.0};
+  f.step.status = GroundMotion::Status::kOk;
+  f.has_result = true;
+  f.local_map = OccupancyGrid(g, kCellUnknown);
+  const auto set = [&](const Eigen::Vector2d& p, std::int8_t value) {
+    const Eigen::Vector2i cell = *g.CellOf(p - Eigen::Vector2d(x, 0));
+    f.local_map.At(cell.x(), cell.y()) = value;
   };
+  for (const auto& p : free) set(p, kCellFree);
+  for (const auto& p : occupied) set(p, kCellOccupied);
+  return f;
+}
+
+// The floor seen by the frames between two keyframes goes into the second one's local map where
+// enough of them saw it free and none saw an obstacle next to it; near the camera as free seen
+// near (one keyframe makes it read free in the grid), farther as one ordinary free observation.
+TEST(Mapper, AKeyframeKeepsTheFloorItsFramesSawFree) {
+  const auto frame_at = FrameAt;
   // Frames at x = 0.05 k, their cameras 0.1 m ahead of the base: from the frames 1-4, a is seen
   // from 0.73-0.88 m, e from 0.83-0.98 m (1.08 m from the first frame's base origin), b from
   // 1.08 m, c and d from 1.1-1.3 m; a_blocked from 0.63-0.78 m with an obstacle next to it once.
@@ -266,6 +275,59 @@ TEST(Mapper, AKeyframeKeepsTheFloorItsFramesSawFree) {
   EXPECT_LT(grid_log_odds(1.0, a), free_at_most);
   EXPECT_GT(grid_log_odds(0.0, a), free_at_most);
   EXPECT_GT(grid_log_odds(1.0, d), free_at_most);
+}
+
+// What the frames after the run's last keyframe saw reaches the map when the run ends: the last
+// of them with a result becomes a keyframe (AddLastFrameAsKeyframe), and the frames after it ride
+// on it. Standing still after a keyframe adds none.
+TEST(Mapper, TheLastFrameWithAResultBecomesAKeyframeAtTheEnd) {
+  const Eigen::Vector2d free_point(1.025, 0.025), occupied_point(1.525, -0.225);
+  const auto frame_at = [&](int k, double x, bool sees) {
+    return sees ? FrameAt(k, x, {free_point}, {occupied_point}) : FrameAt(k, x, {}, {});
+  };
+  Mapper::Options options;
+  options.keyframe_min_shared_tracks = 0.0;
+  const auto log_odds = [](const Mapper& m, const Eigen::Vector2d& p) {
+    return m.grid().LogOdds(m.grid().CellOf(p));
+  };
+  Mapper mapper(options, testing::TestCamera());
+  mapper.AddFrame(frame_at(0, 0.0, false));  // the first keyframe sees nothing
+  for (int k = 1; k <= 4; ++k) mapper.AddFrame(frame_at(k, 0.05 * k, true));
+  FrameObservation carried = frame_at(5, 0.25, false);  // a frame without a result
+  carried.has_result = false;
+  carried.local_map = OccupancyGrid();
+  mapper.AddFrame(carried);
+  ASSERT_EQ(mapper.keyframes().size(), 1u);
+  EXPECT_EQ(log_odds(mapper, free_point), 0.0f);
+  EXPECT_EQ(log_odds(mapper, occupied_point), 0.0f);
+  const std::vector<FramePose> before = mapper.Trajectory();
+  ASSERT_NE(mapper.PendingLastFrame(), nullptr);
+  EXPECT_EQ(mapper.PendingLastFrame()->stamp_ns, 500'000'000LL);  // frame 4
+  const Mapper::FrameUpdate update = mapper.AddLastFrameAsKeyframe();
+  EXPECT_TRUE(update.keyframe);
+  ASSERT_EQ(mapper.keyframes().size(), 2u);
+  EXPECT_DOUBLE_EQ(mapper.keyframes().back().odom_from_base.x, 0.2);
+  EXPECT_LT(log_odds(mapper, free_point), 0.0f);
+  EXPECT_GT(log_odds(mapper, occupied_point), 0.0f);
+  // Odometry alone: every frame keeps its pose, the carried one now on the new keyframe.
+  EXPECT_EQ(update.frame_index, 4u);
+  EXPECT_DOUBLE_EQ(mapper.keyframes().back().path_length_m, 0.2);
+  const std::vector<FramePose> after = mapper.Trajectory();
+  ASSERT_EQ(after.size(), before.size());
+  for (std::size_t i = 0; i < after.size(); ++i) {
+    EXPECT_NEAR(after[i].map_from_base.x, before[i].map_from_base.x, 1e-9) << i;
+    EXPECT_EQ(after[i].keyframe_id, mapper.keyframes()[i < 4 ? 0 : 1].id) << i;
+  }
+  EXPECT_EQ(mapper.PendingLastFrame(), nullptr);  // once
+  EXPECT_FALSE(mapper.AddLastFrameAsKeyframe().keyframe);
+
+  // Standing still after the first keyframe: nothing to add.
+  Mapper still(options, testing::TestCamera());
+  still.AddFrame(frame_at(0, 0.0, false));
+  still.AddFrame(frame_at(1, 0.01, true));
+  EXPECT_EQ(still.PendingLastFrame(), nullptr);
+  EXPECT_FALSE(still.AddLastFrameAsKeyframe().keyframe);
+  EXPECT_EQ(still.keyframes().size(), 1u);
 }
 
 // Where a tracked moving object went, the grid keeps nothing static, also what keyframes fused
