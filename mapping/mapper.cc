@@ -440,19 +440,21 @@ Mapper::FrameUpdate Mapper::AddFrame(const FrameObservation& frame) {
     frames_.back().keyframe_from_base = Pose2::Identity();
     since_keyframe_.clear();
     pending_last_.reset();
-  } else if (frame.has_result && (!frame.turn_pair || options_.turn_pair_keyframes) &&
+  } else if (frame.has_result &&
              frame.local_map.cells.size() == frame.local_map.geometry.NumCells() &&
              !frame.local_map.cells.empty()) {
-    const bool in_recent = options_.keyframe_free_min_frames > 0 && !frame.turn_pair;
-    if (in_recent) {
+    // Turning pairs' views count too (their own keyframes would fix poses with a narrow pair's
+    // noisier map; Options::turn_pair_keyframes): what a turn showed needs the same views.
+    if (options_.keyframe_free_min_frames > 0) {
       // Bounded: a robot standing still between keyframes keeps only its latest views.
       constexpr std::size_t kMaxRecent = 32;
       if (since_keyframe_.size() == kMaxRecent) since_keyframe_.erase(since_keyframe_.begin());
-      since_keyframe_.push_back({frame.odom_from_base, frame.local_map});
+      since_keyframe_.push_back({frame.stamp_ns, frame.odom_from_base, frame.local_map});
     }
-    if (static_cast<int>(keyframes_.size()) > num_saved_) {
-      pending_last_ = PendingFrame{frame,           frames_.size() - 1, in_recent,
-                                   pending_var_xy_, pending_var_yaw_,   path_length_m_};
+    if (static_cast<int>(keyframes_.size()) > num_saved_ &&
+        (!frame.turn_pair || options_.turn_pair_keyframes)) {
+      pending_last_ = PendingFrame{frame, frames_.size() - 1, pending_var_xy_, pending_var_yaw_,
+                                   path_length_m_};
     }
   }
   update.map_from_base = CurrentPose();
@@ -482,10 +484,10 @@ Mapper::FrameUpdate Mapper::AddLastFrameAsKeyframe(const FloorFeatures* floor_fe
   PendingFrame pending = std::move(*pending_last_);
   pending_last_.reset();
   if (floor_features) pending.frame.floor_features = *floor_features;
-  // The keyframe is that frame: its own view is not one of the frames before it (it is the last
-  // of them: no frame with a result came after it), and its edge holds the odometry's noise up
-  // to it.
-  if (pending.in_recent && !since_keyframe_.empty()) since_keyframe_.pop_back();
+  // The keyframe is that frame: its own view is not one of the frames before it (turning pairs'
+  // frames may follow it), and its edge holds the odometry's noise up to it.
+  std::erase_if(since_keyframe_,
+                [&](const RecentLocalMap& r) { return r.stamp_ns == pending.frame.stamp_ns; });
   const double var_xy = pending_var_xy_, var_yaw = pending_var_yaw_, path = path_length_m_;
   pending_var_xy_ = pending.var_xy;
   pending_var_yaw_ = pending.var_yaw;

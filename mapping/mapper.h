@@ -40,7 +40,8 @@ class Mapper {
     double keyframe_min_distance_m = 0.05;  // >= 0
     // A frame whose result comes from a turning pair (FrameResult::turn_pair) becomes a keyframe
     // only when this is set: a narrow-baseline pair's local map is noisier, and the keyframe's
-    // pose is fixed by it (measurements: docs/experiments.md).
+    // pose is fixed by it (measurements: docs/experiments.md). Its views still count among the
+    // frames between keyframes (keyframe_free_min_frames).
     bool turn_pair_keyframes = false;
 
     // Odometry factor noise per frame step, summed (as variances) between keyframes.
@@ -120,7 +121,7 @@ class Mapper {
     // those frames saw it free and none of them (nor the keyframe) saw an obstacle within a cell
     // of it. Only keyframes' local maps reach the grid, and a grid cell needs three free
     // observations, so without this most of the floor seen between keyframes is lost. Turning
-    // pairs do not vote. 0 = off.
+    // pairs vote too (see turn_pair_keyframes). 0 = off.
     int keyframe_free_min_frames = 4;
     // Near floor seen free again and again is free at once: a cell that at least
     // keyframe_free_min_frames of those frames (the keyframe's own view counted) saw free within
@@ -295,17 +296,18 @@ class Mapper {
   // The local maps of this run's detected frames since the last keyframe, with their poses
   // (Options::keyframe_free_min_frames).
   struct RecentLocalMap {
+    TimestampNs stamp_ns;
     Pose2 odom_from_base;
     OccupancyGrid local_map;
   };
   std::vector<RecentLocalMap> since_keyframe_;
-  // The last frame with a result since the last keyframe (AddLastFrameAsKeyframe), with its index
-  // in frames_, whether it is the last of since_keyframe_, and the odometry's variances and path
-  // length at it. It keeps the frame's local map, and its images' buffers, until the next keyframe.
+  // The last frame with a result since the last keyframe (AddLastFrameAsKeyframe; not a turning
+  // pair's unless those make keyframes), with its index in frames_ and the odometry's variances
+  // and path length at it. It keeps the frame's local map, and its images' buffers, until the next
+  // keyframe.
   struct PendingFrame {
     FrameObservation frame;
     std::size_t frame_index;
-    bool in_recent;
     double var_xy, var_yaw, path_length_m;
   };
   std::optional<PendingFrame> pending_last_;

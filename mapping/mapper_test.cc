@@ -277,6 +277,27 @@ TEST(Mapper, AKeyframeKeepsTheFloorItsFramesSawFree) {
   EXPECT_GT(grid_log_odds(1.0, d), free_at_most);
 }
 
+// Frames of turning pairs never become keyframes, but their views count among the frames between
+// keyframes: four of them that saw a cell free make it free in the next keyframe's local map.
+TEST(Mapper, TurningPairsViewsCountBetweenKeyframes) {
+  const Eigen::Vector2d seen(1.025, 0.025);
+  Mapper::Options options;
+  options.keyframe_min_shared_tracks = 0.0;
+  Mapper mapper(options, testing::TestCamera());
+  mapper.AddFrame(FrameAt(0, 0.0, {}, {}));
+  for (int k = 1; k <= 4; ++k) {
+    FrameObservation f = FrameAt(k, 0.05 * k, {seen}, {});
+    f.turn_pair = true;
+    mapper.AddFrame(f);
+  }
+  EXPECT_EQ(mapper.PendingLastFrame(), nullptr);  // turning pairs make no keyframe, not at the end
+  mapper.AddFrame(FrameAt(5, 0.35, {}, {}));
+  ASSERT_EQ(mapper.keyframes().size(), 2u);
+  const OccupancyGrid local = mapper.keyframes().back().LocalMap();
+  const Eigen::Vector2i cell = *local.geometry.CellOf(seen - Eigen::Vector2d(0.35, 0));
+  EXPECT_EQ(local.At(cell.x(), cell.y()), kCellFreeSeenNear);  // 0.7-0.9 m from the cameras
+}
+
 // What the frames after the run's last keyframe saw reaches the map when the run ends: the last
 // of them with a result becomes a keyframe (AddLastFrameAsKeyframe), and the frames after it ride
 // on it. Standing still after a keyframe adds none.
@@ -293,7 +314,10 @@ TEST(Mapper, TheLastFrameWithAResultBecomesAKeyframeAtTheEnd) {
   Mapper mapper(options, testing::TestCamera());
   mapper.AddFrame(frame_at(0, 0.0, false));  // the first keyframe sees nothing
   for (int k = 1; k <= 4; ++k) mapper.AddFrame(frame_at(k, 0.05 * k, true));
-  FrameObservation carried = frame_at(5, 0.25, false);  // a frame without a result
+  FrameObservation turning = frame_at(5, 0.22, true);  // a turning pair's: no keyframe
+  turning.turn_pair = true;
+  mapper.AddFrame(turning);
+  FrameObservation carried = frame_at(6, 0.25, false);  // a frame without a result
   carried.has_result = false;
   carried.local_map = OccupancyGrid();
   mapper.AddFrame(carried);
@@ -316,7 +340,7 @@ TEST(Mapper, TheLastFrameWithAResultBecomesAKeyframeAtTheEnd) {
   ASSERT_EQ(after.size(), before.size());
   for (std::size_t i = 0; i < after.size(); ++i) {
     EXPECT_NEAR(after[i].map_from_base.x, before[i].map_from_base.x, 1e-9) << i;
-    EXPECT_EQ(after[i].keyframe_id, mapper.keyframes()[i < 4 ? 0 : 1].id) << i;
+    EXPECT_EQ(after[i].keyframe_id, mapper.keyframes()[i < 4 ? 0 : 1].id) << i;  // 4 on: the new
   }
   EXPECT_EQ(mapper.PendingLastFrame(), nullptr);  // once
   EXPECT_FALSE(mapper.AddLastFrameAsKeyframe().keyframe);
