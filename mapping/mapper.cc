@@ -446,10 +446,16 @@ Mapper::FrameUpdate Mapper::AddFrame(const FrameObservation& frame) {
     // Turning pairs' views count too (their own keyframes would fix poses with a narrow pair's
     // noisier map; Options::turn_pair_keyframes): what a turn showed needs the same views.
     if (options_.keyframe_free_min_frames > 0) {
-      // Bounded: a robot standing still between keyframes keeps only its latest views.
+      // Bounded: a robot standing still between keyframes keeps only its latest views, a long turn
+      // gives up its oldest turning views before any other.
       constexpr std::size_t kMaxRecent = 32;
-      if (since_keyframe_.size() == kMaxRecent) since_keyframe_.erase(since_keyframe_.begin());
-      since_keyframe_.push_back({frame.stamp_ns, frame.odom_from_base, frame.local_map});
+      if (since_keyframe_.size() == kMaxRecent) {
+        const auto turning = std::find_if(since_keyframe_.begin(), since_keyframe_.end(),
+                                          [](const RecentLocalMap& r) { return r.turn_pair; });
+        since_keyframe_.erase(turning != since_keyframe_.end() ? turning : since_keyframe_.begin());
+      }
+      since_keyframe_.push_back(
+          {frames_.size() - 1, frame.turn_pair, frame.odom_from_base, frame.local_map});
     }
     if (static_cast<int>(keyframes_.size()) > num_saved_ &&
         (!frame.turn_pair || options_.turn_pair_keyframes)) {
@@ -487,7 +493,7 @@ Mapper::FrameUpdate Mapper::AddLastFrameAsKeyframe(const FloorFeatures* floor_fe
   // The keyframe is that frame: its own view is not one of the frames before it (turning pairs'
   // frames may follow it), and its edge holds the odometry's noise up to it.
   std::erase_if(since_keyframe_,
-                [&](const RecentLocalMap& r) { return r.stamp_ns == pending.frame.stamp_ns; });
+                [&](const RecentLocalMap& r) { return r.frame_index == pending.frame_index; });
   const double var_xy = pending_var_xy_, var_yaw = pending_var_yaw_, path = path_length_m_;
   pending_var_xy_ = pending.var_xy;
   pending_var_yaw_ = pending.var_yaw;

@@ -293,10 +293,11 @@ class Mapper {
   std::vector<PoseGraphEdge> refined_edges_;   // the same pairs, refined by the window
   std::vector<PoseGraphEdge> loop_edges_;
   std::vector<FrameRecord> frames_;
-  // The local maps of this run's detected frames since the last keyframe, with their poses
-  // (Options::keyframe_free_min_frames).
+  // The local maps of this run's detected frames since the last keyframe (or since the run began:
+  // turning pairs' before the first one), with their poses (Options::keyframe_free_min_frames).
   struct RecentLocalMap {
-    TimestampNs stamp_ns;
+    std::size_t frame_index;  // into frames_
+    bool turn_pair;
     Pose2 odom_from_base;
     OccupancyGrid local_map;
   };

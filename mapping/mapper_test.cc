@@ -313,8 +313,9 @@ TEST(Mapper, TheLastFrameWithAResultBecomesAKeyframeAtTheEnd) {
   };
   Mapper mapper(options, testing::TestCamera());
   mapper.AddFrame(frame_at(0, 0.0, false));  // the first keyframe sees nothing
-  for (int k = 1; k <= 4; ++k) mapper.AddFrame(frame_at(k, 0.05 * k, true));
-  FrameObservation turning = frame_at(5, 0.22, true);  // a turning pair's: no keyframe
+  // Frames 2-4 see the cells (frame 1 does not), then a turning pair's frame that does not.
+  for (int k = 1; k <= 4; ++k) mapper.AddFrame(frame_at(k, 0.05 * k, k >= 2));
+  FrameObservation turning = frame_at(5, 0.22, false);  // a turning pair's: no keyframe
   turning.turn_pair = true;
   mapper.AddFrame(turning);
   FrameObservation carried = frame_at(6, 0.25, false);  // a frame without a result
@@ -331,6 +332,11 @@ TEST(Mapper, TheLastFrameWithAResultBecomesAKeyframeAtTheEnd) {
   EXPECT_TRUE(update.keyframe);
   ASSERT_EQ(mapper.keyframes().size(), 2u);
   EXPECT_DOUBLE_EQ(mapper.keyframes().back().odom_from_base.x, 0.2);
+  // free_point 0.7-0.8 m from the cameras: seen by frames 2 and 3 and the new keyframe (frame 4)
+  // itself, counted once: 3 near views of 4 (counted twice it would read kCellFreeSeenNear).
+  const OccupancyGrid local = mapper.keyframes().back().LocalMap();
+  const Eigen::Vector2i cell = *local.geometry.CellOf(free_point - Eigen::Vector2d(0.2, 0));
+  EXPECT_EQ(local.At(cell.x(), cell.y()), 21);
   EXPECT_LT(log_odds(mapper, free_point), 0.0f);
   EXPECT_GT(log_odds(mapper, occupied_point), 0.0f);
   // Odometry alone: every frame keeps its pose, the carried one now on the new keyframe.
