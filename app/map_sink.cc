@@ -243,24 +243,19 @@ struct MapSink::Impl {
       return st.ok();
     });
   }
-  // A keyframe made of an earlier frame (Mapper::AddLastFrameAsKeyframe): that frame's record
-  // becomes a keyframe's (its row, already written as a plain frame, is updated), and the
-  // keyframe is written as AddFrame's are.
-  // (records holds one record per AddFrame, as the mapper's frames are counted.)
-  void RecordLateKeyframe(const Mapper::FrameUpdate& update) {
+  // A frame's update from the mapper, counted in the summary: keyframes, merges, loop closures.
+  void CountUpdate(const Mapper::FrameUpdate& update) {
     LogLoopClosures();
-    ++summary->keyframes;
+    if (update.keyframe) ++summary->keyframes;
     summary->keyframes_culled += static_cast<int>(update.culled_keyframe_ids.size());
     if (update.loop_closed) ++summary->loop_closures;
     summary->loop_closure_attempts = mapper->counters().loop_closure_attempts;
-    DropMergedKeyframes(update.culled_keyframe_ids);
-    if (update.frame_index >= records.size()) return;  // not of this sink's frames
-    FrameRecord& record = records[update.frame_index];
-    record.is_keyframe = true;
-    record_of_keyframe[update.keyframe_id] = update.frame_index;
-    if (!db) return;
+  }
+  // The mapper's newest keyframe, written as `record`'s, after the frames before it.
+  void WriteNewestKeyframe(const FrameRecord& record) {
     FlushFrames();
     const Keyframe& k = mapper->keyframes().back();
+    // The writer gets its own descriptor bytes: cv::Mat copies would share them with the mapper.
     Enqueue([this, record, local_map = k.local_map,
              floor_features = k.floor_features.Clone()](std::string* e) {
       const StorageStatus st = db->WriteKeyframe(run_id, record, local_map, floor_features);
@@ -268,6 +263,19 @@ struct MapSink::Impl {
       return st.ok();
     });
     FlushTiles();
+  }
+  // A keyframe made of an earlier frame (Mapper::AddLastFrameAsKeyframe): that frame's record
+  // (records holds one per AddFrame, as the mapper counts its frames) becomes a keyframe's; its
+  // row, already written as a plain frame, is updated.
+  void RecordLateKeyframe(const Mapper::FrameUpdate& update) {
+    CountUpdate(update);
+    if (update.frame_index < records.size()) {
+      FrameRecord& record = records[update.frame_index];
+      record.is_keyframe = true;
+      record_of_keyframe[update.keyframe_id] = update.frame_index;
+      if (db) WriteNewestKeyframe(record);
+    }
+    DropMergedKeyframes(update.culled_keyframe_ids);
   }
   // The mapper's loop-closure events since the last call: logged, and those to a saved map's
   // keyframes counted.
@@ -395,17 +403,13 @@ bool MapSink::Add(const InputFrame& frame, const SequenceDetector::Output& outpu
   }
   const Mapper::FrameUpdate update = m.mapper->AddFrame(observation);
   m.summary->mapping_ms += MsSince(t0);
-  m.LogLoopClosures();
+  m.CountUpdate(update);
 
   RunSummary& s = *m.summary;
   if (m.last_odom)
     s.distance_m += (output.odom_from_base.Translation() - m.last_odom->Translation()).norm();
   m.last_odom = output.odom_from_base;
   s.trajectory.emplace_back(update.map_from_base, frame.stamp_ns);
-  if (update.keyframe) ++s.keyframes;
-  s.keyframes_culled += static_cast<int>(update.culled_keyframe_ids.size());
-  if (update.loop_closed) ++s.loop_closures;
-  s.loop_closure_attempts = m.mapper->counters().loop_closure_attempts;
 
   FrameRecord record;
   record.index = frame.index;
@@ -417,16 +421,7 @@ bool MapSink::Add(const InputFrame& frame, const SequenceDetector::Output& outpu
   m.DropMergedKeyframes(update.culled_keyframe_ids);
   if (m.db) {
     if (update.keyframe) {
-      m.FlushFrames();
-      const Keyframe& k = m.mapper->keyframes().back();
-      // The writer gets its own descriptor bytes: cv::Mat copies would share them with the mapper.
-      m.Enqueue([&m, record, local_map = k.local_map,
-                 floor_features = k.floor_features.Clone()](std::string* e) {
-        const StorageStatus st = m.db->WriteKeyframe(m.run_id, record, local_map, floor_features);
-        if (!st.ok()) *e = st.message();
-        return st.ok();
-      });
-      m.FlushTiles();
+      m.WriteNewestKeyframe(record);
     } else {
       m.pending_frames.push_back(record);
       if (m.pending_frames.size() >= 100) m.FlushFrames();

@@ -435,9 +435,7 @@ Mapper::FrameUpdate Mapper::AddFrame(const FrameObservation& frame) {
                           : Pose2::Identity();
   frames_.push_back({frame.stamp_ns, frame.odom_from_base, keyframe_index, keyframe_from_base});
   if (WantsKeyframe(frame)) {
-    AddKeyframe(frame, &update);
-    frames_.back().keyframe_index = static_cast<int>(keyframes_.size()) - 1;
-    frames_.back().keyframe_from_base = Pose2::Identity();
+    AddKeyframe(frame, &update, frames_.size() - 1);
     since_keyframe_.clear();
     pending_last_.reset();
   } else if (frame.has_result &&
@@ -504,13 +502,12 @@ Mapper::FrameUpdate Mapper::AddLastFrameAsKeyframe(const FloorFeatures* floor_fe
   pending_var_yaw_ = var_yaw - pending.var_yaw;
   path_length_m_ = path;
   since_keyframe_.clear();
-  update.frame_index = pending.frame_index;
   update.map_from_base = keyframes_.back().map_from_base;
   return update;
 }
 
 void Mapper::AddKeyframe(const FrameObservation& frame, FrameUpdate* update,
-                         std::optional<std::size_t> reattach_from) {
+                         std::size_t first_frame) {
   const bool first_of_run = static_cast<int>(keyframes_.size()) == num_saved_;
   Keyframe kf;
   kf.id = next_id_++;
@@ -555,13 +552,13 @@ void Mapper::AddKeyframe(const FrameObservation& frame, FrameUpdate* update,
   keyframes_.push_back(std::move(kf));
   ++counters_.keyframes;
   const int index = static_cast<int>(keyframes_.size()) - 1;
-  // Before the window and a loop closure move the keyframes (a rebuild sweeps these frames' paths).
-  if (reattach_from) {
-    for (std::size_t i = *reattach_from; i < frames_.size(); ++i) {
-      frames_[i].keyframe_index = index;
-      frames_[i].keyframe_from_base =
-          Between(keyframes_[index].odom_from_base, frames_[i].odom_from_base);
-    }
+  // The frame and those after it ride on the keyframe, before the window and a loop closure move
+  // the keyframes (a rebuild sweeps their paths).
+  update->frame_index = first_frame;
+  for (std::size_t i = first_frame; i < frames_.size(); ++i) {
+    frames_[i].keyframe_index = index;
+    frames_[i].keyframe_from_base =
+        Between(keyframes_[index].odom_from_base, frames_[i].odom_from_base);
   }
 
   OptimizeWindow();

@@ -179,7 +179,7 @@ class Mapper {
     int keyframe_id = -1;
     bool loop_closed = false;  // an accepted loop closure corrected the poses
     bool map_rebuilt = false;  // the grid and the OctoMap were rebuilt from the keyframes
-    // The frame that became the keyframe, counted from this run's first AddFrame (0-based).
+    // With `keyframe`: the frame that became it, counted from this run's first AddFrame.
     std::size_t frame_index = 0;
     // Keyframes merged into older ones (see Options::cull_redundant_keyframes) and so gone from
     // keyframes(); an earlier frame that was one of them is a plain frame now.
@@ -260,9 +260,8 @@ class Mapper {
   };
 
   double StepSigmaFactor(const GroundMotion& step) const;
-  // Makes `frame` a keyframe; frames_ from reattach_from on (when given) ride on it from then on.
-  void AddKeyframe(const FrameObservation& frame, FrameUpdate* update,
-                   std::optional<std::size_t> reattach_from = std::nullopt);
+  // Makes `frame`, frames_[first_frame], a keyframe; it and the frames after it ride on it.
+  void AddKeyframe(const FrameObservation& frame, FrameUpdate* update, std::size_t first_frame);
   void OptimizeWindow();
   bool TryLoopClosure(int index);
   bool OptimizeAllAndMaybeRebuild();
