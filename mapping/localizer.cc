@@ -4,12 +4,20 @@
 
 namespace monoplane {
 
+namespace {
+constexpr double kSeenOccupiedProbability = 0.51;
+}  // namespace
+
 LocalizationResult LocalizeInSavedMap(const TiledGrid& saved_grid, const OccupancyGrid& local_map,
                                       const Pose2& guess_map_from_base,
                                       const ScanMatchOptions& options) {
   const auto [lo, hi] = mapper_internal::LocalMapBounds(local_map, guess_map_from_base,
                                                         options.linear_window_m + 0.5);
-  const MatchTarget target = MakeMatchTarget(saved_grid, lo, hi, options.smoothing_sigma_m);
+  // Every cell the saved map saw occupied at all (log-odds above 0) is a target: a wall seen only
+  // from afar holds less than one full hit (LogOddsOptions::hit_full_range_m) and does not read
+  // occupied, but the scan's own far points lie on it.
+  const MatchTarget target =
+      MakeMatchTarget(saved_grid, lo, hi, options.smoothing_sigma_m, kSeenOccupiedProbability);
   const ScanMatchResult r = MatchScan(OccupiedPoints(local_map, options.max_points), target,
                                       guess_map_from_base, options);
   LocalizationResult loc;

@@ -149,7 +149,8 @@ void Mapper::Options::Describe(OptionVisitor& v) {
                                {{"hit", "log_odds_hit"},
                                 {"miss", "log_odds_miss"},
                                 {"min", "log_odds_min"},
-                                {"max", "log_odds_max"}},
+                                {"max", "log_odds_max"},
+                                {"hit_full_range_m", "full_hit_range_m"}},
                                "");
   log_odds.Describe(log_odds_keys);
   v.Flag("forget_mover_paths", &forget_mover_paths,

@@ -9,6 +9,7 @@
 
 #include "mapping/mapper.h"
 #include "mapping/testing/synthetic_world.h"
+#include "perception/geometry/camera_model.h"
 
 namespace monoplane {
 
@@ -88,6 +89,11 @@ inline int DifferentLogOdds(const TiledGrid& a, const TiledGrid& b) {
   return different;
 }
 
+// Where the mapper measures its keyframes' ranges from (MapFusion): the test camera's ground point.
+inline Eigen::Vector2d TestCameraOnTheFloor() {
+  return CameraModel(testing::TestCamera()).CameraCentreInBase().head<2>();
+}
+
 struct LoopFixture {
   testing::SyntheticRun run;
   Mapper mapper;
@@ -115,7 +121,7 @@ struct LoopFixture {
         const auto it = full_keyframes.find(k.id);
         const Keyframe& f = it != full_keyframes.end() ? it->second : k;
         FuseLocalMap(f.local_map, f.obstacle_points_in_base, k.map_from_base, k.stamp_ns,
-                     options.log_odds, &full);
+                     options.log_odds, &full, nullptr, false, TestCameraOnTheFloor());
       }
       // ...and the robot's footprint swept at every frame of the run (Options::footprint_radius_m).
       const OccupancyGrid footprint =
@@ -182,7 +188,7 @@ inline GridComparison CompareWithTruePoses(const Mapper& mapper, const testing::
   TiledGrid truth_grid(0.05);
   for (const Keyframe& k : mapper.keyframes()) {
     FuseLocalMap(k.LocalMap(), k.ObstaclePoints(), run.truth[FrameOfStamp(k.stamp_ns)], k.stamp_ns,
-                 LogOddsOptions(), &truth_grid);
+                 LogOddsOptions(), &truth_grid, nullptr, false, TestCameraOnTheFloor());
   }
   GridComparison out;
   out.truth_width = ToOccupancyGrid(truth_grid).geometry.width;
