@@ -21,7 +21,7 @@ namespace monoplane {
 struct LogOddsOptions {
   float hit = 0.85f;   // added when a local map says occupied, > 0 (p = 0.70)
   float miss = -0.4f;  // added when a local map says free, < 0 (p = 0.40)
-  float min = -2.0f;   // clamp, < 0 (p = 0.12): a free cell can become occupied within 3 hits
+  float min = -2.0f;   // clamp, < 0 (p = 0.12): a free cell reads occupied after 4 near hits
   float max = 3.5f;    // clamp, > 0 (p = 0.97)
   // A local map's occupied cell farther than this from the camera adds hit * (this / range)^2
   // (0 = off): one view places a far point only to within the square of its range (its

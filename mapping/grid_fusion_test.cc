@@ -148,6 +148,15 @@ TEST(GridFusion, FarOccupiedCellsNeedSeveralViews) {
   EXPECT_FLOAT_EQ(from_ahead.LogOdds({100, 0}), 0.85f);
   EXPECT_NEAR(from_ahead.LogOdds({20, 0}), 0.85 * (2.5 * 2.5) / (2.975 * 2.975 + 0.025 * 0.025),
               1e-6);
+  // At a moved and turned pose the ranges are the same (measured in the base frame).
+  const Pose2 turned{1.0, 2.0, M_PI / 2};
+  TiledGrid moved(0.05);
+  FuseLocalMap(local, {}, turned, 1, o, &moved, nullptr, false, Eigen::Vector2d(4.0, 0.0));
+  const auto at = [&](const TiledGrid& g, double x) {
+    return g.LogOdds(g.CellOf(turned * Eigen::Vector2d(x, 0.025)));
+  };
+  EXPECT_FLOAT_EQ(at(moved, 5.025), 0.85f);
+  EXPECT_NEAR(at(moved, 1.025), 0.85 * (2.5 * 2.5) / (2.975 * 2.975 + 0.025 * 0.025), 1e-6);
   // Off: every occupied cell one full hit.
   o.hit_full_range_m = 0.0;
   TiledGrid off(0.05);

@@ -13,9 +13,10 @@ LocalizationResult LocalizeInSavedMap(const TiledGrid& saved_grid, const Occupan
                                       const ScanMatchOptions& options) {
   const auto [lo, hi] = mapper_internal::LocalMapBounds(local_map, guess_map_from_base,
                                                         options.linear_window_m + 0.5);
-  // Every cell the saved map saw occupied at all (log-odds above 0) is a target: a wall seen only
-  // from afar holds less than one full hit (LogOddsOptions::hit_full_range_m) and does not read
-  // occupied, but the scan's own far points lie on it.
+  // Every cell the saved map leans occupied (p >= 0.51, log-odds >= 0.04) is a target, not only
+  // those that read occupied (p >= 0.65): a wall seen only from afar holds less than one full hit
+  // (LogOddsOptions::hit_full_range_m), but the scan's own far points lie on it. So is a near
+  // cell hit once and seen free once (log-odds 0.45), such as what a moving thing left.
   const MatchTarget target =
       MakeMatchTarget(saved_grid, lo, hi, options.smoothing_sigma_m, kSeenOccupiedProbability);
   const ScanMatchResult r = MatchScan(OccupiedPoints(local_map, options.max_points), target,

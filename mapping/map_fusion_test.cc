@@ -46,6 +46,22 @@ TEST(MapFusion, AKeyframeIsFusedAtItsPoseAndItsTilesAreTakenOnce) {
   EXPECT_FALSE(fusion.octree().ToBinary().empty());
 }
 
+// LogOddsOptions::hit_full_range_m counts from the camera's ground point, not the base origin:
+// the test keyframe's occupied cell (0.55 m ahead of the base) lies 3.05 m from a camera 2.5 m
+// behind the base, and 1.55 m from one 1 m behind it.
+TEST(MapFusion, FarCellsFromTheCameraGetLessThanAHit) {
+  MapFusion far_camera(TestOptions(), {-2.5, 0.0, 0.4});
+  far_camera.FuseKeyframe(TestKeyframe(0, Pose2{2.0, 1.0, M_PI / 2}));
+  const Eigen::Vector2d occupied_in_map = Pose2{2.0, 1.0, M_PI / 2} * Eigen::Vector2d(0.55, 0.05);
+  const TiledGrid& far = far_camera.grid();
+  // (The grid's cell centre lies within half a cell of the local cell's.)
+  EXPECT_NEAR(far.LogOdds(far.CellOf(occupied_in_map)), 0.85 * 2.5 * 2.5 / (3.05 * 3.05), 0.01);
+  MapFusion near_camera(TestOptions(), {-1.0, 0.0, 0.4});
+  near_camera.FuseKeyframe(TestKeyframe(0, Pose2{2.0, 1.0, M_PI / 2}));
+  const TiledGrid& near = near_camera.grid();
+  EXPECT_FLOAT_EQ(near.LogOdds(near.CellOf(occupied_in_map)), 0.85f);
+}
+
 TEST(MapFusion, TheFootprintFreesWhatItSweepsButNotWhatWasSeenOccupied) {
   MapFusion fusion(TestOptions(), {0.1, 0.0, 0.4});
   fusion.FuseKeyframe(TestKeyframe(0, Pose2{0.0, 0.0, 0.0}));
