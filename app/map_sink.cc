@@ -11,6 +11,7 @@
 #include <functional>
 #include <map>
 #include <mutex>
+#include <optional>
 #include <thread>
 
 #include "app/bounded_queue.h"
@@ -80,6 +81,14 @@ StorageStatus LoadSavedKeyframes(MapDatabase* db, std::vector<Keyframe>* keyfram
     keyframes->push_back(std::move(k));
   }
   return StorageStatus();
+}
+
+// The floor features a frame deferred to the mapping thread (FrameObservation::
+// floor_feature_source), computed; none when it has them already or kept no source.
+std::optional<FloorFeatures> DeferredFloorFeatures(const FrameObservation& frame,
+                                                   const ObstacleDetector& detector) {
+  if (!frame.floor_features.empty() || frame.floor_feature_source.empty()) return std::nullopt;
+  return detector.ComputeFloorFeatures(frame.floor_feature_source);
 }
 
 }  // namespace
@@ -397,9 +406,9 @@ bool MapSink::Add(const InputFrame& frame, const SequenceDetector::Output& outpu
   }
   const auto t0 = Clock::now();
   FrameObservation observation = MakeFrameObservation(output, frame.stamp_ns);
-  if (observation.floor_features.empty() && !observation.floor_feature_source.empty() &&
-      m.mapper->WantsKeyframe(observation)) {
-    observation.floor_features = detector.ComputeFloorFeatures(observation.floor_feature_source);
+  if (m.mapper->WantsKeyframe(observation)) {
+    if (auto features = DeferredFloorFeatures(observation, detector))
+      observation.floor_features = std::move(*features);
   }
   const Mapper::FrameUpdate update = m.mapper->AddFrame(observation);
   m.summary->mapping_ms += MsSince(t0);
@@ -481,10 +490,7 @@ bool MapSink::Close(const ObstacleDetector& detector, std::string* error) {
   RunSummary& s = *m.summary;
   // What the frames after the last keyframe saw: the last of them with a result becomes one.
   if (const FrameObservation* last = m.mapper->PendingLastFrame()) {
-    std::optional<FloorFeatures> features;
-    if (last->floor_features.empty() && !last->floor_feature_source.empty()) {
-      features = detector.ComputeFloorFeatures(last->floor_feature_source);
-    }
+    const std::optional<FloorFeatures> features = DeferredFloorFeatures(*last, detector);
     const Mapper::FrameUpdate update =
         m.mapper->AddLastFrameAsKeyframe(features ? &*features : nullptr);
     if (update.keyframe) m.RecordLateKeyframe(update);

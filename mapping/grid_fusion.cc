@@ -12,9 +12,6 @@ void LogOddsOptions::Describe(OptionVisitor& v) {
   v.Real("miss", &miss, R::Below(0), "log-odds added for a free observation");
   v.Real("min", &min, R::Below(0), "log-odds clamp below");
   v.Real("max", &max, R::Above(0), "log-odds clamp above");
-  v.Real("hit_full_range_m", &hit_full_range_m, R::AtLeast(0).Note("0 = off"),
-         "an occupied cell farther than this from the camera adds hit x (this / range)^2: far "
-         "points are placed less precisely, and need more views, m");
 }
 
 bool LogOddsOptions::IsValid(std::string* error) const {
@@ -25,7 +22,7 @@ void FuseLocalMap(const OccupancyGrid& local_map,
                   const std::vector<Eigen::Vector3f>& obstacle_points_in_base,
                   const Pose2& map_from_base, TimestampNs stamp_ns, const LogOddsOptions& options,
                   TiledGrid* grid, std::set<TiledGrid::TileKey>* changed_tiles, bool keep_occupied,
-                  const Eigen::Vector2d& camera_in_base) {
+                  const HitRange& hit_range) {
   const GridGeometry& g = local_map.geometry;
   if (g.width <= 0 || g.height <= 0 || local_map.cells.size() != g.NumCells()) return;
   const TimestampNs seen = std::max<TimestampNs>(stamp_ns, 1);
@@ -73,9 +70,9 @@ void FuseLocalMap(const OccupancyGrid& local_map,
       // Free evidence of its own strength, logit(v / 100), into a cell that does not read
       // occupied; an occupied one takes an ordinary miss (only the ordinary count clears it).
       float delta = occupied ? options.hit : options.miss;
-      if (occupied && options.hit_full_range_m > 0.0) {
-        const double range2 = (b - camera_in_base).squaredNorm();
-        const double full2 = options.hit_full_range_m * options.hit_full_range_m;
+      if (occupied && hit_range.full_range_m > 0.0) {
+        const double range2 = (b - hit_range.camera_in_base).squaredNorm();
+        const double full2 = hit_range.full_range_m * hit_range.full_range_m;
         if (range2 > full2) delta = static_cast<float>(options.hit * full2 / range2);
       }
       if (v > 0 && !occupied && tile->log_odds[k] <= 0.0f) delta = TiledGrid::LogOddsOf(v / 100.0);

@@ -23,11 +23,6 @@ struct LogOddsOptions {
   float miss = -0.4f;  // added when a local map says free, < 0 (p = 0.40)
   float min = -2.0f;   // clamp, < 0 (p = 0.12): a free cell reads occupied after 4 near hits
   float max = 3.5f;    // clamp, > 0 (p = 0.97)
-  // A local map's occupied cell farther than this from the camera adds hit * (this / range)^2
-  // (0 = off): one view places a far point only to within the square of its range (its
-  // parallax falls with range, and its triangulated range error grows with its square), so far
-  // cells need several views to read occupied, near ones one.
-  double hit_full_range_m = 2.5;
 
   // Every field's key, range and meaning (the checks, the config file and --dump use it).
   void Describe(OptionVisitor& v);
@@ -45,9 +40,19 @@ inline float UpdateLogOdds(float log_odds, bool occupied, const LogOddsOptions& 
   return AddLogOdds(log_odds, occupied ? options.hit : options.miss, options);
 }
 
+// How much a local map's occupied cell counts by its range from the camera, for the global map
+// (MapFusion; loop-closure targets take every view in full): one hit within full_range_m, hit x
+// (full_range_m / range)^2 beyond. One view places a far point only to within the square of its
+// range (its parallax falls with range), so far cells need several views to read occupied. 0:
+// every occupied cell one hit.
+struct HitRange {
+  double full_range_m = 0.0;
+  Eigen::Vector2d camera_in_base = Eigen::Vector2d::Zero();  // the camera's ground point
+};
+
 // Fuses a local map (cells -1 / 0 / 100 in the base frame) seen at map_from_base into the global
 // grid: every grid cell whose centre falls on a known local cell gets one hit (>= 50; less
-// beyond options.hit_full_range_m of camera_in_base, the camera's ground point) or miss (0;
+// beyond hit_range) or miss (0;
 // a cell of 1..49 adds logit(v / 100) instead where the grid cell's log-odds are <= 0,
 // kCellFreeSeenNear) and
 // last_seen_ns = max(stamp_ns, 1) (so an observed cell is never mistaken for unknown). Obstacle
@@ -59,8 +64,7 @@ void FuseLocalMap(const OccupancyGrid& local_map,
                   const std::vector<Eigen::Vector3f>& obstacle_points_in_base,
                   const Pose2& map_from_base, TimestampNs stamp_ns, const LogOddsOptions& options,
                   TiledGrid* grid, std::set<TiledGrid::TileKey>* changed_tiles = nullptr,
-                  bool keep_occupied = false,
-                  const Eigen::Vector2d& camera_in_base = Eigen::Vector2d::Zero());
+                  bool keep_occupied = false, const HitRange& hit_range = {});
 
 // A robot's footprint as a local map: a disc of radius_m around the base origin free, the rest of
 // its bounding square unknown. Empty (no cells) for radius_m <= 0.

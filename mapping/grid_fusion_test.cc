@@ -118,47 +118,46 @@ TEST(GridFusion, FusesHitsMissesHeightsAndStamps) {
   EXPECT_EQ(tile->last_seen_ns[TiledGrid::IndexInTile({21, 40})], 9000);
 }
 
-// LogOddsOptions::hit_full_range_m: one view of a far obstacle moves its cell less than one of a
+// HitRange: one view of a far obstacle moves its cell less than one of a
 // near obstacle (a far point's place is less certain); repeated views still make it occupied.
 TEST(GridFusion, FarOccupiedCellsNeedSeveralViews) {
   OccupancyGrid local(GridGeometry{0.05, 0.0, 0.0, 120, 1}, kCellUnknown);
   local.At(20, 0) = kCellOccupied;   // centre (1.025, 0.025) m
   local.At(100, 0) = kCellOccupied;  // centre (5.025, 0.025) m
-  LogOddsOptions o;
-  ASSERT_DOUBLE_EQ(o.hit_full_range_m, 2.5);
+  const LogOddsOptions o;
+  const HitRange from_origin{2.5, Eigen::Vector2d::Zero()};
   const auto reads_occupied = [](const TiledGrid& grid, Eigen::Vector2i cell) {
     const OccupancyGrid g = ToOccupancyGrid(grid);
     const auto c = g.geometry.CellOf(grid.CellCenter(cell));
     return c && g.At(c->x(), c->y()) == kCellOccupied;
   };
   TiledGrid grid(0.05);
-  FuseLocalMap(local, {}, Pose2::Identity(), 1, o, &grid);
+  FuseLocalMap(local, {}, Pose2::Identity(), 1, o, &grid, nullptr, false, from_origin);
   EXPECT_FLOAT_EQ(grid.LogOdds({20, 0}), 0.85f);
   EXPECT_NEAR(grid.LogOdds({100, 0}), 0.85 * (2.5 * 2.5) / (5.025 * 5.025 + 0.025 * 0.025), 1e-6);
   EXPECT_TRUE(reads_occupied(grid, {20, 0}));
   EXPECT_FALSE(reads_occupied(grid, {100, 0}));
-  FuseLocalMap(local, {}, Pose2::Identity(), 2, o, &grid);
+  FuseLocalMap(local, {}, Pose2::Identity(), 2, o, &grid, nullptr, false, from_origin);
   EXPECT_FALSE(reads_occupied(grid, {100, 0}));  // log-odds 0.42: p = 0.60
-  FuseLocalMap(local, {}, Pose2::Identity(), 3, o, &grid);
+  FuseLocalMap(local, {}, Pose2::Identity(), 3, o, &grid, nullptr, false, from_origin);
   EXPECT_TRUE(reads_occupied(grid, {100, 0}));  // 0.63: p = 0.65
   // Ranges from the camera's ground point: seen from 4 m ahead, the far cell is near.
   TiledGrid from_ahead(0.05);
-  FuseLocalMap(local, {}, Pose2::Identity(), 1, o, &from_ahead, nullptr, false,
-               Eigen::Vector2d(4.0, 0.0));
+  const HitRange from_ahead_camera{2.5, Eigen::Vector2d(4.0, 0.0)};
+  FuseLocalMap(local, {}, Pose2::Identity(), 1, o, &from_ahead, nullptr, false, from_ahead_camera);
   EXPECT_FLOAT_EQ(from_ahead.LogOdds({100, 0}), 0.85f);
   EXPECT_NEAR(from_ahead.LogOdds({20, 0}), 0.85 * (2.5 * 2.5) / (2.975 * 2.975 + 0.025 * 0.025),
               1e-6);
   // At a moved and turned pose the ranges are the same (measured in the base frame).
   const Pose2 turned{1.0, 2.0, M_PI / 2};
   TiledGrid moved(0.05);
-  FuseLocalMap(local, {}, turned, 1, o, &moved, nullptr, false, Eigen::Vector2d(4.0, 0.0));
+  FuseLocalMap(local, {}, turned, 1, o, &moved, nullptr, false, from_ahead_camera);
   const auto at = [&](const TiledGrid& g, double x) {
     return g.LogOdds(g.CellOf(turned * Eigen::Vector2d(x, 0.025)));
   };
   EXPECT_FLOAT_EQ(at(moved, 5.025), 0.85f);
   EXPECT_NEAR(at(moved, 1.025), 0.85 * (2.5 * 2.5) / (2.975 * 2.975 + 0.025 * 0.025), 1e-6);
-  // Off: every occupied cell one full hit.
-  o.hit_full_range_m = 0.0;
+  // Off (the default, as for loop-closure targets): every occupied cell one full hit.
   TiledGrid off(0.05);
   FuseLocalMap(local, {}, Pose2::Identity(), 1, o, &off);
   EXPECT_FLOAT_EQ(off.LogOdds({100, 0}), 0.85f);

@@ -15,7 +15,7 @@ LocalizationResult LocalizeInSavedMap(const TiledGrid& saved_grid, const Occupan
                                                         options.linear_window_m + 0.5);
   // Every cell the saved map leans occupied (p >= 0.51, log-odds >= 0.04) is a target, not only
   // those that read occupied (p >= 0.65): a wall seen only from afar holds less than one full hit
-  // (LogOddsOptions::hit_full_range_m), but the scan's own far points lie on it. So is a near
+  // (Mapper::Options::full_hit_range_m), but the scan's own far points lie on it. So is a near
   // cell hit once and seen free once (log-odds 0.45), such as what a moving thing left.
   const MatchTarget target =
       MakeMatchTarget(saved_grid, lo, hi, options.smoothing_sigma_m, kSeenOccupiedProbability);

@@ -93,14 +93,9 @@ std::optional<LoopSearchResult> SearchLoopClosure(const std::vector<Keyframe>& k
   if (floor) return floor;
 
   const ScanMatchOptions& m = options.scan_match;
-  // The target holds every occupied cell of the candidates' views at any range, as the scan
-  // (one view's occupied cells) does: the map's weaker far hits
-  // (LogOddsOptions::hit_full_range_m) would leave the scan's far walls nothing to match.
-  LogOddsOptions target_log_odds = options.log_odds;
-  target_log_odds.hit_full_range_m = 0.0;
   TiledGrid older(options.grid_resolution_m);
   for (const auto& [d, j] : candidates) {
-    FuseLocalMap(keyframes[j].LocalMap(), {}, keyframes[j].map_from_base, 1, target_log_odds,
+    FuseLocalMap(keyframes[j].LocalMap(), {}, keyframes[j].map_from_base, 1, options.log_odds,
                  &older);
   }
   const auto [lo, hi] =

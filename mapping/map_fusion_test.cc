@@ -46,7 +46,7 @@ TEST(MapFusion, AKeyframeIsFusedAtItsPoseAndItsTilesAreTakenOnce) {
   EXPECT_FALSE(fusion.octree().ToBinary().empty());
 }
 
-// LogOddsOptions::hit_full_range_m counts from the camera's ground point, not the base origin:
+// MapFusion::Options::full_hit_range_m counts from the camera's ground point, not the base origin:
 // the test keyframe's occupied cell (0.55 m ahead of the base) lies 3.05 m from a camera 2.5 m
 // behind the base, and 1.55 m from one 1 m behind it.
 TEST(MapFusion, FarCellsFromTheCameraGetLessThanAHit) {

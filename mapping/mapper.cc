@@ -149,10 +149,12 @@ void Mapper::Options::Describe(OptionVisitor& v) {
                                {{"hit", "log_odds_hit"},
                                 {"miss", "log_odds_miss"},
                                 {"min", "log_odds_min"},
-                                {"max", "log_odds_max"},
-                                {"hit_full_range_m", "full_hit_range_m"}},
+                                {"max", "log_odds_max"}},
                                "");
   log_odds.Describe(log_odds_keys);
+  v.Real("full_hit_range_m", &full_hit_range_m, R::AtLeast(0).Note("0 = off"),
+         "a keyframe's occupied cell farther than this from the camera adds log_odds_hit x (this / "
+         "range)^2: far points are placed less precisely, and need more views, m");
   v.Flag("forget_mover_paths", &forget_mover_paths,
          "occupied grid cells where a tracked moving thing went become unknown");
   v.Flag("build_octree", &build_octree, "build the 3-D OctoMap");
@@ -219,7 +221,8 @@ Mapper::Mapper(const Options& options, const CameraCalibration& calibration)
       camera_(calibration),
       mount_(calibration.mount),
       fusion_(MapFusion::Options{options.grid_resolution_m, options.footprint_radius_m,
-                                 options.log_odds, options.build_octree, options.octree},
+                                 options.log_odds, options.build_octree, options.octree,
+                                 options.full_hit_range_m},
               camera_.CameraCentreInBase()) {}
 
 Mapper::Mapper(const Options& options, const CameraCalibration& calibration, TiledGrid saved_grid,

@@ -143,6 +143,9 @@ class Mapper {
     // keyframe_free_min_frames > 0.
     double free_clearance_m = 1.0;
     LogOddsOptions log_odds;
+    // A keyframe's occupied cell counts in full within this range of the camera, less beyond
+    // (HitRange; 0 = off), m.
+    double full_hit_range_m = 2.5;
     // Where a tracked thing that moves on its own went (FrameObservation::moving_objects that are
     // not coasting: its disc, at most 0.5 m in radius, swept between the positions of frames in
     // which it was seen in a row), nothing static stands: the grid's occupied cells there become

@@ -99,14 +99,18 @@ void BM_FuseFrame(benchmark::State& state) {
 }
 BENCHMARK(BM_FuseFrame)->Arg(0)->Arg(100)->Arg(1000)->Unit(benchmark::kMillisecond);
 
-// The grid alone and the OctoMap alone, for one frame into an empty map.
+// The grid alone and the OctoMap alone, for one frame into an empty map; with the argument 1
+// the occupied cells weighted by range as the global map weighs them (MapFusion).
 void BM_FuseFrameGridOnly(benchmark::State& state) {
   const testing::SyntheticWorld world = testing::SquareLoopWorld();
   const OccupancyGrid map = testing::RenderLocalMap(world, Pose2{0, 0, 0.3});
+  const HitRange hit_range{state.range(0) ? 2.5 : 0.0, Eigen::Vector2d(0.1, 0.0)};
   TiledGrid grid(0.05);
-  for (auto _ : state) FuseLocalMap(map, {}, Pose2{0, 0, 0.3}, 1, LogOddsOptions(), &grid);
+  for (auto _ : state) {
+    FuseLocalMap(map, {}, Pose2{0, 0, 0.3}, 1, LogOddsOptions(), &grid, nullptr, false, hit_range);
+  }
 }
-BENCHMARK(BM_FuseFrameGridOnly)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_FuseFrameGridOnly)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
 
 // A pose graph of n keyframes, 0.3 m apart along laps of a 4 m square with drifting odometry,
 // loop edges once per lap between keyframes at the same place.
@@ -172,13 +176,11 @@ void BM_LoopClosureAndPoseGraph(benchmark::State& state) {
   std::vector<bool> fixed(g.initial.size(), false);
   fixed[0] = true;
   const ScanMatchOptions options;
-  LogOddsOptions target_log_odds;  // as the loop closer builds its target: every view in full
-  target_log_odds.hit_full_range_m = 0.0;
   bool accepted = false;
   for (auto _ : state) {
     TiledGrid older(0.05);
     for (int k = 0; k < 40; ++k)
-      FuseLocalMap(candidates[k], {}, candidate_poses[k], 1, target_log_odds, &older);
+      FuseLocalMap(candidates[k], {}, candidate_poses[k], 1, LogOddsOptions(), &older);
     const MatchTarget target =
         MakeMatchTarget(older, guess.Translation().array() - 7.0, guess.Translation().array() + 7.0,
                         options.smoothing_sigma_m);

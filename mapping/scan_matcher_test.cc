@@ -9,14 +9,10 @@
 namespace monoplane {
 namespace {
 
-// The rendered local maps are exact at every range: each view's walls count in full
-// (LogOddsOptions::hit_full_range_m off), as the matcher's own tests assume.
 TiledGrid GridFrom(const testing::SyntheticWorld& world, const std::vector<Pose2>& poses) {
   TiledGrid grid(0.05);
-  LogOddsOptions exact;
-  exact.hit_full_range_m = 0.0;
   for (const Pose2& p : poses)
-    FuseLocalMap(testing::RenderLocalMap(world, p), {}, p, 1, exact, &grid);
+    FuseLocalMap(testing::RenderLocalMap(world, p), {}, p, 1, LogOddsOptions(), &grid);
   return grid;
 }
 

@@ -121,7 +121,8 @@ struct LoopFixture {
         const auto it = full_keyframes.find(k.id);
         const Keyframe& f = it != full_keyframes.end() ? it->second : k;
         FuseLocalMap(f.local_map, f.obstacle_points_in_base, k.map_from_base, k.stamp_ns,
-                     options.log_odds, &full, nullptr, false, TestCameraOnTheFloor());
+                     options.log_odds, &full, nullptr, false,
+                     HitRange{options.full_hit_range_m, TestCameraOnTheFloor()});
       }
       // ...and the robot's footprint swept at every frame of the run (Options::footprint_radius_m).
       const OccupancyGrid footprint =
@@ -188,7 +189,8 @@ inline GridComparison CompareWithTruePoses(const Mapper& mapper, const testing::
   TiledGrid truth_grid(0.05);
   for (const Keyframe& k : mapper.keyframes()) {
     FuseLocalMap(k.LocalMap(), k.ObstaclePoints(), run.truth[FrameOfStamp(k.stamp_ns)], k.stamp_ns,
-                 LogOddsOptions(), &truth_grid, nullptr, false, TestCameraOnTheFloor());
+                 LogOddsOptions(), &truth_grid, nullptr, false,
+                 HitRange{Mapper::Options().full_hit_range_m, TestCameraOnTheFloor()});
   }
   GridComparison out;
   out.truth_width = ToOccupancyGrid(truth_grid).geometry.width;
