@@ -25,6 +25,15 @@ void ClassificationOptions::Describe(OptionVisitor& v) {
          R::Closed(0, 10).Note("0 = labels only"),
          "... that floor is free in the local map only farther than this from the pair's measured "
          "obstacle points, m");
+  v.Real("support_free_clearance_m", &support_free_clearance_m, R::Closed(0, 10).Note("0 = off"),
+         "top view: floor this near a thin post that reaches the top of the view (a table's leg) "
+         "is not free, m");
+  v.Real("support_max_width_m", &support_max_width_m, R::Above(0),
+         "top view: ... a post's placed points at most this far across, m");
+  v.Real("support_max_base_m", &support_max_base_m, R::AtLeast(0),
+         "top view: ... from at most this height above the floor, m");
+  v.Integer("support_top_samples", &support_top_samples, R::AtLeast(1),
+            "top view: ... up to the image's top this many sample rows");
   v.Real("max_residual", &max_residual, R::Above(0), "largest alignment residual, grey levels");
   v.Flag("check_floor_hypothesis", &check_floor_hypothesis,
          "an obstacle needs the floor hypothesis to misfit it (min_floor_misfit)");

@@ -70,6 +70,16 @@ struct ClassificationOptions {
   // camera may see the floor under something it does not see: a table top above the view over
   // its legs.
   double floor_across_free_clearance_m = 0.6;
+  // Top view: a thin post that stands on the floor and reaches the top of the view (a table's
+  // leg: its placed points one connected group of cells at most support_max_width_m across, from
+  // within support_max_base_m of the floor up to the top support_top_samples sample rows) may
+  // carry something above the view (a table top, which the default mount sees only from more
+  // than 3.5 m away). Floor within this of such a post votes no free in the local map: a robot
+  // taller than the top would hit it there (m; 0 = off).
+  double support_free_clearance_m = 1.0;
+  double support_max_width_m = 0.3;  // > 0
+  double support_max_base_m = 0.15;  // >= 0
+  int support_top_samples = 4;       // >= 1
   // Maximum mean |difference| after alignment, grey levels; above it unknown (or moving).
   double max_residual = 12.0;
   // Dense test: an offset perpendicular to the epipolar line of at least this many input pixels

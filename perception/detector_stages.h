@@ -70,6 +70,10 @@ struct Placement {
   std::vector<std::uint8_t> footprint_known;   // footprint known well enough to be placed at all
   std::vector<std::uint8_t> on_surface;        // SamplesOnSurfaces
   std::vector<Eigen::Vector2d> column_placed;  // PlaceOnColumnSurfaces, empty when off
+  // Where upright lines meet in the image (homogeneous, input pixels): an upright post leans
+  // towards it in a pitched camera's image.
+  Eigen::Vector3d vertical_vanishing_point = Eigen::Vector3d::UnitY();
+  double camera_height_m = 0.0;
 };
 
 // Shared by the phases.

@@ -15,6 +15,164 @@ namespace {
 // count as an overhang: its footprint's scatter at a few metres.
 constexpr double kOverhangToleranceM = 0.10;
 
+// The highest sample row of the upright thing sample (i, j) lies on, up the image of the upright
+// line through it (towards or away from `vertical_vanishing_point`): the rows where the line's
+// sample or one beside it is an obstacle at its range (within 0.3 m + 10 %; unmeasured samples,
+// and those less than 0.1 m below the camera, whose rays graze them, count), across up to three
+// rows of unknown samples (a texture gap on the thing) and two of anything else (the line
+// straddles a thin post's edges); the floor seen above it, or a wall behind, ends it.
+int TopOfUprightRun(const std::vector<Sample>& samples, const std::vector<PixelLabel>& labels,
+                    const SampleGrid& grid, const Eigen::Vector3d& vertical_vanishing_point,
+                    double camera_height_m, int i, int j) {
+  const double range = samples[grid.Index(i, j)].point_in_base2.norm();
+  const double tolerance = 0.3 + 0.1 * range;
+  // Sample (i, j) is centred on input pixel ((j, i) * stride + stride / 2) * scale.
+  const auto to_pixel = [&](double index) {
+    return (index * grid.stride + grid.stride / 2) * grid.scale;
+  };
+  const Eigen::Vector3d line =
+      Eigen::Vector3d(to_pixel(j), to_pixel(i), 1.0).cross(vertical_vanishing_point);
+  if (!(std::abs(line.x()) > 1e-9)) return i;
+  // On the thing: an obstacle sample whose range agrees (a measured point well below the camera
+  // has one to compare; nearer its height the ray grazes it and its range is not known).
+  const auto on_it = [&](std::size_t k) {
+    const Sample& s = samples[k];
+    return labels[k] == PixelLabel::kObstacle &&
+           !(s.measured && s.point_in_base2.allFinite() && s.height_m < camera_height_m - 0.1 &&
+             std::abs(s.point_in_base2.norm() - range) > tolerance);
+  };
+  int top = i;
+  for (int row = i - 1, unknown = 0, other = 0; row >= 0; --row) {
+    const double u = -(line.y() * to_pixel(row) + line.z()) / line.x();
+    const int col = static_cast<int>(
+        std::lround((u / grid.scale - grid.stride / 2) / static_cast<double>(grid.stride)));
+    if (col < 0 || col >= grid.cols) break;
+    // The line's sample and its neighbours in the row (the line straddles a thin post's edges).
+    bool on = false, all_unknown = true;
+    for (int c = std::max(col - 1, 0); c <= std::min(col + 1, grid.cols - 1); ++c) {
+      const std::size_t k = grid.Index(row, c);
+      on = on || on_it(k);
+      all_unknown = all_unknown && labels[k] == PixelLabel::kUnknown;
+    }
+    if (on) {
+      top = row;
+      unknown = other = 0;
+    } else if (all_unknown) {
+      if (++unknown > 3) break;
+    } else if (++other >= 3) {
+      break;
+    }
+  }
+  return top;
+}
+
+// An obstacle point placed in the local map: its cell, its sample and its height.
+struct PlacedPoint {
+  std::size_t cell;
+  int i, j;
+  float height_m;
+};
+
+// Whether the floor is seen on both sides of sample (i, j), in its row or one of the 3 above:
+// within 8 samples, past the obstacle samples beside it (the post's own width) and the unknown
+// ones at its edge (the floor's windows straddle it), the first other label is floor. A plain
+// wall's or box's edge, the only part of it detected, has its plain face (unknown) on one side.
+bool FloorOnBothSides(const std::vector<PixelLabel>& labels, const SampleGrid& grid, int i, int j) {
+  for (int step : {-1, 1}) {
+    bool floor = false;
+    for (int row = i; row >= std::max(i - 3, 0) && !floor; --row) {
+      PixelLabel first = PixelLabel::kUnknown;
+      for (int t = 1, jj = j + step; t <= 8 && jj >= 0 && jj < grid.cols; ++t, jj += step) {
+        first = labels[grid.Index(row, jj)];
+        if (first != PixelLabel::kObstacle && first != PixelLabel::kUnknown) break;
+      }
+      floor = first == PixelLabel::kFloor;
+    }
+    if (!floor) return false;
+  }
+  return true;
+}
+
+// The thin posts that stand on the floor and reach the top of the view
+// (ClassificationOptions::support_free_clearance_m): groups of 8-connected cells with placed
+// obstacle points, at most support_max_width_m across (the cells with two points or more), whose
+// lowest point lies within support_max_base_m of the floor with the floor seen on both sides of it
+// (FloorOnBothSides), and one of whose points lies on an upright run up to the top
+// support_top_samples sample rows (TopOfUprightRun). Each post at its points' mean cell centre.
+std::vector<Eigen::Vector2d> OverhangSupports(const GridGeometry& g,
+                                              const std::vector<PlacedPoint>& points,
+                                              const std::vector<Sample>& samples,
+                                              const std::vector<PixelLabel>& labels,
+                                              const SampleGrid& grid, const Placement& placement,
+                                              const ClassificationOptions& co) {
+  std::vector<Eigen::Vector2d> supports;
+  // Each cell's points as a list: first[cell], then next[point].
+  std::vector<int> first(g.NumCells(), -1), next(points.size(), -1);
+  for (std::size_t p = 0; p < points.size(); ++p) {
+    next[p] = first[points[p].cell];
+    first[points[p].cell] = static_cast<int>(p);
+  }
+  std::vector<std::uint8_t> seen(g.NumCells(), 0);
+  std::vector<Eigen::Vector2i> stack, group;
+  for (int row = 0; row < g.height; ++row) {
+    for (int col = 0; col < g.width; ++col) {
+      if (first[g.Index(col, row)] < 0 || seen[g.Index(col, row)]) continue;
+      group.clear();
+      stack.assign(1, Eigen::Vector2i(col, row));
+      seen[g.Index(col, row)] = 1;
+      while (!stack.empty()) {
+        const Eigen::Vector2i cell = stack.back();
+        stack.pop_back();
+        group.push_back(cell);
+        for (int dr = -1; dr <= 1; ++dr) {
+          for (int dc = -1; dc <= 1; ++dc) {
+            const int c2 = cell.x() + dc, r2 = cell.y() + dr;
+            if (c2 < 0 || r2 < 0 || c2 >= g.width || r2 >= g.height) continue;
+            const std::size_t k = g.Index(c2, r2);
+            if (first[k] < 0 || seen[k]) continue;
+            seen[k] = 1;
+            stack.emplace_back(c2, r2);
+          }
+        }
+      }
+      // Its extent over the cells with two points or more (one stray point does not widen it).
+      Eigen::Vector2i lo = group.front(), hi = group.front();
+      bool extent = false;
+      Eigen::Vector2d sum = Eigen::Vector2d::Zero();
+      int count = 0, lowest = -1;
+      for (const Eigen::Vector2i& cell : group) {
+        int in_cell = 0;
+        for (int p = first[g.Index(cell.x(), cell.y())]; p >= 0; p = next[p]) {
+          sum += g.CellCenter(cell.x(), cell.y());
+          ++count;
+          ++in_cell;
+          if (lowest < 0 || points[p].height_m < points[lowest].height_m) lowest = p;
+        }
+        if (in_cell < 2 && group.size() > 1) continue;
+        lo = extent ? lo.cwiseMin(cell) : cell;
+        hi = extent ? hi.cwiseMax(cell) : cell;
+        extent = true;
+      }
+      const double across_m = (hi - lo).cast<double>().norm() * g.resolution_m + g.resolution_m;
+      if (!(across_m <= co.support_max_width_m) ||
+          !(points[lowest].height_m <= co.support_max_base_m) ||
+          !FloorOnBothSides(labels, grid, points[lowest].i, points[lowest].j))
+        continue;
+      bool reaches_top = false;
+      for (std::size_t c = 0; c < group.size() && !reaches_top; ++c) {
+        for (int p = first[g.Index(group[c].x(), group[c].y())]; p >= 0 && !reaches_top;
+             p = next[p]) {
+          reaches_top = TopOfUprightRun(samples, labels, grid, placement.vertical_vanishing_point,
+                                        placement.camera_height_m, points[p].i,
+                                        points[p].j) < co.support_top_samples;
+        }
+      }
+      if (reaches_top) supports.push_back(sum / count);
+    }
+  }
+  return supports;
+}
+
 }  // namespace
 
 std::vector<std::uint8_t> SamplesOnSurfaces(const CameraModel& camera,
@@ -160,6 +318,9 @@ Placement PlaceSamples(const CameraModel& camera, const std::vector<Sample>& sam
     placement.column_placed = PlaceOnColumnSurfaces(samples, labels, usable, grid.rows, grid.cols,
                                                     camera.CameraCentreInBase(), co);
   }
+  placement.camera_height_m = camera.CameraCentreInBase().z();
+  placement.vertical_vanishing_point =
+      camera.K() * (camera.camera_from_base().linear() * Eigen::Vector3d::UnitZ());
   return placement;
 }
 
@@ -172,6 +333,7 @@ void BuildTopView(const std::vector<Sample>& samples, const std::vector<PixelLab
   std::vector<std::uint8_t> not_free(g.NumCells(), 0);      // cells that must not read free
   std::vector<std::uint8_t> floor_edge(g.NumCells(), 0);    // where the floor ends below something
   std::vector<std::uint8_t> votes_free(samples.size(), 0);  // floor samples that voted free
+  std::vector<PlacedPoint> placed_points;  // ClassificationOptions::support_free_clearance_m
   // Floor under an overhang: a floor sample farther along the floor than an obstacle sample above
   // it in its image column (a table top, a shelf) lies beneath that obstacle, whose own base is
   // not seen; it gives no free vote.
@@ -236,7 +398,10 @@ void BuildTopView(const std::vector<Sample>& samples, const std::vector<PixelLab
                                               static_cast<float>(footprint.y()),
                                               static_cast<float>(sample.height_m));
         if (auto cell = g.CellOf(footprint)) {
-          ++occupied_votes[g.Index(cell->x(), cell->y())];
+          const std::size_t c = g.Index(cell->x(), cell->y());
+          ++occupied_votes[c];
+          if (co.support_free_clearance_m > 0)
+            placed_points.push_back({c, i, j, static_cast<float>(sample.height_m)});
         }
       }
     }
@@ -280,6 +445,24 @@ void BuildTopView(const std::vector<Sample>& samples, const std::vector<PixelLab
       }
     }
     not_free.swap(margin);
+  }
+  // Floor that may lie under what a thin post reaching above the view carries (a table top over
+  // its legs) is not free.
+  if (!placed_points.empty()) {
+    const double r = co.support_free_clearance_m;
+    const auto index = [&](double v, double origin, int size) {
+      return std::clamp(static_cast<int>(std::floor((v - origin) / g.resolution_m)), 0, size - 1);
+    };
+    for (const Eigen::Vector2d& post :
+         OverhangSupports(g, placed_points, samples, labels, grid, placement, co)) {
+      const int col1 = index(post.x() + r, g.origin_x_m, g.width);
+      const int row1 = index(post.y() + r, g.origin_y_m, g.height);
+      for (int row = index(post.y() - r, g.origin_y_m, g.height); row <= row1; ++row) {
+        for (int col = index(post.x() - r, g.origin_x_m, g.width); col <= col1; ++col) {
+          if ((g.CellCenter(col, row) - post).norm() <= r) not_free[g.Index(col, row)] = 1;
+        }
+      }
+    }
   }
   for (std::size_t k = 0; k < g.NumCells(); ++k) {
     // A cell with any obstacle point is occupied: calling it free would be the dangerous error.

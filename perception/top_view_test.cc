@@ -126,6 +126,55 @@ TEST_F(DetectorOnSyntheticScene, TheFloorUnderAnOverhangIsNotFree) {
   EXPECT_LE(under, 3);
 }
 
+// A table whose top (0.72-0.75 m) is above the view (the default mount sees 0.58 m at 1.8 m):
+// its legs reach the top of the image, and the floor seen between and around them is not free
+// (ClassificationOptions::support_free_clearance_m); a post whose top is seen leaves the floor
+// around it free.
+class TableLegs : public DetectorOnSyntheticScene {
+ protected:
+  // Four dark 5 cm legs of leg_height at the corners of x 1.8-3.2, y -0.4-0.4, and a top over
+  // them when given; seen from the origin and from 0.12 m ahead.
+  struct FreeCells {
+    int among, among_without_rule, in_front;
+  };
+  FreeCells Detect(double leg_height, bool top, const std::string& dump_name) const {
+    Scene scene;
+    scene.box_offset = -40;
+    for (double x : {1.8, 3.15}) {
+      for (double y : {-0.4, 0.35})
+        scene.boxes.push_back({{x, y, 0.0}, {x + 0.05, y + 0.05, leg_height}});
+    }
+    if (top) scene.boxes.push_back({{1.8, -0.4, leg_height}, {3.2, 0.4, leg_height + 0.03}});
+    const Pose2 p1{0, 0, 0}, p2{0.12, 0.0, 0.0};
+    DetectorOptions off = options_;
+    off.classification.support_free_clearance_m = 0.0;
+    const auto [b, r, r0] = DetectBoth(scene, p1, p2, off);
+    EXPECT_EQ(r.status, PairStatus::kOk) << r.message;
+    MaybeDump(dump_name, b.image, r);
+    // In front: more than 1 m from the front legs.
+    return {FreeCellsIn(r, p2, 1.9, 3.1, -0.35, 0.35), FreeCellsIn(r0, p2, 1.9, 3.1, -0.35, 0.35),
+            FreeCellsIn(r, p2, 0.6, 0.75, -0.3, 0.3)};
+  }
+};
+
+TEST_F(TableLegs, TheFloorAmongATablesLegsIsNotFree) {
+  const FreeCells free = Detect(0.72, /*top=*/true, "table");
+  std::printf("cells under the table read free: %d (%d without the rule); in front: %d\n",
+              free.among, free.among_without_rule, free.in_front);
+  EXPECT_GT(free.among_without_rule, 10);
+  EXPECT_LE(free.among, free.among_without_rule / 10);
+  EXPECT_GT(free.in_front, 20);
+}
+
+TEST_F(TableLegs, TheFloorAmongLowPostsIsFree) {
+  // The same legs, 0.3 m high: their tops are in view, nothing stands on them.
+  const FreeCells free = Detect(0.3, /*top=*/false, "low_posts");
+  std::printf("cells among the low posts read free: %d (%d without the rule)\n", free.among,
+              free.among_without_rule);
+  EXPECT_GT(free.among_without_rule, 15);
+  EXPECT_GE(free.among, free.among_without_rule * 9 / 10);
+}
+
 // The far pair (PairSelectionOptions::far_min_baseline_m): beyond 2.5 m one 0.1 m pair cannot
 // tell the floor from a 3 cm obstacle, a 0.3 m pair can; the near floor keeps the near pair.
 TEST_F(DetectorOnSyntheticScene, TheFarPairLabelsTheFarFloor) {
