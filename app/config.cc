@@ -8,6 +8,7 @@
 #include <optional>
 #include <sstream>
 #include <stdexcept>
+#include <tuple>
 #include <type_traits>
 
 #include "perception/geometry/yaml_keys.h"
@@ -130,6 +131,9 @@ OptionTable::OptionTable(AppConfig* config) : config_(config) {
             {"ground_motion.inlier_threshold_px", "ground_motion.below_floor_px"});
   Named("zero_disparity.num_levels").comment +=
       "; default: one more per doubling of fx over 457 px";
+  for (const char* turn :
+       {"pair_selection.turn_min_baseline_m", "pair_selection.turn_side_min_baseline_m"})
+    Named(turn).comment += ", up to what a turn on the spot moves the camera";
 }
 
 namespace {
@@ -202,6 +206,22 @@ void ScaleDefaultsToCamera(const CameraCalibration& calibration, AppConfig* conf
       case OptionTable::Entry::Scale::kNone:
         break;
     }
+  }
+  // A turn on the spot moves the camera only by its distance from the base origin (the axle) per
+  // radian: a turning pair's baselines grow with the camera's height only as far as
+  // turn_max_rotation_rad of turning gives (four fifths of it), never below the reference's, or a
+  // taller camera finds no turning pair at all.
+  PairSelectionOptions& ps = config->detector.pair_selection;
+  const PairSelectionOptions reference;
+  const double turn_travel_m =
+      0.8 * std::hypot(calibration.mount.x_m, calibration.mount.y_m) * ps.turn_max_rotation_rad;
+  for (const auto& [key, value, reference_value] :
+       {std::tuple{"pair_selection.turn_min_baseline_m", &ps.turn_min_baseline_m,
+                   reference.turn_min_baseline_m},
+        std::tuple{"pair_selection.turn_side_min_baseline_m", &ps.turn_side_min_baseline_m,
+                   reference.turn_side_min_baseline_m}}) {
+    if (!config->given.count(key))
+      *value = std::min(*value, std::max(turn_travel_m, reference_value));
   }
   // The dense search's pyramid: every parallax in pixels grows with the focal length, so a
   // camera with twice the reference's fx gets one more level, which keeps the coarsest level's

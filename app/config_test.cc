@@ -86,6 +86,29 @@ TEST(ScaleDefaultsToCamera, ALowerCameraKeepsTheRangeAndTheLocalMap) {
   EXPECT_TRUE(ValidateConfig(low, &error)) << error;
 }
 
+// A turn on the spot moves a camera 0.1 m ahead of the axle by 0.05 m over the turning pair's
+// 0.5 rad: twice the reference's height would ask for 0.08 m, which no turn gives.
+TEST(ScaleDefaultsToCamera, TurningPairsAskForWhatATurnGives) {
+  const AppConfig defaults;
+  const auto scaled = [](double height_m, double x_m) {
+    CameraCalibration c = Camera(height_m, kReferenceFocalPx);
+    c.mount.x_m = x_m;
+    AppConfig config;
+    ScaleDefaultsToCamera(c, &config);
+    return config.detector.pair_selection;
+  };
+  const PairSelectionOptions& d = defaults.detector.pair_selection;
+  const PairSelectionOptions tall = scaled(0.8, 0.1);
+  EXPECT_DOUBLE_EQ(tall.turn_min_baseline_m, d.turn_min_baseline_m);  // 0.04 of at most 0.04
+  EXPECT_DOUBLE_EQ(tall.turn_side_min_baseline_m, 2 * d.turn_side_min_baseline_m);
+  EXPECT_DOUBLE_EQ(tall.far_min_baseline_m, 2 * d.far_min_baseline_m);  // driving: scaled
+  const PairSelectionOptions far_ahead = scaled(0.8, 0.3);              // a turn gives 0.12 m
+  EXPECT_DOUBLE_EQ(far_ahead.turn_min_baseline_m, 2 * d.turn_min_baseline_m);
+  const PairSelectionOptions on_the_axle = scaled(0.8, 0.0);  // never below the reference's
+  EXPECT_DOUBLE_EQ(on_the_axle.turn_min_baseline_m, d.turn_min_baseline_m);
+  EXPECT_DOUBLE_EQ(scaled(0.2, 0.1).turn_min_baseline_m, d.turn_min_baseline_m / 2);
+}
+
 TEST(ScaleDefaultsToCamera, KeysTheConfigSetAreKept) {
   AppConfig config;
   std::string error;

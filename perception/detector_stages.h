@@ -73,7 +73,6 @@ struct Placement {
   // Where upright lines meet in the image (homogeneous, input pixels): an upright post leans
   // towards it in a pitched camera's image.
   Eigen::Vector3d vertical_vanishing_point = Eigen::Vector3d::UnitY();
-  double camera_height_m = 0.0;
 };
 
 // Shared by the phases.

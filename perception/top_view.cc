@@ -16,37 +16,39 @@ namespace {
 constexpr double kOverhangToleranceM = 0.10;
 
 // The highest sample row of the upright thing sample (i, j) lies on, up the image of the upright
-// line through it (towards or away from `vertical_vanishing_point`): the rows where the line's
-// sample or one beside it is an obstacle at its range (within 0.3 m + 10 %; unmeasured samples,
-// and those less than 0.1 m below the camera, whose rays graze them, count), across up to three
-// rows of unknown samples (a texture gap on the thing) and two of anything else (the line
-// straddles a thin post's edges); the floor seen above it, or a wall behind, ends it.
+// line through it (the camera's upright lines meet at `vertical_vanishing_point`, below the image
+// for a camera pitched down): the rows where the line's sample or one beside it is an obstacle
+// at the thing's range `range_m` from the base origin (within 0.3 m + 10 % + 3 of the sample's
+// footprint sigmas: near the camera's height the ray grazes a point and its range is not known;
+// unmeasured samples count), across up to three rows of unknown samples (a texture gap on the
+// thing) and two of anything else (the line straddles a thin post's edges); the floor seen above
+// it, or a surface at another range, ends it. A camera so steep that the vanishing point lies
+// within the image's rows is not followed (i).
 int TopOfUprightRun(const std::vector<Sample>& samples, const std::vector<PixelLabel>& labels,
                     const SampleGrid& grid, const Eigen::Vector3d& vertical_vanishing_point,
-                    double camera_height_m, int i, int j) {
-  const double range = samples[grid.Index(i, j)].point_in_base2.norm();
-  const double tolerance = 0.3 + 0.1 * range;
+                    double range_m, int i, int j) {
+  const double tolerance = 0.3 + 0.1 * range_m;
   // Sample (i, j) is centred on input pixel ((j, i) * stride + stride / 2) * scale.
   const auto to_pixel = [&](double index) {
     return (index * grid.stride + grid.stride / 2) * grid.scale;
   };
-  const Eigen::Vector3d line =
-      Eigen::Vector3d(to_pixel(j), to_pixel(i), 1.0).cross(vertical_vanishing_point);
+  const Eigen::Vector3d& vp = vertical_vanishing_point;
+  if (std::abs(vp.z()) > 1e-12 && vp.y() / vp.z() >= 0 && vp.y() / vp.z() <= to_pixel(grid.rows))
+    return i;
+  const Eigen::Vector3d line = Eigen::Vector3d(to_pixel(j), to_pixel(i), 1.0).cross(vp);
   if (!(std::abs(line.x()) > 1e-9)) return i;
-  // On the thing: an obstacle sample whose range agrees (a measured point well below the camera
-  // has one to compare; nearer its height the ray grazes it and its range is not known).
   const auto on_it = [&](std::size_t k) {
     const Sample& s = samples[k];
     return labels[k] == PixelLabel::kObstacle &&
-           !(s.measured && s.point_in_base2.allFinite() && s.height_m < camera_height_m - 0.1 &&
-             std::abs(s.point_in_base2.norm() - range) > tolerance);
+           !(s.measured && s.point_in_base2.allFinite() &&
+             std::abs(s.point_in_base2.norm() - range_m) > tolerance + 3.0 * s.footprint_sigma_m);
   };
   int top = i;
   for (int row = i - 1, unknown = 0, other = 0; row >= 0; --row) {
     const double u = -(line.y() * to_pixel(row) + line.z()) / line.x();
-    const int col = static_cast<int>(
-        std::lround((u / grid.scale - grid.stride / 2) / static_cast<double>(grid.stride)));
-    if (col < 0 || col >= grid.cols) break;
+    const double col_at = (u / grid.scale - grid.stride / 2) / static_cast<double>(grid.stride);
+    if (!(col_at > -0.5 && col_at < grid.cols - 0.5)) break;
+    const int col = static_cast<int>(std::lround(col_at));
     // The line's sample and its neighbours in the row (the line straddles a thin post's edges).
     bool on = false, all_unknown = true;
     for (int c = std::max(col - 1, 0); c <= std::min(col + 1, grid.cols - 1); ++c) {
@@ -76,7 +78,8 @@ struct PlacedPoint {
 // Whether the floor is seen on both sides of sample (i, j), in its row or one of the 3 above:
 // within 8 samples, past the obstacle samples beside it (the post's own width) and the unknown
 // ones at its edge (the floor's windows straddle it), the first other label is floor. A plain
-// wall's or box's edge, the only part of it detected, has its plain face (unknown) on one side.
+// wall's or box's edge, the only part of it detected, has its plain face (unknown) on one side
+// (a plain face narrower than 8 samples does not tell).
 bool FloorOnBothSides(const std::vector<PixelLabel>& labels, const SampleGrid& grid, int i, int j) {
   for (int step : {-1, 1}) {
     bool floor = false;
@@ -148,23 +151,29 @@ std::vector<Eigen::Vector2d> OverhangSupports(const GridGeometry& g,
           ++in_cell;
           if (lowest < 0 || points[p].height_m < points[lowest].height_m) lowest = p;
         }
-        if (in_cell < 2 && group.size() > 1) continue;
+        if (in_cell < 2) continue;
         lo = extent ? lo.cwiseMin(cell) : cell;
         hi = extent ? hi.cwiseMax(cell) : cell;
         extent = true;
+      }
+      if (!extent) {  // one point in each cell: all of them
+        for (const Eigen::Vector2i& cell : group) {
+          lo = lo.cwiseMin(cell);
+          hi = hi.cwiseMax(cell);
+        }
       }
       const double across_m = (hi - lo).cast<double>().norm() * g.resolution_m + g.resolution_m;
       if (!(across_m <= co.support_max_width_m) ||
           !(points[lowest].height_m <= co.support_max_base_m) ||
           !FloorOnBothSides(labels, grid, points[lowest].i, points[lowest].j))
         continue;
+      const double range_m = (sum / count).norm();
       bool reaches_top = false;
       for (std::size_t c = 0; c < group.size() && !reaches_top; ++c) {
         for (int p = first[g.Index(group[c].x(), group[c].y())]; p >= 0 && !reaches_top;
              p = next[p]) {
           reaches_top = TopOfUprightRun(samples, labels, grid, placement.vertical_vanishing_point,
-                                        placement.camera_height_m, points[p].i,
-                                        points[p].j) < co.support_top_samples;
+                                        range_m, points[p].i, points[p].j) < co.support_top_samples;
         }
       }
       if (reaches_top) supports.push_back(sum / count);
@@ -318,7 +327,6 @@ Placement PlaceSamples(const CameraModel& camera, const std::vector<Sample>& sam
     placement.column_placed = PlaceOnColumnSurfaces(samples, labels, usable, grid.rows, grid.cols,
                                                     camera.CameraCentreInBase(), co);
   }
-  placement.camera_height_m = camera.CameraCentreInBase().z();
   placement.vertical_vanishing_point =
       camera.K() * (camera.camera_from_base().linear() * Eigen::Vector3d::UnitZ());
   return placement;
@@ -400,7 +408,7 @@ void BuildTopView(const std::vector<Sample>& samples, const std::vector<PixelLab
         if (auto cell = g.CellOf(footprint)) {
           const std::size_t c = g.Index(cell->x(), cell->y());
           ++occupied_votes[c];
-          if (co.support_free_clearance_m > 0)
+          if (co.support_free_clearance_m > 0 && label == PixelLabel::kObstacle)
             placed_points.push_back({c, i, j, static_cast<float>(sample.height_m)});
         }
       }

@@ -132,12 +132,9 @@ TEST_F(DetectorOnSyntheticScene, TheFloorUnderAnOverhangIsNotFree) {
 // around it free.
 class TableLegs : public DetectorOnSyntheticScene {
  protected:
-  // Four dark 5 cm legs of leg_height at the corners of x 1.8-3.2, y -0.4-0.4, and a top over
-  // them when given; seen from the origin and from 0.12 m ahead.
-  struct FreeCells {
-    int among, among_without_rule, in_front;
-  };
-  FreeCells Detect(double leg_height, bool top, const std::string& dump_name) const {
+  // Four dark 5 cm legs of leg_height at the corners of x 1.8-3.2, y -0.4-0.4, with a top over
+  // them when asked.
+  static Scene Table(double leg_height, bool top) {
     Scene scene;
     scene.box_offset = -40;
     for (double x : {1.8, 3.15}) {
@@ -145,34 +142,70 @@ class TableLegs : public DetectorOnSyntheticScene {
         scene.boxes.push_back({{x, y, 0.0}, {x + 0.05, y + 0.05, leg_height}});
     }
     if (top) scene.boxes.push_back({{1.8, -0.4, leg_height}, {3.2, 0.4, leg_height + 0.03}});
+    return scene;
+  }
+  // Free cells among the legs and in front of them (0.9-1.3 m ahead: within 1 m of the front
+  // legs), with the rule and without, seen from the origin and from 0.12 m ahead; and the
+  // occupied cells at the front legs.
+  struct FreeCells {
+    int among, among_without_rule, in_front, in_front_without_rule, at_front_legs;
+  };
+  FreeCells Detect(const Scene& scene, const std::string& dump_name) const {
     const Pose2 p1{0, 0, 0}, p2{0.12, 0.0, 0.0};
     DetectorOptions off = options_;
     off.classification.support_free_clearance_m = 0.0;
     const auto [b, r, r0] = DetectBoth(scene, p1, p2, off);
     EXPECT_EQ(r.status, PairStatus::kOk) << r.message;
     MaybeDump(dump_name, b.image, r);
-    // In front: more than 1 m from the front legs.
+    int at_front_legs = 0;
+    for (double y : {-0.375, 0.375}) {
+      for (double dx = -0.05; dx <= 0.1; dx += 0.05) {
+        for (double dy = -0.05; dy <= 0.05; dy += 0.05) {
+          const auto c =
+              r.local_map.geometry.CellOf(p2.Inverse() * Eigen::Vector2d(1.825 + dx, y + dy));
+          at_front_legs += c && r.local_map.At(c->x(), c->y()) == kCellOccupied;
+        }
+      }
+    }
     return {FreeCellsIn(r, p2, 1.9, 3.1, -0.35, 0.35), FreeCellsIn(r0, p2, 1.9, 3.1, -0.35, 0.35),
-            FreeCellsIn(r, p2, 0.6, 0.75, -0.3, 0.3)};
+            FreeCellsIn(r, p2, 0.9, 1.3, -0.3, 0.3), FreeCellsIn(r0, p2, 0.9, 1.3, -0.3, 0.3),
+            at_front_legs};
   }
 };
 
 TEST_F(TableLegs, TheFloorAmongATablesLegsIsNotFree) {
-  const FreeCells free = Detect(0.72, /*top=*/true, "table");
-  std::printf("cells under the table read free: %d (%d without the rule); in front: %d\n",
-              free.among, free.among_without_rule, free.in_front);
+  const FreeCells free = Detect(Table(0.72, /*top=*/true), "table");
+  std::printf("cells under the table read free: %d (%d without the rule); in front: %d (%d)\n",
+              free.among, free.among_without_rule, free.in_front, free.in_front_without_rule);
   EXPECT_GT(free.among_without_rule, 10);
   EXPECT_LE(free.among, free.among_without_rule / 10);
-  EXPECT_GT(free.in_front, 20);
+  EXPECT_GT(free.in_front_without_rule, 40);
+  EXPECT_LE(free.in_front, free.in_front_without_rule / 10);
 }
 
 TEST_F(TableLegs, TheFloorAmongLowPostsIsFree) {
   // The same legs, 0.3 m high: their tops are in view, nothing stands on them.
-  const FreeCells free = Detect(0.3, /*top=*/false, "low_posts");
-  std::printf("cells among the low posts read free: %d (%d without the rule)\n", free.among,
-              free.among_without_rule);
+  const FreeCells free = Detect(Table(0.3, /*top=*/false), "low_posts");
+  std::printf(
+      "cells among the low posts read free: %d (%d without the rule); in front: %d (%d); "
+      "occupied cells at the front legs: %d\n",
+      free.among, free.among_without_rule, free.in_front, free.in_front_without_rule,
+      free.at_front_legs);
+  EXPECT_GT(free.at_front_legs, 2);  // the legs are seen
   EXPECT_GT(free.among_without_rule, 15);
   EXPECT_GE(free.among, free.among_without_rule * 9 / 10);
+  EXPECT_GE(free.in_front, free.in_front_without_rule * 9 / 10);
+}
+
+TEST_F(TableLegs, TheFloorBeforeAWideTallBoxIsFree) {
+  // 0.6 m wide and above the view: not a post.
+  Scene scene;
+  scene.boxes.push_back({{1.8, -0.3, 0.0}, {2.2, 0.3, 2.0}});
+  const FreeCells free = Detect(scene, "wide_box");
+  std::printf("cells in front of the wide box read free: %d (%d without the rule)\n", free.in_front,
+              free.in_front_without_rule);
+  EXPECT_GT(free.in_front_without_rule, 40);
+  EXPECT_GE(free.in_front, free.in_front_without_rule * 9 / 10);
 }
 
 // The far pair (PairSelectionOptions::far_min_baseline_m): beyond 2.5 m one 0.1 m pair cannot
