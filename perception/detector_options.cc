@@ -34,6 +34,8 @@ void ClassificationOptions::Describe(OptionVisitor& v) {
          "top view: ... from at most this height above the floor, m");
   v.Integer("support_top_samples", &support_top_samples, R::AtLeast(1),
             "top view: ... up to the image's top this many sample rows");
+  v.Integer("support_memory_frames", &support_memory_frames, R::Closed(0, 1000),
+            "... and for this many detected frames after it was last found");
   v.Real("max_residual", &max_residual, R::Above(0), "largest alignment residual, grey levels");
   v.Flag("check_floor_hypothesis", &check_floor_hypothesis,
          "an obstacle needs the floor hypothesis to misfit it (min_floor_misfit)");

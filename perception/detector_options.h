@@ -80,6 +80,10 @@ struct ClassificationOptions {
   double support_max_width_m = 0.3;  // > 0
   double support_max_base_m = 0.15;  // >= 0
   int support_top_samples = 4;       // >= 1
+  // SequenceDetector: a post keeps the floor near it from reading free for this many detected
+  // frames after it was last found (a frame may miss a leg the frames before it found; 0: only
+  // the frame that finds it).
+  int support_memory_frames = 4;
   // Maximum mean |difference| after alignment, grey levels; above it unknown (or moving).
   double max_residual = 12.0;
   // Dense test: an offset perpendicular to the epipolar line of at least this many input pixels

@@ -261,9 +261,25 @@ Placement PlaceSamples(const CameraModel& camera, const std::vector<Sample>& sam
 // placed obstacle points (base frame, z = height). Samples carried from earlier frames give no
 // vote (the map counted them when they were measured). `edge_reach_samples`: samples above a
 // floor sample that its matching window reaches.
+// `posts_in_base`: the thin posts that reach above the view, whose surroundings read no free
+// (ClearFreeNearPosts).
 void BuildTopView(const std::vector<Sample>& samples, const std::vector<PixelLabel>& labels,
                   const Placement& placement, const SampleGrid& grid, int edge_reach_samples,
                   const ClassificationOptions& co, OccupancyGrid* local_map,
-                  std::vector<Eigen::Vector3f>* obstacle_points_in_base);
+                  std::vector<Eigen::Vector3f>* obstacle_points_in_base,
+                  std::vector<Eigen::Vector2d>* posts_in_base);
+
+// Ages the remembered posts by one detected frame, takes the posts this frame found (base frame,
+// the frame at odom_from_base; one within 0.2 m of a remembered post renews it), forgets those
+// not found for more than memory_frames frames, and returns the remembered ones this frame did
+// not find, in its base frame.
+std::vector<Eigen::Vector2d> RememberPosts(const std::vector<Eigen::Vector2d>& found_in_base,
+                                           const Pose2& odom_from_base, int memory_frames,
+                                           std::vector<RememberedPost>* posts_in_odom);
+
+// Free cells of local_map (base frame) within clearance_m of a post become unknown: the floor
+// there may lie under what the post carries (ClassificationOptions::support_free_clearance_m).
+void ClearFreeNearPosts(const std::vector<Eigen::Vector2d>& posts_in_base, double clearance_m,
+                        OccupancyGrid* local_map);
 
 }  // namespace monoplane::detector_stages

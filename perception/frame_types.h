@@ -49,6 +49,14 @@ enum class PairStatus {
 };
 const char* ToString(PairStatus status);
 
+// A thin post that reaches above the view found in an earlier detected frame
+// (ClassificationOptions::support_memory_frames): where, odometry frame, and the detected frames
+// since it was last found. SequenceDetector keeps them.
+struct RememberedPost {
+  Eigen::Vector2d in_odom = Eigen::Vector2d::Zero();
+  int age = 0;
+};
+
 // Everything the detector says about the second (current) frame of a pair.
 struct FrameResult {
   PairStatus status = PairStatus::kBadImage;
@@ -77,6 +85,10 @@ struct FrameResult {
   // Obstacle and drop-off points, base frame of the current frame (z = height above the floor),
   // one per labelled sample, for 3-D maps.
   std::vector<Eigen::Vector3f> obstacle_points_in_base;
+  // Thin posts that reach above the view (ClassificationOptions::support_free_clearance_m) found
+  // in this frame, base frame; the local map has no free cell near them, nor near the posts
+  // SequenceDetector remembers from earlier frames.
+  std::vector<Eigen::Vector2d> overhang_posts_in_base;
   // Binary descriptors of the floor in front of the robot with their floor points (for loop
   // closure); empty when DetectorOptions::floor_features is disabled or status != kOk.
   FloorFeatures floor_features;

@@ -593,7 +593,7 @@ FrameResult ObstacleDetector::Detect(const cv::Mat& reference, const cv::Mat& cu
   // graze their height are not), on the surface their image column shows.
   const Placement placement = PlaceSamples(camera_, samples, labels, grid, co);
   BuildTopView(samples, labels, placement, grid, edge_reach_samples, co, &r.local_map,
-               &r.obstacle_points_in_base);
+               &r.obstacle_points_in_base, &r.overhang_posts_in_base);
 
   // Phase 6: the per-pixel outputs.
   WritePixels(samples, image_labels, grid, &r);

@@ -194,6 +194,10 @@ class SequenceDetector {
   // The height estimates after the last detected frame, points in the odometry frame. Only
   // Finish reads and writes them.
   std::vector<HeightSeed> seeds_in_odom_;
+  // The thin posts found in recent detected frames (ClassificationOptions::support_memory_frames)
+  // in the odometry frame, with the detected frames since each was last found. Only Finish reads
+  // and writes them.
+  std::vector<RememberedPost> posts_in_odom_;
   // The last detected frame (kOk), for the frames after it that are not detected. Only Finish
   // reads and writes it.
   struct Detected {

@@ -214,6 +214,16 @@ void SequenceDetector::Finish(Output* output) {
     output->result->height_seeds.clear();
     move(p.odom_from_base, &seeds_in_odom_);
   }
+  // A frame may miss a table's leg that the frames before it found: the floor near the posts
+  // found in the last support_memory_frames detected frames is not free either (a post found
+  // again within 0.2 m of one remembered is the same).
+  const ClassificationOptions& co = detector_.options().classification;
+  if (co.support_free_clearance_m > 0 && output->result->status == PairStatus::kOk) {
+    detector_stages::ClearFreeNearPosts(
+        detector_stages::RememberPosts(output->result->overhang_posts_in_base, p.odom_from_base,
+                                       co.support_memory_frames, &posts_in_odom_),
+        co.support_free_clearance_m, &output->result->local_map);
+  }
   // Before the result is kept for the frames that carry it: their local maps then lack the
   // moving things' footprints too.
   TrackMovingObjects(*output);

@@ -335,7 +335,8 @@ Placement PlaceSamples(const CameraModel& camera, const std::vector<Sample>& sam
 void BuildTopView(const std::vector<Sample>& samples, const std::vector<PixelLabel>& labels,
                   const Placement& placement, const SampleGrid& grid, int edge_reach_samples,
                   const ClassificationOptions& co, OccupancyGrid* local_map,
-                  std::vector<Eigen::Vector3f>* obstacle_points_in_base) {
+                  std::vector<Eigen::Vector3f>* obstacle_points_in_base,
+                  std::vector<Eigen::Vector2d>* posts_in_base) {
   const GridGeometry& g = local_map->geometry;
   std::vector<std::uint16_t> free_votes(g.NumCells(), 0), occupied_votes(g.NumCells(), 0);
   std::vector<std::uint8_t> not_free(g.NumCells(), 0);      // cells that must not read free
@@ -454,24 +455,6 @@ void BuildTopView(const std::vector<Sample>& samples, const std::vector<PixelLab
     }
     not_free.swap(margin);
   }
-  // Floor that may lie under what a thin post reaching above the view carries (a table top over
-  // its legs) is not free.
-  if (!placed_points.empty()) {
-    const double r = co.support_free_clearance_m;
-    const auto index = [&](double v, double origin, int size) {
-      return std::clamp(static_cast<int>(std::floor((v - origin) / g.resolution_m)), 0, size - 1);
-    };
-    for (const Eigen::Vector2d& post :
-         OverhangSupports(g, placed_points, samples, labels, grid, placement, co)) {
-      const int col1 = index(post.x() + r, g.origin_x_m, g.width);
-      const int row1 = index(post.y() + r, g.origin_y_m, g.height);
-      for (int row = index(post.y() - r, g.origin_y_m, g.height); row <= row1; ++row) {
-        for (int col = index(post.x() - r, g.origin_x_m, g.width); col <= col1; ++col) {
-          if ((g.CellCenter(col, row) - post).norm() <= r) not_free[g.Index(col, row)] = 1;
-        }
-      }
-    }
-  }
   for (std::size_t k = 0; k < g.NumCells(); ++k) {
     // A cell with any obstacle point is occupied: calling it free would be the dangerous error.
     if (occupied_votes[k] >= 1) {
@@ -480,6 +463,60 @@ void BuildTopView(const std::vector<Sample>& samples, const std::vector<PixelLab
       local_map->cells[k] = kCellFree;
     }
   }
+  // Floor that may lie under what a thin post reaching above the view carries (a table top over
+  // its legs) is not free.
+  if (!placed_points.empty()) {
+    std::vector<Eigen::Vector2d> posts =
+        OverhangSupports(g, placed_points, samples, labels, grid, placement, co);
+    ClearFreeNearPosts(posts, co.support_free_clearance_m, local_map);
+    if (posts_in_base != nullptr) *posts_in_base = std::move(posts);
+  }
+}
+
+void ClearFreeNearPosts(const std::vector<Eigen::Vector2d>& posts_in_base, double clearance_m,
+                        OccupancyGrid* local_map) {
+  const GridGeometry& g = local_map->geometry;
+  if (clearance_m <= 0 || local_map->cells.size() != g.NumCells() || g.NumCells() == 0) return;
+  const auto index = [&](double v, double origin, int size) {
+    return std::clamp(static_cast<int>(std::floor((v - origin) / g.resolution_m)), 0, size - 1);
+  };
+  for (const Eigen::Vector2d& post : posts_in_base) {
+    const int col1 = index(post.x() + clearance_m, g.origin_x_m, g.width);
+    const int row1 = index(post.y() + clearance_m, g.origin_y_m, g.height);
+    for (int row = index(post.y() - clearance_m, g.origin_y_m, g.height); row <= row1; ++row) {
+      for (int col = index(post.x() - clearance_m, g.origin_x_m, g.width); col <= col1; ++col) {
+        std::int8_t& cell = local_map->cells[g.Index(col, row)];
+        if (cell != kCellOccupied && cell != kCellUnknown &&
+            (g.CellCenter(col, row) - post).norm() <= clearance_m)
+          cell = kCellUnknown;
+      }
+    }
+  }
+}
+
+std::vector<Eigen::Vector2d> RememberPosts(const std::vector<Eigen::Vector2d>& found_in_base,
+                                           const Pose2& odom_from_base, int memory_frames,
+                                           std::vector<RememberedPost>* posts_in_odom) {
+  for (RememberedPost& post : *posts_in_odom) ++post.age;
+  for (const Eigen::Vector2d& in_base : found_in_base) {
+    const Eigen::Vector2d in_odom = odom_from_base * in_base;
+    const auto same = std::find_if(
+        posts_in_odom->begin(), posts_in_odom->end(),
+        [&](const RememberedPost& post) { return (post.in_odom - in_odom).norm() <= 0.2; });
+    if (same != posts_in_odom->end()) {
+      *same = {in_odom, 0};
+    } else {
+      posts_in_odom->push_back({in_odom, 0});
+    }
+  }
+  std::erase_if(*posts_in_odom,
+                [&](const RememberedPost& post) { return post.age > memory_frames; });
+  std::vector<Eigen::Vector2d> remembered;
+  const Pose2 base_from_odom = odom_from_base.Inverse();
+  for (const RememberedPost& post : *posts_in_odom) {
+    if (post.age > 0) remembered.push_back(base_from_odom * post.in_odom);
+  }
+  return remembered;
 }
 
 }  // namespace monoplane::detector_stages

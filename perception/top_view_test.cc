@@ -1,6 +1,7 @@
 // The top view of one pair: where the floor is free, where it ends, and what an overhang hides.
 #include <gtest/gtest.h>
 
+#include "perception/detector_stages.h"
 #include "perception/testing/detector_scene.h"
 
 namespace monoplane {
@@ -206,6 +207,60 @@ TEST_F(TableLegs, TheFloorBeforeAWideTallBoxIsFree) {
               free.in_front_without_rule);
   EXPECT_GT(free.in_front_without_rule, 40);
   EXPECT_GE(free.in_front, free.in_front_without_rule * 9 / 10);
+}
+
+// What the detector does with a post it found (and SequenceDetector with those it remembers):
+// the free cells within the clearance become unknown; occupied cells and the rest stay.
+TEST(ClearFreeNearPosts, FreeCellsNearAPostBecomeUnknown) {
+  GridGeometry g;
+  g.resolution_m = 0.1;
+  g.width = g.height = 40;  // 4 m x 4 m from (0, -2)
+  g.origin_y_m = -2.0;
+  OccupancyGrid map(g, kCellFree);
+  const auto at = [&](double x, double y) -> std::int8_t& {
+    const auto c = g.CellOf({x, y});
+    return map.At(c->x(), c->y());
+  };
+  at(2.05, 0.05) = kCellOccupied;
+  detector_stages::ClearFreeNearPosts({{2.0, 0.0}}, 1.0, &map);
+  EXPECT_EQ(at(2.05, 0.05), kCellOccupied);
+  EXPECT_EQ(at(2.55, 0.55), kCellUnknown);  // 0.78 m away
+  EXPECT_EQ(at(1.15, 0.05), kCellUnknown);  // 0.85 m
+  EXPECT_EQ(at(0.85, 0.05), kCellFree);     // 1.15 m
+  EXPECT_EQ(at(2.75, 0.75), kCellFree);     // 1.06 m
+  int unknown = 0;
+  for (std::int8_t v : map.cells) unknown += v == kCellUnknown;
+  EXPECT_NEAR(unknown, 314, 20);  // pi (1 m)^2 over 0.01 m^2 cells, less the post's own
+  detector_stages::ClearFreeNearPosts({{2.0, 0.0}}, 0.0, &map);  // off: nothing more
+  EXPECT_EQ(at(0.85, 0.05), kCellFree);
+}
+
+// SequenceDetector's memory of posts (ClassificationOptions::support_memory_frames): a post the
+// frame did not find stays for memory_frames detected frames, at its place in the odometry frame;
+// found again, it starts over.
+TEST(RememberPosts, APostStaysForItsFramesWhereItWas) {
+  std::vector<RememberedPost> posts;
+  const Pose2 at_start{0, 0, 0}, moved{0.5, 0.0, 0.0};
+  EXPECT_TRUE(detector_stages::RememberPosts({{2.0, 0.0}}, at_start, 2, &posts).empty());
+  ASSERT_EQ(posts.size(), 1u);
+  // Not found from 0.5 m ahead: remembered, 1.5 m ahead now.
+  std::vector<Eigen::Vector2d> remembered = detector_stages::RememberPosts({}, moved, 2, &posts);
+  ASSERT_EQ(remembered.size(), 1u);
+  EXPECT_NEAR(remembered[0].x(), 1.5, 1e-9);
+  EXPECT_NEAR(remembered[0].y(), 0.0, 1e-9);
+  EXPECT_EQ(detector_stages::RememberPosts({}, moved, 2, &posts).size(), 1u);  // 2 frames
+  EXPECT_TRUE(detector_stages::RememberPosts({}, moved, 2, &posts).empty());   // then gone
+  EXPECT_TRUE(posts.empty());
+  // Found again within 0.2 m of where it was remembered: the same post, renewed.
+  detector_stages::RememberPosts({{2.0, 0.0}}, at_start, 2, &posts);
+  detector_stages::RememberPosts({}, at_start, 2, &posts);
+  EXPECT_TRUE(detector_stages::RememberPosts({{1.4, 0.1}}, moved, 2, &posts).empty());
+  ASSERT_EQ(posts.size(), 1u);
+  EXPECT_EQ(posts[0].age, 0);
+  // Without memory only the frame that finds a post has it.
+  std::vector<RememberedPost> none;
+  detector_stages::RememberPosts({{2.0, 0.0}}, at_start, 0, &none);
+  EXPECT_TRUE(detector_stages::RememberPosts({}, at_start, 0, &none).empty());
 }
 
 // The far pair (PairSelectionOptions::far_min_baseline_m): beyond 2.5 m one 0.1 m pair cannot
