@@ -2,10 +2,12 @@
 // placed (surfaces, column surfaces) and the local map's free and occupied cells.
 
 #include <algorithm>
+#include <climits>
 #include <cmath>
 #include <limits>
 #include <vector>
 
+#include "perception/connected_regions.h"
 #include "perception/detector_stages.h"
 
 namespace monoplane::detector_stages {
@@ -108,76 +110,55 @@ std::vector<Eigen::Vector2d> OverhangSupports(const GridGeometry& g,
                                               const std::vector<PixelLabel>& labels,
                                               const SampleGrid& grid, const Placement& placement,
                                               const ClassificationOptions& co) {
-  std::vector<Eigen::Vector2d> supports;
-  // Each cell's points as a list: first[cell], then next[point].
-  std::vector<int> first(g.NumCells(), -1), next(points.size(), -1);
-  for (std::size_t p = 0; p < points.size(); ++p) {
-    next[p] = first[points[p].cell];
-    first[points[p].cell] = static_cast<int>(p);
+  // The groups: 8-connected regions of the cells with points (cell k is mask pixel k).
+  cv::Mat mask(g.height, g.width, CV_8U, cv::Scalar(0)), region, stats, centroids;
+  std::vector<int> in_cell(g.NumCells(), 0);
+  for (const PlacedPoint& p : points) {
+    mask.data[p.cell] = 255;
+    ++in_cell[p.cell];
   }
-  std::vector<std::uint8_t> seen(g.NumCells(), 0);
-  std::vector<Eigen::Vector2i> stack, group;
-  for (int row = 0; row < g.height; ++row) {
-    for (int col = 0; col < g.width; ++col) {
-      if (first[g.Index(col, row)] < 0 || seen[g.Index(col, row)]) continue;
-      group.clear();
-      stack.assign(1, Eigen::Vector2i(col, row));
-      seen[g.Index(col, row)] = 1;
-      while (!stack.empty()) {
-        const Eigen::Vector2i cell = stack.back();
-        stack.pop_back();
-        group.push_back(cell);
-        for (int dr = -1; dr <= 1; ++dr) {
-          for (int dc = -1; dc <= 1; ++dc) {
-            const int c2 = cell.x() + dc, r2 = cell.y() + dr;
-            if (c2 < 0 || r2 < 0 || c2 >= g.width || r2 >= g.height) continue;
-            const std::size_t k = g.Index(c2, r2);
-            if (first[k] < 0 || seen[k]) continue;
-            seen[k] = 1;
-            stack.emplace_back(c2, r2);
-          }
-        }
-      }
-      // Its extent over the cells with two points or more (one stray point does not widen it).
-      Eigen::Vector2i lo = group.front(), hi = group.front();
-      bool extent = false;
-      Eigen::Vector2d sum = Eigen::Vector2d::Zero();
-      int count = 0, lowest = -1;
-      for (const Eigen::Vector2i& cell : group) {
-        int in_cell = 0;
-        for (int p = first[g.Index(cell.x(), cell.y())]; p >= 0; p = next[p]) {
-          sum += g.CellCenter(cell.x(), cell.y());
-          ++count;
-          ++in_cell;
-          if (lowest < 0 || points[p].height_m < points[lowest].height_m) lowest = p;
-        }
-        if (in_cell < 2) continue;
-        lo = extent ? lo.cwiseMin(cell) : cell;
-        hi = extent ? hi.cwiseMax(cell) : cell;
-        extent = true;
-      }
-      if (!extent) {  // one point in each cell: all of them
-        for (const Eigen::Vector2i& cell : group) {
-          lo = lo.cwiseMin(cell);
-          hi = hi.cwiseMax(cell);
-        }
-      }
-      const double across_m = (hi - lo).cast<double>().norm() * g.resolution_m + g.resolution_m;
-      if (!(across_m <= co.support_max_width_m) ||
-          !(points[lowest].height_m <= co.support_max_base_m) ||
-          !FloorOnBothSides(labels, grid, points[lowest].i, points[lowest].j))
-        continue;
-      const double range_m = (sum / count).norm();
-      bool reaches_top = false;
-      for (std::size_t c = 0; c < group.size() && !reaches_top; ++c) {
-        for (int p = first[g.Index(group[c].x(), group[c].y())]; p >= 0 && !reaches_top;
-             p = next[p]) {
-          reaches_top = TopOfUprightRun(samples, labels, grid, placement.vertical_vanishing_point,
-                                        range_m, points[p].i, points[p].j) < co.support_top_samples;
-        }
-      }
-      if (reaches_top) supports.push_back(sum / count);
+  const int num_regions = ConnectedRegions(mask, &region, &stats, &centroids);
+  struct Group {
+    std::vector<int> points;
+    Eigen::Vector2d sum = Eigen::Vector2d::Zero();
+    // The extent of its cells, and of those with two points or more (a stray point does not
+    // widen it).
+    Eigen::Vector2i lo{INT_MAX, INT_MAX}, hi{INT_MIN, INT_MIN};
+    Eigen::Vector2i lo2{INT_MAX, INT_MAX}, hi2{INT_MIN, INT_MIN};
+    int lowest = -1;
+  };
+  std::vector<Group> groups(num_regions);
+  for (std::size_t p = 0; p < points.size(); ++p) {
+    const std::size_t c = points[p].cell;
+    Group& group = groups[region.ptr<int>()[c]];
+    const Eigen::Vector2i cell(static_cast<int>(c % g.width), static_cast<int>(c / g.width));
+    group.points.push_back(static_cast<int>(p));
+    group.sum += g.CellCenter(cell.x(), cell.y());
+    group.lo = group.lo.cwiseMin(cell);
+    group.hi = group.hi.cwiseMax(cell);
+    if (in_cell[c] >= 2) {
+      group.lo2 = group.lo2.cwiseMin(cell);
+      group.hi2 = group.hi2.cwiseMax(cell);
     }
+    if (group.lowest < 0 || points[p].height_m < points[group.lowest].height_m)
+      group.lowest = static_cast<int>(p);
+  }
+  std::vector<Eigen::Vector2d> supports;
+  for (int r = 1; r < num_regions; ++r) {
+    const Group& group = groups[r];
+    const bool dense = group.lo2.x() <= group.hi2.x();
+    const Eigen::Vector2i extent = dense ? group.hi2 - group.lo2 : group.hi - group.lo;
+    const double across_m = extent.cast<double>().norm() * g.resolution_m + g.resolution_m;
+    const PlacedPoint& foot = points[group.lowest];
+    if (!(across_m <= co.support_max_width_m) || !(foot.height_m <= co.support_max_base_m) ||
+        !FloorOnBothSides(labels, grid, foot.i, foot.j))
+      continue;
+    const Eigen::Vector2d at = group.sum / static_cast<double>(group.points.size());
+    const bool reaches_top = std::any_of(group.points.begin(), group.points.end(), [&](int p) {
+      return TopOfUprightRun(samples, labels, grid, placement.vertical_vanishing_point, at.norm(),
+                             points[p].i, points[p].j) < co.support_top_samples;
+    });
+    if (reaches_top) supports.push_back(at);
   }
   return supports;
 }
