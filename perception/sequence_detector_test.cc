@@ -1,5 +1,5 @@
 // The detector over a sequence: standstill, stopping, heights fused over frames, carried results,
-// turning on the spot, detection every N-th frame, a plain floor's odometry.
+// turning on the spot, detection every N-th frame, a plain floor's odometry, remembered posts.
 #include <gtest/gtest.h>
 
 #include "perception/testing/detector_scene.h"
@@ -423,6 +423,53 @@ TEST_F(DetectorOnSyntheticScene, BadImagesAreRejectedWithReasons) {
     ASSERT_TRUE(r);
     EXPECT_EQ(r->num_floor + r->num_obstacle + r->num_drop_off + r->num_moving, 0);
   }
+}
+
+// SequenceDetector's memory of posts (ClassificationOptions::support_memory_frames), end to end:
+// driving towards a table whose top is above the view, the frames find its legs as posts; a frame
+// that misses them (here the legs are not drawn in it, the top is) still keeps the floor among
+// them from reading free. Without the memory that frame frees it.
+TEST_F(DetectorOnSyntheticScene, AFrameThatMissesATablesLegsKeepsTheFloorUnderItNotFree) {
+  Scene with_legs, without_legs;
+  with_legs.box_offset = without_legs.box_offset = -40;
+  for (double x : {1.8, 3.15}) {
+    for (double y : {-0.4, 0.35})
+      with_legs.boxes.push_back({{x, y, 0.0}, {x + 0.05, y + 0.05, 0.72}});
+  }
+  const Box top{{1.8, -0.4, 0.72}, {3.2, 0.4, 0.75}};
+  with_legs.boxes.push_back(top);
+  without_legs.boxes.push_back(top);
+  constexpr int kFrames = 8;  // 0.04 m apart; the last one misses the legs
+  const Pose2 last_pose{0.04 * (kFrames - 1), 0.0, 0.0};
+  const auto free_among_legs = [&](int memory_frames) {
+    DetectorOptions options = options_;
+    options.pair_selection.detect_every = 1;
+    options.classification.support_memory_frames = memory_frames;
+    SequenceDetector sequence(calib_, options);
+    SequenceDetector::Output out;
+    int found_posts = 0;
+    for (int k = 0; k < kFrames; ++k) {
+      const Scene& scene = k + 1 < kFrames ? with_legs : without_legs;
+      const Rendered b = Render(scene, sequence.detector().camera(), {0.04 * k, 0.0, 0.0});
+      out = sequence.Process(b.image, static_cast<TimestampNs>(k) * kFrameNs);
+      if (k + 1 < kFrames && out.result && out.result->status == PairStatus::kOk)
+        found_posts += !out.result->overhang_posts_in_base.empty();
+    }
+    EXPECT_GE(found_posts, 2);
+    if (!out.result) {
+      ADD_FAILURE() << "no result for the last frame";
+      return -1;
+    }
+    EXPECT_TRUE(out.result->status == PairStatus::kOk && !out.result->predicted);
+    EXPECT_TRUE(out.result->overhang_posts_in_base.empty());  // the last frame finds none
+    return FreeCellsIn(*out.result, last_pose, 1.9, 3.1, -0.35, 0.35);
+  };
+  const int remembered = free_among_legs(4), forgotten = free_among_legs(0);
+  std::printf(
+      "cells among the legs read free in the frame that misses them: %d (%d without memory)\n",
+      remembered, forgotten);
+  EXPECT_GT(forgotten, 10);
+  EXPECT_LE(remembered, forgotten / 10);
 }
 
 }  // namespace
