@@ -297,27 +297,10 @@ void ForgetMovingFootprints(const std::vector<MovingObject>& objects,
                             const MovingObjectOptions& options, OccupancyGrid* local_map_in_base) {
   OccupancyGrid& map = *local_map_in_base;
   const GridGeometry& g = map.geometry;
-  if (map.cells.size() != g.NumCells() || !(g.resolution_m > 0)) return;
-  const Eigen::Vector2d map_low(g.origin_x_m, g.origin_y_m);
-  const Eigen::Vector2d map_high = map_low + g.resolution_m * Eigen::Vector2d(g.width, g.height);
+  if (map.cells.size() != g.NumCells()) return;
   for (const MovingObject& o : objects) {
-    const double reach = o.radius_m + options.footprint_margin_m;
-    if (!o.position_in_base.allFinite() || !std::isfinite(reach) ||
-        (o.position_in_base.array() + reach < map_low.array()).any() ||
-        (o.position_in_base.array() - reach > map_high.array()).any())
-      continue;
-    const Eigen::Vector2d low = o.position_in_base - Eigen::Vector2d::Constant(reach);
-    const int col0 =
-        std::max(0, static_cast<int>(std::floor((low.x() - g.origin_x_m) / g.resolution_m)));
-    const int row0 =
-        std::max(0, static_cast<int>(std::floor((low.y() - g.origin_y_m) / g.resolution_m)));
-    const int span = static_cast<int>(std::ceil(2.0 * reach / g.resolution_m)) + 1;
-    for (int row = row0; row < std::min(g.height, row0 + span + 1); ++row) {
-      for (int col = col0; col < std::min(g.width, col0 + span + 1); ++col) {
-        if ((g.CellCenter(col, row) - o.position_in_base).norm() <= reach)
-          map.cells[g.Index(col, row)] = kCellUnknown;
-      }
-    }
+    g.ForEachCellWithin(o.position_in_base, o.radius_m + options.footprint_margin_m,
+                        [&](int col, int row) { map.At(col, row) = kCellUnknown; });
   }
 }
 

@@ -121,10 +121,9 @@ std::vector<Eigen::Vector2d> OverhangSupports(const GridGeometry& g,
   struct Group {
     std::vector<int> points;
     Eigen::Vector2d sum = Eigen::Vector2d::Zero();
-    // The extent of its cells, and of those with two points or more (a stray point does not
-    // widen it).
+    // The extent of its cells with two points or more (a stray point does not widen it; the
+    // extent of all its cells is the labelling's bounding box).
     Eigen::Vector2i lo{INT_MAX, INT_MAX}, hi{INT_MIN, INT_MIN};
-    Eigen::Vector2i lo2{INT_MAX, INT_MAX}, hi2{INT_MIN, INT_MIN};
     int lowest = -1;
   };
   std::vector<Group> groups(num_regions);
@@ -134,11 +133,9 @@ std::vector<Eigen::Vector2d> OverhangSupports(const GridGeometry& g,
     const Eigen::Vector2i cell(static_cast<int>(c % g.width), static_cast<int>(c / g.width));
     group.points.push_back(static_cast<int>(p));
     group.sum += g.CellCenter(cell.x(), cell.y());
-    group.lo = group.lo.cwiseMin(cell);
-    group.hi = group.hi.cwiseMax(cell);
     if (in_cell[c] >= 2) {
-      group.lo2 = group.lo2.cwiseMin(cell);
-      group.hi2 = group.hi2.cwiseMax(cell);
+      group.lo = group.lo.cwiseMin(cell);
+      group.hi = group.hi.cwiseMax(cell);
     }
     if (group.lowest < 0 || points[p].height_m < points[group.lowest].height_m)
       group.lowest = static_cast<int>(p);
@@ -146,8 +143,10 @@ std::vector<Eigen::Vector2d> OverhangSupports(const GridGeometry& g,
   std::vector<Eigen::Vector2d> supports;
   for (int r = 1; r < num_regions; ++r) {
     const Group& group = groups[r];
-    const bool dense = group.lo2.x() <= group.hi2.x();
-    const Eigen::Vector2i extent = dense ? group.hi2 - group.lo2 : group.hi - group.lo;
+    const Eigen::Vector2i extent = group.lo.x() <= group.hi.x()
+                                       ? Eigen::Vector2i(group.hi - group.lo)
+                                       : Eigen::Vector2i(stats.at<int>(r, cv::CC_STAT_WIDTH) - 1,
+                                                         stats.at<int>(r, cv::CC_STAT_HEIGHT) - 1);
     const double across_m = extent.cast<double>().norm() * g.resolution_m + g.resolution_m;
     const PlacedPoint& foot = points[group.lowest];
     if (!(across_m <= co.support_max_width_m) || !(foot.height_m <= co.support_max_base_m) ||
@@ -457,21 +456,12 @@ void BuildTopView(const std::vector<Sample>& samples, const std::vector<PixelLab
 void ClearFreeNearPosts(const std::vector<Eigen::Vector2d>& posts_in_base, double clearance_m,
                         OccupancyGrid* local_map) {
   const GridGeometry& g = local_map->geometry;
-  if (clearance_m <= 0 || local_map->cells.size() != g.NumCells() || g.NumCells() == 0) return;
-  const auto index = [&](double v, double origin, int size) {
-    return std::clamp(static_cast<int>(std::floor((v - origin) / g.resolution_m)), 0, size - 1);
-  };
+  if (local_map->cells.size() != g.NumCells()) return;
   for (const Eigen::Vector2d& post : posts_in_base) {
-    const int col1 = index(post.x() + clearance_m, g.origin_x_m, g.width);
-    const int row1 = index(post.y() + clearance_m, g.origin_y_m, g.height);
-    for (int row = index(post.y() - clearance_m, g.origin_y_m, g.height); row <= row1; ++row) {
-      for (int col = index(post.x() - clearance_m, g.origin_x_m, g.width); col <= col1; ++col) {
-        std::int8_t& cell = local_map->cells[g.Index(col, row)];
-        if (cell != kCellOccupied && cell != kCellUnknown &&
-            (g.CellCenter(col, row) - post).norm() <= clearance_m)
-          cell = kCellUnknown;
-      }
-    }
+    g.ForEachCellWithin(post, clearance_m, [&](int col, int row) {
+      std::int8_t& cell = local_map->At(col, row);
+      if (cell != kCellOccupied) cell = kCellUnknown;
+    });
   }
 }
 

@@ -1,6 +1,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <optional>
@@ -41,6 +42,33 @@ struct GridGeometry {
     return {origin_x_m + (col + 0.5) * resolution_m, origin_y_m + (row + 0.5) * resolution_m};
   }
   std::size_t Index(int col, int row) const { return static_cast<std::size_t>(row) * width + col; }
+
+  // Calls f(col, row) for every cell whose centre lies within radius_m of centre_m (none for a
+  // radius that is not positive and finite, or a disc wholly outside the grid).
+  template <typename F>
+  void ForEachCellWithin(const Eigen::Vector2d& centre_m, double radius_m, F&& f) const {
+    if (!(radius_m > 0 && std::isfinite(radius_m)) || !centre_m.allFinite() || !(resolution_m > 0))
+      return;
+    const auto cell = [&](double v, double origin) {
+      return std::floor((v - origin) / resolution_m);
+    };
+    // Clamped before the conversion: a far disc's cells do not fit an int.
+    const auto first = [&](double v, double origin, int size) {
+      return static_cast<int>(std::clamp(cell(v, origin), 0.0, static_cast<double>(size)));
+    };
+    const auto last = [&](double v, double origin, int size) {
+      return static_cast<int>(std::clamp(cell(v, origin), -1.0, size - 1.0));
+    };
+    const int col0 = first(centre_m.x() - radius_m, origin_x_m, width);
+    const int row0 = first(centre_m.y() - radius_m, origin_y_m, height);
+    const int col1 = last(centre_m.x() + radius_m, origin_x_m, width);
+    const int row1 = last(centre_m.y() + radius_m, origin_y_m, height);
+    for (int row = row0; row <= row1; ++row) {
+      for (int col = col0; col <= col1; ++col) {
+        if ((CellCenter(col, row) - centre_m).norm() <= radius_m) f(col, row);
+      }
+    }
+  }
 };
 
 // A 2-D occupancy grid value: geometry plus one int8 per cell (see kCell*).

@@ -2,6 +2,10 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+
+#include "perception/geometry/occupancy_grid.h"
+
 namespace monoplane {
 namespace {
 
@@ -59,6 +63,31 @@ TEST(TiledGrid, ToOccupancyGridOfTilesFarApart) {
   int unknown = 0;
   for (auto v : out.cells) unknown += v == kCellUnknown;
   EXPECT_EQ(unknown, 6001 * 904 - 2);
+}
+
+// GridGeometry::ForEachCellWithin (the posts' and the moving things' discs in a local map): the
+// cells whose centres lie within the radius, clipped to the grid; nothing for a disc outside it,
+// however far, or for a radius that is not positive.
+TEST(GridGeometry, ForEachCellWithinVisitsTheDiscsCellsInsideTheGrid) {
+  GridGeometry g;
+  g.resolution_m = 0.1;
+  g.width = g.height = 20;  // 2 m x 2 m from (0, 0)
+  const auto count = [&](const Eigen::Vector2d& centre, double radius) {
+    int n = 0;
+    g.ForEachCellWithin(centre, radius, [&](int col, int row) {
+      EXPECT_TRUE(col >= 0 && row >= 0 && col < g.width && row < g.height);
+      EXPECT_LE((g.CellCenter(col, row) - centre).norm(), radius);
+      ++n;
+    });
+    return n;
+  };
+  EXPECT_EQ(count({1.0, 1.0}, 0.5), 80);    // the centres within 0.5 m of a cell corner
+  EXPECT_EQ(count({0.0, 0.0}, 0.5), 20);    // a quarter of it, at the grid's corner
+  EXPECT_EQ(count({1.05, 1.05}, 0.01), 1);  // a cell's own centre
+  EXPECT_EQ(count({3.0, 1.0}, 0.5), 0);
+  EXPECT_EQ(count({-1e12, 1e12}, 0.5), 0);
+  EXPECT_EQ(count({1.0, 1.0}, 0.0), 0);
+  EXPECT_EQ(count({1.0, 1.0}, std::nan("")), 0);
 }
 
 }  // namespace
