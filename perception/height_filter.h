@@ -74,6 +74,9 @@ struct HeightSeed {
   // one point share much of their error (the pairs' motion, the calibration, a window straddling
   // an edge), so labels judge the estimate with at least this, whatever the fusion's variance.
   float best_sigma_m = 0.0f;
+  // The depth along the camera's axis at which the estimate's sample last saw it, metres: with the
+  // sample's side in pixels, the size of the patch of surface the estimate stands for.
+  float sample_depth_m = 0.0f;
   int measurements = 0;  // measurements fused (inliers and outliers)
   int unmeasured = 0;    // detected frames since the last measurement
 

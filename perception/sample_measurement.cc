@@ -185,8 +185,19 @@ void FuseHeights(const CameraModel& camera, const ClassificationOptions& co,
   // (upwards on the floor).
   std::vector<int> nearest(samples->size(), -1);
   std::vector<float> nearest_range(samples->size(), std::numeric_limits<float>::infinity());
-  std::vector<std::int32_t> sample_of(prior.size(), -1);
-  std::vector<float> range_of(prior.size(), 0.0f);
+  // Each earlier estimate stands for the patch of surface its sample covered when it was last
+  // placed. Driving forward the view expands: that patch now covers more than one sample, and an
+  // estimate given only to the sample its point projects into would leave holes between the
+  // estimates, whose samples start anew at every pair. So an estimate goes to every sample whose
+  // centre its patch now covers (as a surface facing the camera grows: by the ratio of its
+  // depths; at most 2 samples on each side), and always to the one its point projects into.
+  struct Cover {
+    int n;
+    std::size_t k;
+    float range;
+  };
+  std::vector<Cover> covers;
+  covers.reserve(prior.size() * 2);
   for (std::size_t n = 0; n < prior.size(); ++n) {
     const Eigen::Vector3d point = prior[n].point_in_base.cast<double>();
     const auto pixel = camera.ProjectToPixel(point);
@@ -194,18 +205,29 @@ void FuseHeights(const CameraModel& camera, const ClassificationOptions& co,
     const int i = static_cast<int>(std::floor(pixel->y() / sample_px));
     const int j = static_cast<int>(std::floor(pixel->x() / sample_px));
     if (i < 0 || j < 0 || i >= rows || j >= cols) continue;
-    const std::size_t k = static_cast<std::size_t>(i) * cols + j;
-    sample_of[n] = static_cast<std::int32_t>(k);
-    range_of[n] = static_cast<float>((point - centre).norm());
-    nearest_range[k] = std::min(nearest_range[k], range_of[n]);
-  }
-  for (std::size_t n = 0; n < prior.size(); ++n) {
-    if (sample_of[n] < 0) continue;
-    const std::size_t k = static_cast<std::size_t>(sample_of[n]);
-    if (range_of[n] > nearest_range[k] * 1.05f + 0.05f) continue;
-    if (nearest[k] < 0 || prior[n].var_m2 < prior[nearest[k]].var_m2) {
-      nearest[k] = static_cast<int>(n);
+    const float range = static_cast<float>((point - centre).norm());
+    covers.push_back({static_cast<int>(n), static_cast<std::size_t>(i) * cols + j, range});
+    const double depth = (camera.camera_from_base() * point).z();
+    if (!(prior[n].sample_depth_m > depth && depth > 0.0)) continue;
+    const double half =
+        std::min(0.5 * sample_px * prior[n].sample_depth_m / depth, 2.5 * sample_px);
+    const int i0 = std::max(0, static_cast<int>(std::ceil((pixel->y() - half) / sample_px - 0.5)));
+    const int i1 =
+        std::min(rows - 1, static_cast<int>(std::floor((pixel->y() + half) / sample_px - 0.5)));
+    const int j0 = std::max(0, static_cast<int>(std::ceil((pixel->x() - half) / sample_px - 0.5)));
+    const int j1 =
+        std::min(cols - 1, static_cast<int>(std::floor((pixel->x() + half) / sample_px - 0.5)));
+    for (int ii = i0; ii <= i1; ++ii) {
+      for (int jj = j0; jj <= j1; ++jj) {
+        if (ii == i && jj == j) continue;
+        covers.push_back({static_cast<int>(n), static_cast<std::size_t>(ii) * cols + jj, range});
+      }
     }
+  }
+  for (const Cover& c : covers) nearest_range[c.k] = std::min(nearest_range[c.k], c.range);
+  for (const Cover& c : covers) {
+    if (c.range > nearest_range[c.k] * 1.05f + 0.05f) continue;
+    if (nearest[c.k] < 0 || prior[c.n].var_m2 < prior[nearest[c.k]].var_m2) nearest[c.k] = c.n;
   }
   posterior->clear();
   posterior->reserve(samples->size() / 2);
@@ -282,6 +304,7 @@ void FuseHeights(const CameraModel& camera, const ClassificationOptions& co,
       }
       const Eigen::Vector3d point = centre + t * ray;
       seed.point_in_base = point.cast<float>();
+      seed.sample_depth_m = static_cast<float>((camera.camera_from_base() * point).z());
       double sigma = std::sqrt(static_cast<double>(seed.var_m2));
       if (sigma <= hf.max_carry_sigma_m) posterior->push_back(seed);
       s.measurements = seed.measurements;

@@ -1,4 +1,5 @@
-// FuseHeights: an earlier estimate taken up by the sample it projects into; KeepMorePrecise: the
+// FuseHeights: an earlier estimate taken up by the sample it projects into (and the samples its
+// patch now covers); KeepMorePrecise: the
 // far pair's samples merged into the near pair's; TakeWhereUnmeasured: a turning pair's newer one;
 // TakeFromRow: the close pair's near rows.
 #include <gtest/gtest.h>
@@ -115,6 +116,63 @@ TEST(FuseHeights, AnUprightSurfaceKeepsItsRange) {
   EXPECT_EQ(s.measurements, 6);
   EXPECT_NEAR(s.point_in_base2.x(), kWallX, 0.02);
   EXPECT_NEAR(s.height_m, measured.z(), 0.005);
+}
+
+// Driving towards a wall: an earlier estimate of the point at a sample's centre, last placed from
+// 2.5 times farther away, stands for a patch of wall that now spans 2.5 samples. The measured
+// samples whose centres the patch covers (the 3 x 3 around it) all fuse it; those beyond start
+// their own. Seen last from where it is now, only the sample it projects into takes it.
+TEST(FuseHeights, AnEstimateGoesToEverySampleItsPatchNowCovers) {
+  const CameraModel camera(DefaultCalibration());
+  constexpr int kRows = 60, kCols = 80;
+  constexpr double kSamplePx = 8.0, kWallX = 3.1;
+  constexpr int kI = 8, kJ = 40;  // the sample whose centre is pixel (324, 68)
+  const ClassificationOptions co;
+  const HeightFilterOptions hf;
+  const auto centre_of = [&](int i, int j) {
+    return Eigen::Vector2d((j + 0.5) * kSamplePx, (i + 0.5) * kSamplePx);
+  };
+  const Eigen::Vector3d earlier = OnWall(camera, centre_of(kI, kJ), kWallX);
+  const double depth = (camera.camera_from_base() * earlier).z();
+  const auto measurements_after = [&](double sample_depth_m) {
+    std::vector<detector_stages::Sample> samples(kRows * kCols);
+    for (int i = kI - 2; i <= kI + 2; ++i) {
+      for (int j = kJ - 2; j <= kJ + 2; ++j) {
+        detector_stages::Sample& s = samples[static_cast<std::size_t>(i) * kCols + j];
+        s.measured = true;
+        s.significant = true;
+        s.texture = 10.f;
+        s.height_m = OnWall(camera, centre_of(i, j), kWallX).z();
+        s.height_sigma_m = 0.01;
+        s.height_m_per_px = 0.001;
+        s.raw = PixelLabel::kObstacle;
+      }
+    }
+    HeightSeed seed = NewHeightSeed(earlier.z(), 0.01, hf);
+    for (int n = 0; n < 4; ++n) UpdateHeightSeed(earlier.z(), 0.01, hf, &seed);
+    seed.point_in_base = earlier.cast<float>();
+    seed.sample_depth_m = static_cast<float>(sample_depth_m);
+    std::vector<HeightSeed> posterior;
+    detector_stages::FuseHeights(camera, co, hf, {seed}, kRows, kCols, kSamplePx, &samples,
+                                 &posterior);
+    std::vector<int> m;
+    for (int i = kI - 2; i <= kI + 2; ++i) {
+      for (int j = kJ - 2; j <= kJ + 2; ++j) {
+        m.push_back(samples[static_cast<std::size_t>(i) * kCols + j].measurements);
+      }
+    }
+    return m;
+  };
+  const std::vector<int> expanded = measurements_after(2.5 * depth);
+  const std::vector<int> same = measurements_after(depth);
+  for (int a = 0; a < 5; ++a) {
+    for (int b = 0; b < 5; ++b) {
+      const bool covered = std::abs(a - 2) <= 1 && std::abs(b - 2) <= 1;
+      EXPECT_EQ(expanded[a * 5 + b], covered ? 6 : 1) << "row " << a - 2 << ", column " << b - 2;
+      EXPECT_EQ(same[a * 5 + b], a == 2 && b == 2 ? 6 : 1)
+          << "row " << a - 2 << ", column " << b - 2;
+    }
+  }
 }
 
 // Fuse on a level surface z = z_m: measured at pixel (324, 300), the earlier estimate 3 px above
