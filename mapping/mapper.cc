@@ -145,6 +145,10 @@ void Mapper::Options::Describe(OptionVisitor& v) {
   v.Real("free_clearance_m", &free_clearance_m, R::Closed(0, 10).Note("0 = off"),
          "... and floor they saw free at any range farther than this from every cell they saw "
          "occupied, m");
+  v.Integer("keyframe_occupied_min_frames", &keyframe_occupied_min_frames,
+            R::Closed(0, 1000).Note("0 = off"),
+            "a keyframe's unknown cell is occupied when this many frames since the last keyframe "
+            "saw it occupied (needs keyframe_free_min_frames > 0)");
   RenamedOptions log_odds_keys(&v,
                                {{"hit", "log_odds_hit"},
                                 {"miss", "log_odds_miss"},
@@ -282,18 +286,19 @@ namespace {
 // kCellFreeSeenNear; fewer such views (at least two) give a proportional share of its log-odds
 // (Options::near_free_range_m; 0 = off). So do cells seen free at any range farther than
 // clearance_m from every cell the keyframe or those frames saw occupied (Options::
-// free_clearance_m; 0 = off).
+// free_clearance_m; 0 = off). Cells it leaves unknown that at least occupied_min of them saw
+// occupied become occupied (Options::keyframe_occupied_min_frames; 0 = off).
 template <typename Recent>
-void AddFloorSeenSinceLastKeyframe(const std::vector<Recent>& recent,
-                                   const Pose2& odom_from_keyframe, int min_frames,
-                                   double near_range_m, double clearance_m,
-                                   const Eigen::Vector2d& camera_in_base, float miss,
-                                   OccupancyGrid* local_map) {
+void AddSeenSinceLastKeyframe(const std::vector<Recent>& recent, const Pose2& odom_from_keyframe,
+                              int min_frames, int occupied_min, double near_range_m,
+                              double clearance_m, const Eigen::Vector2d& camera_in_base, float miss,
+                              OccupancyGrid* local_map) {
   const GridGeometry& g = local_map->geometry;
   if (local_map->cells.size() != g.NumCells()) return;
   std::vector<std::uint16_t> free_votes(g.NumCells(), 0);
   std::vector<std::uint16_t> near_votes(g.NumCells(), 0);
   std::vector<std::uint8_t> blocked(g.NumCells(), 0);
+  std::vector<std::uint16_t> occupied_votes(g.NumCells(), 0);
   // The cells seen occupied by any of them, on the grid padded by the clearance's reach (an
   // obstacle just outside the keyframe's grid still keeps the cells near it from being clear).
   const double reach_cells = clearance_m > 0 ? clearance_m / g.resolution_m : 0.0;
@@ -329,7 +334,7 @@ void AddFloorSeenSinceLastKeyframe(const std::vector<Recent>& recent,
   for (const Recent& r : recent) {
     const Pose2 keyframe_from_frame = keyframe_from_odom * r.odom_from_base;
     const GridGeometry& rg = r.local_map.geometry;
-    std::vector<std::uint8_t> voted(g.NumCells(), 0);  // one vote per frame and cell
+    std::vector<std::uint8_t> voted(g.NumCells(), 0);  // per frame and cell: 1 free, 2 occupied
     for (int row = 0; row < rg.height; ++row) {
       for (int col = 0; col < rg.width; ++col) {
         const std::int8_t v = r.local_map.At(col, row);
@@ -341,16 +346,18 @@ void AddFloorSeenSinceLastKeyframe(const std::vector<Recent>& recent,
           if (v == kCellOccupied) mark_occupied(in_keyframe);
           continue;
         }
+        const std::size_t i = g.Index(cell->x(), cell->y());
         if (v == kCellOccupied) {
           block_around(cell->x(), cell->y());
+          if (!(voted[i] & 2)) ++occupied_votes[i];
+          voted[i] |= 2;
           continue;
         }
-        const std::size_t i = g.Index(cell->x(), cell->y());
-        if (!voted[i]) {
+        if (!(voted[i] & 1)) {
           ++free_votes[i];
           if ((in_frame - camera_in_base).squaredNorm() <= near2) ++near_votes[i];
         }
-        voted[i] = 1;
+        voted[i] |= 1;
       }
     }
   }
@@ -399,6 +406,10 @@ void AddFloorSeenSinceLastKeyframe(const std::vector<Recent>& recent,
     const auto p = static_cast<std::int8_t>(
         std::lround(100.0 / (1.0 + std::exp(-near_logit * n / min_frames))));
     if (TiledGrid::LogOddsOf(p / 100.0) < miss) near_cell[n] = p;
+  }
+  for (std::size_t i = 0; occupied_min > 0 && i < g.NumCells(); ++i) {
+    if (local_map->cells[i] == kCellUnknown && occupied_votes[i] >= occupied_min)
+      local_map->cells[i] = kCellOccupied;
   }
   for (std::size_t i = 0; i < g.NumCells(); ++i) {
     if (blocked[i] || local_map->cells[i] == kCellOccupied) continue;
@@ -520,10 +531,11 @@ void Mapper::AddKeyframe(const FrameObservation& frame, FrameUpdate* update,
   kf.path_length_m = path_length_m_;
   kf.local_map = frame.local_map;
   if (options_.keyframe_free_min_frames > 0) {
-    AddFloorSeenSinceLastKeyframe(since_keyframe_, frame.odom_from_base,
-                                  options_.keyframe_free_min_frames, options_.near_free_range_m,
-                                  options_.free_clearance_m, camera_.CameraCentreInBase().head<2>(),
-                                  options_.log_odds.miss, &kf.local_map);
+    AddSeenSinceLastKeyframe(since_keyframe_, frame.odom_from_base,
+                             options_.keyframe_free_min_frames,
+                             options_.keyframe_occupied_min_frames, options_.near_free_range_m,
+                             options_.free_clearance_m, camera_.CameraCentreInBase().head<2>(),
+                             options_.log_odds.miss, &kf.local_map);
   }
   kf.obstacle_points_in_base = frame.obstacle_points_in_base;
   kf.features = frame.features;

@@ -142,6 +142,13 @@ class Mapper {
     // pit seen as no drop-off at all, is not covered. m, 0 = off; needs
     // keyframe_free_min_frames > 0.
     double free_clearance_m = 1.0;
+    // ... and an obstacle those frames saw: a cell the keyframe left unknown is occupied when at
+    // least this many of the frames since the previous keyframe saw it occupied (one vote per
+    // frame). Only keyframes' local maps reach the grid, so without this what only the frames
+    // between them saw of an obstacle is lost; a single frame's view is not enough (far samples
+    // scatter). A cell the keyframe saw free stays free. 0 = off; needs
+    // keyframe_free_min_frames > 0.
+    int keyframe_occupied_min_frames = 3;
     LogOddsOptions log_odds;
     // A keyframe's occupied cell counts in full within this range of the camera, less beyond
     // (HitRange; 0 = off), m.

@@ -277,6 +277,38 @@ TEST(Mapper, AKeyframeKeepsTheFloorItsFramesSawFree) {
   EXPECT_GT(grid_log_odds(1.0, d), free_at_most);
 }
 
+// An obstacle seen by the frames between two keyframes goes into the second one's local map where
+// enough of them (Options::keyframe_occupied_min_frames) saw it and the keyframe left it unknown:
+// three views of `three`, two of `two`; `seen_free` the keyframe itself saw free.
+TEST(Mapper, AKeyframeKeepsTheObstaclesItsFramesSaw) {
+  const Eigen::Vector2d three(1.225, 0.125), two(1.225, -0.225), seen_free(1.425, 0.025);
+  std::vector<FrameObservation> frames;
+  frames.push_back(FrameAt(0, 0.0, {}, {}));  // the first keyframe
+  for (int k = 1; k <= 4; ++k) {              // 0.05 m apart: not keyframes
+    std::vector<Eigen::Vector2d> occupied = {seen_free};
+    if (k <= 3) occupied.push_back(three);
+    if (k >= 3) occupied.push_back(two);
+    frames.push_back(FrameAt(k, 0.05 * k, {}, occupied));
+  }
+  frames.push_back(FrameAt(5, 0.35, {seen_free}, {}));  // the second keyframe
+  const auto second_keyframe_cell = [&](int min_frames, const Eigen::Vector2d& p) {
+    Mapper::Options options;
+    options.keyframe_min_shared_tracks = 0.0;
+    options.keyframe_occupied_min_frames = min_frames;
+    Mapper mapper(options, testing::TestCamera());
+    for (const FrameObservation& f : frames) mapper.AddFrame(f);
+    EXPECT_EQ(mapper.keyframes().size(), 2u);
+    const OccupancyGrid local = mapper.keyframes().back().LocalMap();
+    const Eigen::Vector2i cell = *local.geometry.CellOf(p - Eigen::Vector2d(0.35, 0));
+    return local.At(cell.x(), cell.y());
+  };
+  EXPECT_EQ(second_keyframe_cell(3, three), kCellOccupied);
+  EXPECT_EQ(second_keyframe_cell(3, two), kCellUnknown);
+  EXPECT_EQ(second_keyframe_cell(2, two), kCellOccupied);
+  EXPECT_EQ(second_keyframe_cell(3, seen_free), kCellFree);  // the keyframe's own view stays
+  EXPECT_EQ(second_keyframe_cell(0, three), kCellUnknown);   // off: the keyframe's own view only
+}
+
 // Frames of turning pairs never become keyframes, but their views count among the frames between
 // keyframes: four of them that saw a cell free make it free in the next keyframe's local map.
 TEST(Mapper, TurningPairsViewsCountBetweenKeyframes) {
