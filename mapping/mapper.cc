@@ -148,7 +148,7 @@ void Mapper::Options::Describe(OptionVisitor& v) {
   v.Integer("keyframe_occupied_min_frames", &keyframe_occupied_min_frames,
             R::Closed(0, 1000).Note("0 = off"),
             "a keyframe's unknown cell is occupied when this many frames since the last keyframe "
-            "saw it occupied (needs keyframe_free_min_frames > 0)");
+            "saw it occupied");
   RenamedOptions log_odds_keys(&v,
                                {{"hit", "log_odds_hit"},
                                 {"miss", "log_odds_miss"},
@@ -279,10 +279,10 @@ bool Mapper::WantsKeyframe(const FrameObservation& frame) const {
 namespace {
 
 // Cells of `local_map` (the new keyframe's, at odom_from_keyframe) that it leaves unknown become
-// free where at least min_frames of the recent frames saw them free and none of them, nor the
-// keyframe, saw an obstacle within one cell (Options::keyframe_free_min_frames). Cells that at
-// least min_frames of them, the keyframe included, saw free within near_range_m of the camera's
-// ground point (camera_in_base, x and y) and none saw an obstacle next to become
+// free (min_frames > 0) where at least min_frames of the recent frames saw them free and none of
+// them, nor the keyframe, saw an obstacle within one cell (Options::keyframe_free_min_frames).
+// Cells that at least min_frames of them, the keyframe included, saw free within near_range_m of
+// the camera's ground point (camera_in_base, x and y) and none saw an obstacle next to become
 // kCellFreeSeenNear; fewer such views (at least two) give a proportional share of its log-odds
 // (Options::near_free_range_m; 0 = off). So do cells seen free at any range farther than
 // clearance_m from every cell the keyframe or those frames saw occupied (Options::
@@ -413,7 +413,7 @@ void AddSeenSinceLastKeyframe(const std::vector<Recent>& recent, const Pose2& od
   }
   for (std::size_t i = 0; i < g.NumCells(); ++i) {
     if (blocked[i] || local_map->cells[i] == kCellOccupied) continue;
-    if (local_map->cells[i] == kCellUnknown && free_votes[i] >= min_frames)
+    if (min_frames > 0 && local_map->cells[i] == kCellUnknown && free_votes[i] >= min_frames)
       local_map->cells[i] = kCellFree;
     const std::int8_t near = near_cell[std::min<int>(near_votes[i], min_frames)];
     if (near != kCellUnknown) local_map->cells[i] = near;
@@ -458,7 +458,7 @@ Mapper::FrameUpdate Mapper::AddFrame(const FrameObservation& frame) {
              !frame.local_map.cells.empty()) {
     // Turning pairs' views count too (their own keyframes would fix poses with a narrow pair's
     // noisier map; Options::turn_pair_keyframes): what a turn showed needs the same views.
-    if (options_.keyframe_free_min_frames > 0) {
+    if (options_.keyframe_free_min_frames > 0 || options_.keyframe_occupied_min_frames > 0) {
       // Bounded: a robot standing still between keyframes keeps only its latest views, a long turn
       // gives up its oldest turning views before any other.
       constexpr std::size_t kMaxRecent = 32;
@@ -530,7 +530,7 @@ void Mapper::AddKeyframe(const FrameObservation& frame, FrameUpdate* update,
   kf.odom_from_base = frame.odom_from_base;
   kf.path_length_m = path_length_m_;
   kf.local_map = frame.local_map;
-  if (options_.keyframe_free_min_frames > 0) {
+  if (options_.keyframe_free_min_frames > 0 || options_.keyframe_occupied_min_frames > 0) {
     AddSeenSinceLastKeyframe(since_keyframe_, frame.odom_from_base,
                              options_.keyframe_free_min_frames,
                              options_.keyframe_occupied_min_frames, options_.near_free_range_m,

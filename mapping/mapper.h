@@ -146,8 +146,7 @@ class Mapper {
     // least this many of the frames since the previous keyframe saw it occupied (one vote per
     // frame). Only keyframes' local maps reach the grid, so without this what only the frames
     // between them saw of an obstacle is lost; a single frame's view is not enough (far samples
-    // scatter). A cell the keyframe saw free stays free. 0 = off; needs
-    // keyframe_free_min_frames > 0.
+    // scatter). A cell the keyframe saw free stays free. 0 = off.
     int keyframe_occupied_min_frames = 3;
     LogOddsOptions log_odds;
     // A keyframe's occupied cell counts in full within this range of the camera, less beyond

@@ -291,10 +291,12 @@ TEST(Mapper, AKeyframeKeepsTheObstaclesItsFramesSaw) {
     frames.push_back(FrameAt(k, 0.05 * k, {}, occupied));
   }
   frames.push_back(FrameAt(5, 0.35, {seen_free}, {}));  // the second keyframe
-  const auto second_keyframe_cell = [&](int min_frames, const Eigen::Vector2d& p) {
+  const auto second_keyframe_cell = [&](int min_frames, const Eigen::Vector2d& p,
+                                        int free_min_frames = 4) {
     Mapper::Options options;
     options.keyframe_min_shared_tracks = 0.0;
     options.keyframe_occupied_min_frames = min_frames;
+    options.keyframe_free_min_frames = free_min_frames;
     Mapper mapper(options, testing::TestCamera());
     for (const FrameObservation& f : frames) mapper.AddFrame(f);
     EXPECT_EQ(mapper.keyframes().size(), 2u);
@@ -305,8 +307,9 @@ TEST(Mapper, AKeyframeKeepsTheObstaclesItsFramesSaw) {
   EXPECT_EQ(second_keyframe_cell(3, three), kCellOccupied);
   EXPECT_EQ(second_keyframe_cell(3, two), kCellUnknown);
   EXPECT_EQ(second_keyframe_cell(2, two), kCellOccupied);
-  EXPECT_EQ(second_keyframe_cell(3, seen_free), kCellFree);  // the keyframe's own view stays
-  EXPECT_EQ(second_keyframe_cell(0, three), kCellUnknown);   // off: the keyframe's own view only
+  EXPECT_EQ(second_keyframe_cell(3, seen_free), kCellFree);     // the keyframe's own view stays
+  EXPECT_EQ(second_keyframe_cell(0, three), kCellUnknown);      // off: the keyframe's own view only
+  EXPECT_EQ(second_keyframe_cell(3, three, 0), kCellOccupied);  // without the free votes too
 }
 
 // Frames of turning pairs never become keyframes, but their views count among the frames between

@@ -304,9 +304,11 @@ void FuseHeights(const CameraModel& camera, const ClassificationOptions& co,
       }
       const Eigen::Vector3d point = centre + t * ray;
       seed.point_in_base = point.cast<float>();
-      seed.sample_depth_m = static_cast<float>((camera.camera_from_base() * point).z());
       double sigma = std::sqrt(static_cast<double>(seed.var_m2));
-      if (sigma <= hf.max_carry_sigma_m) posterior->push_back(seed);
+      if (sigma <= hf.max_carry_sigma_m) {
+        seed.sample_depth_m = static_cast<float>((camera.camera_from_base() * point).z());
+        posterior->push_back(seed);
+      }
       s.measurements = seed.measurements;
       if (own_pair_only) continue;
       if (seed.InlierRatio() < hf.min_inlier_ratio) continue;  // carried, but disputed

@@ -1,7 +1,6 @@
-// FuseHeights: an earlier estimate taken up by the sample it projects into (and the samples its
-// patch now covers); KeepMorePrecise: the
-// far pair's samples merged into the near pair's; TakeWhereUnmeasured: a turning pair's newer one;
-// TakeFromRow: the close pair's near rows.
+// FuseHeights: an earlier estimate taken up by the sample it projects into and the samples its
+// patch now covers; KeepMorePrecise: the far pair's samples merged into the near pair's;
+// TakeWhereUnmeasured: a turning pair's newer one; TakeFromRow: the close pair's near rows.
 #include <gtest/gtest.h>
 
 #include <Eigen/Core>
