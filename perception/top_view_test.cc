@@ -209,6 +209,50 @@ TEST_F(TableLegs, TheFloorBeforeAWideTallBoxIsFree) {
   EXPECT_GE(free.in_front, free.in_front_without_rule * 9 / 10);
 }
 
+// The overhang rule with one image column built by hand: a wall at 2.6 m, a sample above the
+// floor that is not on a surface (a veil point at the wall's edge) triangulated to 1.3 m, and
+// floor samples from 2.4 m down to 1.0 m. The veil point does not make the floor beyond it an
+// overhang; the same point on a surface (a shelf's edge) does.
+TEST(BuildTopView, OnlyPlacedObstacleSamplesMakeAnOverhang) {
+  const detector_stages::SampleGrid grid{12, 1, 8, 1.0};
+  std::vector<detector_stages::Sample> samples(12);
+  std::vector<PixelLabel> labels(12, PixelLabel::kFloor);
+  detector_stages::Placement placement;
+  placement.footprint_known.assign(12, 1);
+  placement.on_surface.assign(12, 1);
+  for (int i = 0; i < 12; ++i) {
+    detector_stages::Sample& s = samples[i];
+    s.measured = true;
+    if (i < 4) {  // the wall, then the veil point
+      labels[i] = PixelLabel::kObstacle;
+      s.height_m = 0.3 - 0.05 * i;
+      s.point_in_base2 = {i < 3 ? 2.6 : 1.3, 0.0};
+    } else {
+      s.height_m = 0.0;
+      s.floor_in_base2 = {2.4 - 0.2 * (i - 4), 0.0};
+    }
+  }
+  GridGeometry g;
+  g.width = g.height = 80;  // 4 m x 4 m from (0, -2)
+  g.origin_y_m = -2.0;
+  ClassificationOptions co;
+  co.support_free_clearance_m = 0.0;
+  const auto free_cells = [&](std::uint8_t veil_on_surface) {
+    placement.on_surface[3] = veil_on_surface;
+    OccupancyGrid map(g);
+    std::vector<Eigen::Vector3f> points;
+    detector_stages::BuildTopView(samples, labels, placement, grid, 1, co, &map, &points, nullptr);
+    int n = 0;
+    for (double x = 1.425; x < 2.0; x += 0.05) {
+      const auto c = g.CellOf({x, 0.0});
+      n += map.At(c->x(), c->y()) == kCellFree;
+    }
+    return n;
+  };
+  EXPECT_GE(free_cells(0), 9);  // 1.4-2.0 m: the floor before the wall
+  EXPECT_EQ(free_cells(1), 0);  // under the shelf
+}
+
 // What the detector does with a post it found (and SequenceDetector with those it remembers):
 // the free cells within the clearance become unknown; occupied cells and the rest stay.
 TEST(ClearFreeNearPosts, FreeCellsNearAPostBecomeUnknown) {
