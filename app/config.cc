@@ -125,8 +125,9 @@ OptionTable::OptionTable(AppConfig* config) : config_(config) {
              "ground_motion.lowest_surface_max_m_per_px",
              "ground_motion.lowest_surface_min_offset_m", "mapping.window_floor_max_height_m"});
   ScaleWith(Entry::Scale::kCameraHeightUp,
-            {"classification.max_range_m", "mapping.full_hit_range_m", "local_map.resolution_m",
-             "local_map.min_x_m", "local_map.max_x_m", "local_map.min_y_m", "local_map.max_y_m"});
+            {"classification.max_range_m", "mapping.full_hit_range_m", "mapping.carve_max_range_m",
+             "local_map.resolution_m", "local_map.min_x_m", "local_map.max_x_m",
+             "local_map.min_y_m", "local_map.max_y_m"});
   ScaleWith(Entry::Scale::kFocalLength,
             {"ground_motion.inlier_threshold_px", "ground_motion.below_floor_px"});
   Named("zero_disparity.num_levels").comment +=

@@ -50,6 +50,19 @@ struct HitRange {
   Eigen::Vector2d camera_in_base = Eigen::Vector2d::Zero();  // the camera's ground point
 };
 
+// Free space carved by the rays to a local map's obstacle points (FuseLocalMap), before its cells
+// are fused: things stand on the floor, so a ray that reached a point beyond a grid cell and
+// passed that cell below the height the grid holds there says that thing does not stand there.
+// Each such cell that reads occupied loses one hit (at most once per local map, never below
+// unknown: a ray is no evidence of free floor). Only points within max_range_m of the camera
+// carve (far points scatter along their rays), and only the cells nearer than the point by
+// more than its scatter (0.3 m x (range / max_range_m)^2, at least 2 cells) and passed 5 cm or
+// more below their height. 0: off.
+struct RayCarving {
+  double max_range_m = 0.0;
+  Eigen::Vector3d camera_centre_in_base = Eigen::Vector3d::Zero();
+};
+
 // Fuses a local map (cells -1 / 0 / 100 in the base frame) seen at map_from_base into the global
 // grid: every grid cell whose centre falls on a known local cell gets one hit (>= 50; less
 // beyond hit_range) or miss (0;
@@ -59,12 +72,14 @@ struct HitRange {
 // points (base frame, z = height) raise the cell's height_m to their maximum; a cell whose
 // log-odds drops to <= 0 forgets its height (NaN). Keys of every touched tile go into
 // changed_tiles when given. The grids must share the resolution. With keep_occupied, free cells
-// of the local map give no miss to grid cells that read occupied (log-odds > 0).
+// of the local map give no miss to grid cells that read occupied (log-odds > 0). With carving,
+// the points' rays first carve what the grid held (RayCarving).
 void FuseLocalMap(const OccupancyGrid& local_map,
                   const std::vector<Eigen::Vector3f>& obstacle_points_in_base,
                   const Pose2& map_from_base, TimestampNs stamp_ns, const LogOddsOptions& options,
                   TiledGrid* grid, std::set<TiledGrid::TileKey>* changed_tiles = nullptr,
-                  bool keep_occupied = false, const HitRange& hit_range = {});
+                  bool keep_occupied = false, const HitRange& hit_range = {},
+                  const RayCarving& carving = {});
 
 // A robot's footprint as a local map: a disc of radius_m around the base origin free, the rest of
 // its bounding square unknown. Empty (no cells) for radius_m <= 0.

@@ -163,6 +163,51 @@ TEST(GridFusion, FarOccupiedCellsNeedSeveralViews) {
   EXPECT_FLOAT_EQ(off.LogOdds({100, 0}), 0.85f);
 }
 
+// Things stand on the floor: a ray that passed a cell below what the grid holds there, on its way
+// to a point beyond it, takes one hit from that cell (RayCarving), down to unknown and no further;
+// a thing lower than the ray, a cell within the point's scatter and a point out of range are
+// left alone.
+TEST(GridFusion, RaysCarveWhatTheyPassedBelow) {
+  OccupancyGrid first(GridGeometry{0.05, 0.0, 0.0, 60, 1}, kCellUnknown);
+  first.At(20, 0) = kCellOccupied;  // 0.35 m high at 1.0-1.05 m: a phantom
+  first.At(24, 0) = kCellOccupied;  // 4 cm high at 1.2-1.25 m
+  first.At(37, 0) = kCellOccupied;  // 0.3 m high at 1.85-1.9 m, within the wall's scatter
+  const std::vector<Eigen::Vector3f> first_points = {
+      {1.02f, 0.02f, 0.35f}, {1.22f, 0.02f, 0.04f}, {1.87f, 0.02f, 0.3f}};
+  OccupancyGrid wall(first.geometry, kCellUnknown);
+  wall.At(40, 0) = kCellOccupied;
+  const std::vector<Eigen::Vector3f> wall_points = {{2.02f, 0.02f, 0.05f}};
+  const LogOddsOptions o;
+  // The camera 0.4 m above the base's origin: the ray to the wall's point passes 1.0-1.05 m at
+  // 0.22 m, 1.2-1.25 m at 0.19 m; the wall's scatter at 2.02 m is 0.2 m.
+  const RayCarving carving{2.5, Eigen::Vector3d(0.0, 0.0, 0.4)};
+  TiledGrid grid(0.05);
+  FuseLocalMap(first, first_points, Pose2::Identity(), 1, o, &grid);
+  FuseLocalMap(wall, wall_points, Pose2::Identity(), 2, o, &grid, nullptr, false, {}, carving);
+  EXPECT_FLOAT_EQ(grid.LogOdds({20, 0}), 0.0f);
+  EXPECT_TRUE(std::isnan(grid.FindTile({20, 0})->height_m[TiledGrid::IndexInTile({20, 0})]));
+  EXPECT_FLOAT_EQ(grid.LogOdds({24, 0}), 0.85f);
+  EXPECT_FLOAT_EQ(grid.LogOdds({37, 0}), 0.85f);
+  EXPECT_FLOAT_EQ(grid.LogOdds({40, 0}), 0.85f);
+  FuseLocalMap(wall, wall_points, Pose2::Identity(), 3, o, &grid, nullptr, false, {}, carving);
+  EXPECT_FLOAT_EQ(grid.LogOdds({20, 0}), 0.0f);  // never below unknown
+  const OccupancyGrid read = ToOccupancyGrid(grid);
+  const auto c = read.geometry.CellOf(grid.CellCenter({20, 0}));
+  ASSERT_TRUE(c.has_value());
+  EXPECT_EQ(read.At(c->x(), c->y()), kCellUnknown);
+  // The same from a camera 1 m behind: the wall's point is out of range, nothing carved.
+  TiledGrid far(0.05);
+  FuseLocalMap(first, first_points, Pose2::Identity(), 1, o, &far);
+  FuseLocalMap(wall, wall_points, Pose2::Identity(), 2, o, &far, nullptr, false, {},
+               RayCarving{2.5, Eigen::Vector3d(-1.0, 0.0, 0.4)});
+  EXPECT_FLOAT_EQ(far.LogOdds({20, 0}), 0.85f);
+  // Off (the default).
+  TiledGrid off(0.05);
+  FuseLocalMap(first, first_points, Pose2::Identity(), 1, o, &off);
+  FuseLocalMap(wall, wall_points, Pose2::Identity(), 2, o, &off);
+  EXPECT_FLOAT_EQ(off.LogOdds({20, 0}), 0.85f);
+}
+
 TEST(GridFusion, KeepOccupiedGivesOccupiedCellsNoMiss) {
   TiledGrid grid(0.05);
   OccupancyGrid one(GridGeometry{0.05, 0.0, 0.0, 2, 1});

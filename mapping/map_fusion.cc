@@ -139,7 +139,8 @@ void MapFusion::Fuse(const Keyframe& keyframe) {
   FuseLocalMap(keyframe.LocalMap(), keyframe.ObstaclePoints(), keyframe.map_from_base,
                keyframe.stamp_ns, options_.log_odds, &grid_, &changed_tiles_,
                /*keep_occupied=*/false,
-               HitRange{options_.full_hit_range_m, camera_centre_in_base_.head<2>()});
+               HitRange{options_.full_hit_range_m, camera_centre_in_base_.head<2>()},
+               RayCarving{options_.carve_max_range_m, camera_centre_in_base_});
   if (options_.build_octree)
     octree_.Insert(StaticPoints(keyframe), keyframe.map_from_base, camera_centre_in_base_);
 }

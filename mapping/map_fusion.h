@@ -27,7 +27,8 @@ class MapFusion {
     LogOddsOptions log_odds;
     bool build_octree = true;
     ObstacleOctree::Options octree;
-    double full_hit_range_m = 2.5;  // HitRange::full_range_m (Mapper::Options::full_hit_range_m)
+    double full_hit_range_m = 2.5;   // HitRange::full_range_m (Mapper::Options::full_hit_range_m)
+    double carve_max_range_m = 2.0;  // RayCarving::max_range_m (Mapper::Options::carve_max_range_m)
   };
   // camera_centre_in_base: where the OctoMap's rays start, base frame.
   MapFusion(const Options& options, const Eigen::Vector3d& camera_centre_in_base);

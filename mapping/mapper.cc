@@ -159,6 +159,9 @@ void Mapper::Options::Describe(OptionVisitor& v) {
   v.Real("full_hit_range_m", &full_hit_range_m, R::AtLeast(0).Note("0 = off"),
          "a keyframe's occupied cell farther than this from the camera adds log_odds_hit x (this / "
          "range)^2: far points are placed less precisely, and need more views, m");
+  v.Real("carve_max_range_m", &carve_max_range_m, R::AtLeast(0).Note("0 = off"),
+         "the rays to a keyframe's obstacle points within this range of the camera take one hit "
+         "from the occupied cells they passed below their height (never below unknown), m");
   v.Flag("forget_mover_paths", &forget_mover_paths,
          "occupied grid cells where a tracked moving thing went become unknown");
   v.Flag("build_octree", &build_octree, "build the 3-D OctoMap");
@@ -226,7 +229,7 @@ Mapper::Mapper(const Options& options, const CameraCalibration& calibration)
       mount_(calibration.mount),
       fusion_(MapFusion::Options{options.grid_resolution_m, options.footprint_radius_m,
                                  options.log_odds, options.build_octree, options.octree,
-                                 options.full_hit_range_m},
+                                 options.full_hit_range_m, options.carve_max_range_m},
               camera_.CameraCentreInBase()) {}
 
 Mapper::Mapper(const Options& options, const CameraCalibration& calibration, TiledGrid saved_grid,

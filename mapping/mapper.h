@@ -152,6 +152,9 @@ class Mapper {
     // A keyframe's occupied cell counts in full within this range of the camera, less beyond
     // (HitRange; 0 = off), m.
     double full_hit_range_m = 2.5;
+    // The rays to a keyframe's obstacle points within this range of the camera carve what the
+    // grid holds where they passed below its height (RayCarving; 0 = off), m.
+    double carve_max_range_m = 2.0;
     // Where a tracked thing that moves on its own went (FrameObservation::moving_objects that are
     // not coasting: its disc, at most 0.5 m in radius, swept between the positions of frames in
     // which it was seen in a row), nothing static stands: the grid's occupied cells there become

@@ -64,9 +64,12 @@ void BM_WindowOptimization(benchmark::State& state) {
 BENCHMARK(BM_WindowOptimization)->Arg(5)->Arg(10)->Arg(20)->Unit(benchmark::kMillisecond);
 
 // Fusing one frame (local map + obstacle points) into the grid and the OctoMap when `n` frames are
-// already in the map (the grid and tree grow along two laps of the square).
+// already in the map (the grid and tree grow along two laps of the square); with the second
+// argument 1 the points' rays carve as MapFusion's do (RayCarving, 2 m).
 void BM_FuseFrame(benchmark::State& state) {
   const int n = static_cast<int>(state.range(0));
+  const RayCarving carving{state.range(1) ? 2.0 : 0.0,
+                           CameraModel(testing::TestCamera()).CameraCentreInBase()};
   const testing::SyntheticWorld world = testing::SquareLoopWorld();
   const std::vector<Pose2> path = SquareLoop(2);
   const CameraModel camera(testing::TestCamera());
@@ -89,7 +92,8 @@ void BM_FuseFrame(benchmark::State& state) {
   std::size_t num_points = 0;
   for (auto _ : state) {
     const Pose2& p = path[(k * 13) % path.size()];
-    FuseLocalMap(maps[k % distinct], points[k % distinct], p, 1 + k, LogOddsOptions(), &grid);
+    FuseLocalMap(maps[k % distinct], points[k % distinct], p, 1 + k, LogOddsOptions(), &grid,
+                 nullptr, false, {}, carving);
     octree.Insert(points[k % distinct], p, camera.CameraCentreInBase());
     num_points += points[k % distinct].size();
     ++k;
@@ -97,7 +101,13 @@ void BM_FuseFrame(benchmark::State& state) {
   state.counters["points_per_frame"] = static_cast<double>(num_points) / state.iterations();
   state.counters["tiles"] = static_cast<double>(grid.tiles().size());
 }
-BENCHMARK(BM_FuseFrame)->Arg(0)->Arg(100)->Arg(1000)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_FuseFrame)
+    ->Args({0, 0})
+    ->Args({100, 0})
+    ->Args({1000, 0})
+    ->Args({100, 1})
+    ->Args({1000, 1})
+    ->Unit(benchmark::kMillisecond);
 
 // The grid alone and the OctoMap alone, for one frame into an empty map; with the argument 1
 // the occupied cells weighted by range as the global map weighs them (MapFusion).
