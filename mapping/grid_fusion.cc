@@ -46,7 +46,9 @@ void Carve(const std::vector<Eigen::Vector3f>& obstacle_points_in_base, const Po
       if (tile == nullptr) continue;
       const int k = TiledGrid::IndexInTile(cell);
       const double ray_height = camera_height + (p.z() - camera_height) * t;
-      if (tile->log_odds[k] > 0.0f && tile->height_m[k] > ray_height + kCarveHeightToleranceM)
+      const float height = tile->height_m[k];
+      if (tile->log_odds[k] > 0.0f && height > ray_height + kCarveHeightToleranceM &&
+          height <= camera_height + carving.view_top_slope * s)
         carved.push_back(cell);
     }
   }

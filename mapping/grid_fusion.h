@@ -54,13 +54,18 @@ struct HitRange {
 // are fused: things stand on the floor, so a ray that reached a point beyond a grid cell and
 // passed that cell below the height the grid holds there says that thing does not stand there.
 // Each such cell that reads occupied loses one hit (at most once per local map, never below
-// unknown: a ray is no evidence of free floor). Only points within max_range_m of the camera
+// unknown: a ray is no evidence of free floor). Only cells whose height the camera has in view
+// there (below the camera's height plus view_top_slope times the cell's distance): a real thing
+// in view gets its hit back from the same local map, while one out of view above (a table top)
+// may be an overhang the ray passed under. Only points within max_range_m of the camera
 // carve (far points scatter along their rays), and only the cells nearer than the point by
 // more than its scatter (0.3 m x (range / max_range_m)^2, at least 2 cells) and passed 5 cm or
 // more below their height. 0: off.
 struct RayCarving {
   double max_range_m = 0.0;
   Eigen::Vector3d camera_centre_in_base = Eigen::Vector3d::Zero();
+  // The least rise over ground distance of the rays through the image's top row.
+  double view_top_slope = 0.0;
 };
 
 // Fuses a local map (cells -1 / 0 / 100 in the base frame) seen at map_from_base into the global

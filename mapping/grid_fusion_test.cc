@@ -165,28 +165,37 @@ TEST(GridFusion, FarOccupiedCellsNeedSeveralViews) {
 
 // Things stand on the floor: a ray that passed a cell below what the grid holds there, on its way
 // to a point beyond it, takes one hit from that cell (RayCarving), down to unknown and no further;
-// a thing lower than the ray, a cell within the point's scatter and a point out of range are
-// left alone.
+// a thing lower than the ray, one higher than the camera's view there (an overhang the ray may
+// pass under), a cell within the point's scatter and a point out of range are left alone.
 TEST(GridFusion, RaysCarveWhatTheyPassedBelow) {
   OccupancyGrid first(GridGeometry{0.05, 0.0, 0.0, 60, 1}, kCellUnknown);
   first.At(20, 0) = kCellOccupied;  // 0.35 m high at 1.0-1.05 m: a phantom
   first.At(24, 0) = kCellOccupied;  // 4 cm high at 1.2-1.25 m
+  first.At(28, 0) = kCellOccupied;  // 0.75 m high at 1.4-1.45 m: a table top above the view
+  first.At(32, 0) = kCellOccupied;  // 0.5 m high at 1.6-1.65 m: in view, a phantom
   first.At(37, 0) = kCellOccupied;  // 0.3 m high at 1.85-1.9 m, within the wall's scatter
-  const std::vector<Eigen::Vector3f> first_points = {
-      {1.02f, 0.02f, 0.35f}, {1.22f, 0.02f, 0.04f}, {1.87f, 0.02f, 0.3f}};
+  const std::vector<Eigen::Vector3f> first_points = {{1.02f, 0.02f, 0.35f},
+                                                     {1.22f, 0.02f, 0.04f},
+                                                     {1.42f, 0.02f, 0.75f},
+                                                     {1.62f, 0.02f, 0.5f},
+                                                     {1.87f, 0.02f, 0.3f}};
   OccupancyGrid wall(first.geometry, kCellUnknown);
   wall.At(40, 0) = kCellOccupied;
   const std::vector<Eigen::Vector3f> wall_points = {{2.02f, 0.02f, 0.05f}};
   const LogOddsOptions o;
-  // The camera 0.4 m above the base's origin: the ray to the wall's point passes 1.0-1.05 m at
-  // 0.22 m, 1.2-1.25 m at 0.19 m; the wall's scatter at 2.02 m is 0.2 m.
-  const RayCarving carving{2.5, Eigen::Vector3d(0.0, 0.0, 0.4)};
+  // The camera 0.4 m above the base's origin, its view's top edge rising 0.1 m per metre: the
+  // ray to the wall's point passes 1.0-1.05 m at 0.22 m, 1.2-1.25 m at 0.19 m, 1.4-1.45 m at
+  // 0.15 m (in view there: up to 0.54 m), 1.6-1.65 m at 0.12 m (0.56 m); the wall's scatter at
+  // 2.02 m is 0.2 m.
+  const RayCarving carving{2.5, Eigen::Vector3d(0.0, 0.0, 0.4), 0.1};
   TiledGrid grid(0.05);
   FuseLocalMap(first, first_points, Pose2::Identity(), 1, o, &grid);
   FuseLocalMap(wall, wall_points, Pose2::Identity(), 2, o, &grid, nullptr, false, {}, carving);
   EXPECT_FLOAT_EQ(grid.LogOdds({20, 0}), 0.0f);
   EXPECT_TRUE(std::isnan(grid.FindTile({20, 0})->height_m[TiledGrid::IndexInTile({20, 0})]));
   EXPECT_FLOAT_EQ(grid.LogOdds({24, 0}), 0.85f);
+  EXPECT_FLOAT_EQ(grid.LogOdds({28, 0}), 0.85f);
+  EXPECT_FLOAT_EQ(grid.LogOdds({32, 0}), 0.0f);
   EXPECT_FLOAT_EQ(grid.LogOdds({37, 0}), 0.85f);
   EXPECT_FLOAT_EQ(grid.LogOdds({40, 0}), 0.85f);
   FuseLocalMap(wall, wall_points, Pose2::Identity(), 3, o, &grid, nullptr, false, {}, carving);
@@ -199,7 +208,7 @@ TEST(GridFusion, RaysCarveWhatTheyPassedBelow) {
   TiledGrid far(0.05);
   FuseLocalMap(first, first_points, Pose2::Identity(), 1, o, &far);
   FuseLocalMap(wall, wall_points, Pose2::Identity(), 2, o, &far, nullptr, false, {},
-               RayCarving{2.5, Eigen::Vector3d(-1.0, 0.0, 0.4)});
+               RayCarving{2.5, Eigen::Vector3d(-1.0, 0.0, 0.4), 0.1});
   EXPECT_FLOAT_EQ(far.LogOdds({20, 0}), 0.85f);
   // Off (the default).
   TiledGrid off(0.05);

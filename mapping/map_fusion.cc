@@ -136,11 +136,12 @@ void MapFusion::ForgetMoverPathsIn(const Eigen::Vector2d& lo, const Eigen::Vecto
 void MapFusion::Fuse(const Keyframe& keyframe) {
   // The grid takes every point's height (a mover's cells are then forgotten by it); the OctoMap
   // only the points off the movers' paths.
-  FuseLocalMap(keyframe.LocalMap(), keyframe.ObstaclePoints(), keyframe.map_from_base,
-               keyframe.stamp_ns, options_.log_odds, &grid_, &changed_tiles_,
-               /*keep_occupied=*/false,
-               HitRange{options_.full_hit_range_m, camera_centre_in_base_.head<2>()},
-               RayCarving{options_.carve_max_range_m, camera_centre_in_base_});
+  FuseLocalMap(
+      keyframe.LocalMap(), keyframe.ObstaclePoints(), keyframe.map_from_base, keyframe.stamp_ns,
+      options_.log_odds, &grid_, &changed_tiles_,
+      /*keep_occupied=*/false,
+      HitRange{options_.full_hit_range_m, camera_centre_in_base_.head<2>()},
+      RayCarving{options_.carve_max_range_m, camera_centre_in_base_, options_.view_top_slope});
   if (options_.build_octree)
     octree_.Insert(StaticPoints(keyframe), keyframe.map_from_base, camera_centre_in_base_);
 }

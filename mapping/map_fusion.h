@@ -29,6 +29,7 @@ class MapFusion {
     ObstacleOctree::Options octree;
     double full_hit_range_m = 2.5;   // HitRange::full_range_m (Mapper::Options::full_hit_range_m)
     double carve_max_range_m = 2.0;  // RayCarving::max_range_m (Mapper::Options::carve_max_range_m)
+    double view_top_slope = 0.0;     // RayCarving::view_top_slope
   };
   // camera_centre_in_base: where the OctoMap's rays start, base frame.
   MapFusion(const Options& options, const Eigen::Vector3d& camera_centre_in_base);

@@ -222,6 +222,22 @@ CullOptions Mapper::Options::ForCulling() const {
   return o;
 }
 
+namespace {
+
+// The least slope (rise over ground distance) of the rays through the image's top row: a thing
+// whose top lies below the camera's height plus that slope times its distance is in view.
+double ViewTopSlope(const CameraModel& camera) {
+  const double width = camera.calibration().intrinsics.width;
+  double slope = std::numeric_limits<double>::infinity();
+  for (double u : {0.0, 0.5 * (width - 1), width - 1}) {
+    const Eigen::Vector3d ray = camera.RayInBase(Eigen::Vector2d(u, 0.0));
+    slope = std::min(slope, ray.z() / std::max(ray.head<2>().norm(), 1e-9));
+  }
+  return slope;
+}
+
+}  // namespace
+
 Mapper::Mapper(const Options& options, const CameraCalibration& calibration)
     : options_(ValidOrDie(options, "Mapper")),
       calibration_(ValidOrDie(calibration, "Mapper")),
@@ -229,7 +245,8 @@ Mapper::Mapper(const Options& options, const CameraCalibration& calibration)
       mount_(calibration.mount),
       fusion_(MapFusion::Options{options.grid_resolution_m, options.footprint_radius_m,
                                  options.log_odds, options.build_octree, options.octree,
-                                 options.full_hit_range_m, options.carve_max_range_m},
+                                 options.full_hit_range_m, options.carve_max_range_m,
+                                 ViewTopSlope(camera_)},
               camera_.CameraCentreInBase()) {}
 
 Mapper::Mapper(const Options& options, const CameraCalibration& calibration, TiledGrid saved_grid,
