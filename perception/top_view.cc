@@ -323,28 +323,17 @@ void BuildTopView(const std::vector<Sample>& samples, const std::vector<PixelLab
   std::vector<std::uint8_t> floor_edge(g.NumCells(), 0);    // where the floor ends below something
   std::vector<std::uint8_t> votes_free(samples.size(), 0);  // floor samples that voted free
   std::vector<PlacedPoint> placed_points;  // ClassificationOptions::support_free_clearance_m
-  // Where an obstacle or drop-off sample stands: the surface its column shows when there is one;
-  // NaN for a point between two surfaces (a "veil" point at a depth edge) or off its column's
-  // surface, whose own footprint is not to be trusted.
-  const auto placed_footprint = [&](std::size_t k) -> Eigen::Vector2d {
-    if (!placement.on_surface[k]) return Eigen::Vector2d(NAN, NAN);
-    return placement.column_placed.empty() ? samples[k].point_in_base2 : placement.column_placed[k];
-  };
-  // Floor under an overhang: a floor sample farther along the floor than a placed obstacle sample
-  // above it in its image column (a table top, a shelf) lies beneath that obstacle, whose own base
-  // is not seen; it gives no free vote. Veil points and footprints known too poorly to be placed
-  // do not count: they scatter towards the camera, and the nearest of them would take the floor
-  // in front of every wall.
+  // Floor under an overhang: a floor sample farther along the floor than an obstacle sample above
+  // it in its image column (a table top, a shelf) lies beneath that obstacle, whose own base is
+  // not seen; it gives no free vote.
   std::vector<std::uint8_t> overhung(samples.size(), 0);
   for (int j = 0; j < grid.cols; ++j) {
     double nearest_above = std::numeric_limits<double>::infinity();
     for (int i = 0; i < grid.rows; ++i) {
       const std::size_t k = grid.Index(i, j);
       const Sample& s = samples[k];
-      if (labels[k] == PixelLabel::kObstacle && s.measured) {
-        if (!placement.footprint_known[k]) continue;
-        const Eigen::Vector2d footprint = placed_footprint(k);
-        if (footprint.allFinite()) nearest_above = std::min(nearest_above, footprint.norm());
+      if (labels[k] == PixelLabel::kObstacle && s.measured && s.point_in_base2.allFinite()) {
+        nearest_above = std::min(nearest_above, s.point_in_base2.norm());
       } else if (labels[k] == PixelLabel::kFloor &&
                  !(s.floor_in_base2.norm() < nearest_above - kOverhangToleranceM)) {
         overhung[k] = 1;
@@ -381,9 +370,14 @@ void BuildTopView(const std::vector<Sample>& samples, const std::vector<PixelLab
       } else if ((label == PixelLabel::kObstacle || label == PixelLabel::kDropOff) &&
                  sample.measured) {
         if (!placement.footprint_known[k]) continue;
-        // ...obstacles and drop-offs at their true footprint, not their stretched shadow
-        // (placed_footprint). A point that is not placed still keeps its cell from reading free.
-        const Eigen::Vector2d footprint = placed_footprint(k);
+        // ...obstacles and drop-offs at their true footprint, not their stretched shadow: that of
+        // the surface their column shows when there is one. A point between two surfaces (a "veil"
+        // point at a depth edge) or off its column's surface is not placed, but its cell is not
+        // free.
+        const Eigen::Vector2d footprint = !placement.on_surface[k] ? Eigen::Vector2d(NAN, NAN)
+                                          : placement.column_placed.empty()
+                                              ? sample.point_in_base2
+                                              : placement.column_placed[k];
         if (!footprint.allFinite()) {
           if (auto cell = g.CellOf(sample.point_in_base2))
             not_free[g.Index(cell->x(), cell->y())] = 1;

@@ -127,6 +127,20 @@ TEST_F(DetectorOnSyntheticScene, TheFloorUnderAnOverhangIsNotFree) {
   EXPECT_LE(under, 3);
 }
 
+// Shelves nearer and higher than the one above, all within the view: the floor under them is not
+// free either. Their tops' points are not all placed in the top view (a ray grazing a horizontal
+// surface places its point poorly), and they still make the overhang.
+TEST_F(DetectorOnSyntheticScene, TheFloorUnderANearShelfIsNotFree) {
+  for (const auto& [x0, height] : std::vector<std::pair<double, double>>{{1.2, 0.3}, {1.6, 0.45}}) {
+    Scene scene;
+    scene.boxes.push_back({{x0, -0.4, height}, {x0 + 0.8, 0.4, height + 0.05}});
+    const Pose2 p1{0, 0, 0}, p2{0.12, 0.0, 0.0};
+    const auto [b, r, r0] = DetectBoth(scene, p1, p2, options_);
+    ASSERT_EQ(r.status, PairStatus::kOk) << r.message;
+    EXPECT_LE(FreeCellsUnder(scene.boxes[0], r, p2), 3) << "shelf at " << x0 << " m";
+  }
+}
+
 // A table whose top (0.72-0.75 m) is above the view (the default mount sees 0.58 m at 1.8 m):
 // its legs reach the top of the image, and the floor seen between and around them is not free
 // (ClassificationOptions::support_free_clearance_m); a post whose top is seen leaves the floor
@@ -207,50 +221,6 @@ TEST_F(TableLegs, TheFloorBeforeAWideTallBoxIsFree) {
               free.in_front_without_rule);
   EXPECT_GT(free.in_front_without_rule, 40);
   EXPECT_GE(free.in_front, free.in_front_without_rule * 9 / 10);
-}
-
-// The overhang rule with one image column built by hand: a wall at 2.6 m, a sample above the
-// floor that is not on a surface (a veil point at the wall's edge) triangulated to 1.3 m, and
-// floor samples from 2.4 m down to 1.0 m. The veil point does not make the floor beyond it an
-// overhang; the same point on a surface (a shelf's edge) does.
-TEST(BuildTopView, OnlyPlacedObstacleSamplesMakeAnOverhang) {
-  const detector_stages::SampleGrid grid{12, 1, 8, 1.0};
-  std::vector<detector_stages::Sample> samples(12);
-  std::vector<PixelLabel> labels(12, PixelLabel::kFloor);
-  detector_stages::Placement placement;
-  placement.footprint_known.assign(12, 1);
-  placement.on_surface.assign(12, 1);
-  for (int i = 0; i < 12; ++i) {
-    detector_stages::Sample& s = samples[i];
-    s.measured = true;
-    if (i < 4) {  // the wall, then the veil point
-      labels[i] = PixelLabel::kObstacle;
-      s.height_m = 0.3 - 0.05 * i;
-      s.point_in_base2 = {i < 3 ? 2.6 : 1.3, 0.0};
-    } else {
-      s.height_m = 0.0;
-      s.floor_in_base2 = {2.4 - 0.2 * (i - 4), 0.0};
-    }
-  }
-  GridGeometry g;
-  g.width = g.height = 80;  // 4 m x 4 m from (0, -2)
-  g.origin_y_m = -2.0;
-  ClassificationOptions co;
-  co.support_free_clearance_m = 0.0;
-  const auto free_cells = [&](std::uint8_t veil_on_surface) {
-    placement.on_surface[3] = veil_on_surface;
-    OccupancyGrid map(g);
-    std::vector<Eigen::Vector3f> points;
-    detector_stages::BuildTopView(samples, labels, placement, grid, 1, co, &map, &points, nullptr);
-    int n = 0;
-    for (double x = 1.425; x < 2.0; x += 0.05) {
-      const auto c = g.CellOf({x, 0.0});
-      n += map.At(c->x(), c->y()) == kCellFree;
-    }
-    return n;
-  };
-  EXPECT_GE(free_cells(0), 9);  // 1.4-2.0 m: the floor before the wall
-  EXPECT_EQ(free_cells(1), 0);  // under the shelf
 }
 
 // What the detector does with a post it found (and SequenceDetector with those it remembers):
